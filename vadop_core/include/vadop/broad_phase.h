@@ -1,0 +1,85 @@
+// The broad phase interface of continuous detection: bodies with a shape and a rigid motion,
+// and, per frame [t0, t1], the candidate pairs whose swept volumes may intersect. Every
+// implementation is complete (it never drops a pair whose swept volumes intersect); they
+// differ in how tight and how fast they are. It does not compute contacts: see the narrow
+// phase. Bad input throws vadop::InvalidArgument and leaves the broad phase unchanged.
+#pragma once
+
+#include "vadop/motion.h"
+#include "vadop/pair_set.h"
+#include "vadop/shapes.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace vadop {
+
+class BroadPhase {
+ public:
+  virtual ~BroadPhase() = default;
+
+  // Adds a body and returns its id: the smallest id not in use, so every implementation fed
+  // the same calls hands out the same ids.
+  BodyId add(std::shared_ptr<const Shape> shape, const Motion& motion);
+  BodyId add(const Shape& shape, const Motion& motion);
+  void remove(BodyId id);
+  // A new motion takes effect at the next update(); invalidates the body's pairs then.
+  void setMotion(BodyId id, const Motion& motion);
+
+  // Computes the candidate pairs of the frame [t0, t1] (t0 <= t1, both finite).
+  void update(double t0, double t1);
+
+  // Candidate pairs of the last update, sorted, a < b in each.
+  const std::vector<Pair>& pairs() const { return pairs_; }
+
+  bool contains(BodyId id) const { return id < bodies_.size() && bodies_[id].alive; }
+  size_t size() const { return alive_count_; }
+  const Shape& shape(BodyId id) const;
+  const Motion& motion(BodyId id) const;
+  virtual std::string name() const = 0;
+  // Bytes held by the implementation's own structures (not counting shapes).
+  virtual size_t memoryBytes() const = 0;
+
+ protected:
+  struct Body {
+    std::shared_ptr<const Shape> shape;
+    Motion motion;
+    bool alive = false;
+  };
+  // Hooks called after the base class has validated the call and updated bodies_.
+  virtual void onAdd(BodyId id) = 0;
+  virtual void onRemove(BodyId id) = 0;  // bodies_[id] still holds the shape and motion
+  virtual void onSetMotion(BodyId id) = 0;
+  virtual void computePairs(double t0, double t1, std::vector<Pair>& out) = 0;
+
+  const std::vector<Body>& bodies() const { return bodies_; }
+  void requireKnown(BodyId id, const char* operation) const;
+
+ private:
+  std::vector<Body> bodies_;
+  std::vector<BodyId> free_ids_;  // min-heap
+  size_t alive_count_ = 0;
+  std::vector<Pair> pairs_;
+};
+
+// Reference broad phase: every pair, tested by the exact distance between the capsules that
+// the bodies' bounding spheres sweep (for a non-rotating sphere that is its exact swept
+// volume). O(n^2) time, O(1) extra memory: for ground truth and small n only.
+class BruteForceBroadPhase : public BroadPhase {
+ public:
+  std::string name() const override { return "brute"; }
+  size_t memoryBytes() const override { return 0; }
+
+ protected:
+  void onAdd(BodyId) override {}
+  void onRemove(BodyId) override {}
+  void onSetMotion(BodyId) override {}
+  void computePairs(double t0, double t1, std::vector<Pair>& out) override;
+};
+
+// Squared distance between segments [p0, p1] and [q0, q1].
+double segmentSegmentDistanceSquared(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
+                                     const Eigen::Vector3d& q0, const Eigen::Vector3d& q1);
+
+}  // namespace vadop

@@ -1,0 +1,60 @@
+// Collision shapes in their body frame, centred on the body origin (URDF conventions).
+// A Shape answers support queries (the farthest point along a direction), which is all the
+// broad phase needs; the narrow phase adds its own geometry on top. Shapes are immutable
+// values; validation happens once, at construction through the make* functions.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <array>
+#include <string>
+#include <vector>
+
+namespace vadop {
+
+enum class ShapeType { kSphere, kBox, kCapsule, kCylinder, kConvex, kMesh };
+
+const char* toString(ShapeType type);
+
+// Plain data. Use the make* functions below: they validate and fill the derived fields.
+struct Shape {
+  ShapeType type = ShapeType::kSphere;
+  double radius = 0.0;                           // sphere, capsule, cylinder
+  double half_length = 0.0;                      // capsule segment / cylinder, along body z
+  Eigen::Vector3d half_extents = Eigen::Vector3d::Zero();  // box
+  std::vector<Eigen::Vector3d> points;           // convex: the point set; mesh: the vertices
+  std::vector<std::array<int, 3>> triangles;     // mesh only
+  // Padding: the shape is the Minkowski sum of the above with a ball of this radius.
+  double margin = 0.0;
+  // Derived: the largest distance from the body origin to any point of the shape
+  // (margin included): the lever arm that bounds how far rotation moves a point.
+  double bounding_radius = 0.0;
+};
+
+// Each throws vadop::InvalidArgument naming the field when a size is not finite and > 0,
+// a point is not finite, a triangle index is out of range, or a point set is empty.
+Shape makeSphere(double radius);
+Shape makeBox(const Eigen::Vector3d& size);  // full edge lengths, as URDF <box size>
+Shape makeCapsule(double radius, double length);   // length = segment length, along z
+Shape makeCylinder(double radius, double length);  // length = full height, along z
+Shape makeConvex(std::vector<Eigen::Vector3d> points);
+Shape makeMesh(std::vector<Eigen::Vector3d> vertices, std::vector<std::array<int, 3>> triangles);
+
+// Returns the shape grown by `padding` metres in every direction: the exact Minkowski sum
+// with a ball (it adds to `margin`). Throws when padding is negative or not finite.
+Shape inflate(const Shape& shape, double padding);
+
+// Support value h(d) = max over shape points x of d.x, for a direction d in the body frame
+// (d need not be unit; h is positively homogeneous). Exact for every shape type; a mesh
+// answers for its convex hull, which is what a bounding volume needs.
+double support(const Shape& shape, const Eigen::Vector3d& d);
+
+// The farthest point of the shape along d (body frame); d must be non-zero. Ties are
+// broken deterministically.
+Eigen::Vector3d supportPoint(const Shape& shape, const Eigen::Vector3d& d);
+
+// Throws vadop::InvalidArgument, prefixed with `what`, when the shape's fields are not a
+// valid shape (for Shape values built by hand rather than by the make* functions).
+void validateShape(const Shape& shape, const std::string& what);
+
+}  // namespace vadop

@@ -1,0 +1,80 @@
+// The velocity-aligned discrete oriented polytope of one body over one frame: which pool
+// axes the body uses (those nearly orthogonal to its velocity) and, on each, an interval
+// bounding the projection of everything the body occupies during [t0, t1].
+// It does not sort or pair anything: see sweep_prune.h.
+#pragma once
+
+#include "vadop/axis_pool.h"
+#include "vadop/motion.h"
+#include "vadop/shapes.h"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <vector>
+
+namespace vadop {
+
+struct Interval {
+  double lo = 0.0;
+  double hi = 0.0;
+};
+
+// Rule for bodies that barely move, whose velocity direction is noise: aligning to it
+// would churn their axis sets every frame for no gain (their projections do not move).
+enum class SlowAxisRule {
+  kFixedZone,  // the zone orthogonal to VadopConfig::slow_direction: as cheap as a moving body
+  kAllAxes,    // every pool axis: the tightest volume, m slots per body
+};
+
+struct VadopConfig {
+  int axes = 64;          // pool size m
+  double phi_deg = 0.0;   // zone half-width; 0 selects the pool's covering radius rho
+  // A body is slow when |v| (t1 - t0) < slow_fraction * bounding radius.
+  double slow_fraction = 0.05;
+  SlowAxisRule slow_rule = SlowAxisRule::kFixedZone;
+  Eigen::Vector3d slow_direction = Eigen::Vector3d::UnitZ();
+  // An axis already in use is kept while within phi + hysteresis of orthogonality, so a
+  // slowly turning body does not flip boundary axes in and out every frame.
+  double hysteresis_deg = 2.0;
+};
+
+// Validates the configuration against the pool. Throws vadop::InvalidArgument when a field is
+// out of range or phi < rho (two bodies' zones could then share no axis, and the broad phase
+// would have to pair them blindly). Returns phi in radians (rho when phi_deg == 0).
+double validateVadopConfig(const VadopConfig& config, const AxisPool& pool);
+
+// Axis selection: the pool axes a with |u . a| <= sin(phi) for the body's direction u
+// (its velocity, or slow_direction when slow), plus the axes of `previous` still within
+// phi + hysteresis. Sorted ascending. Every set returned contains the full zone of some u,
+// hence (rho <= phi) any two bodies share an axis close to u1 x u2.
+std::vector<uint32_t> selectAxes(const Motion& motion, double bounding_radius, double frame_length,
+                                 const AxisPool& pool, const VadopConfig& config, double phi_rad,
+                                 const std::vector<uint32_t>& previous = {});
+
+// Interval on a unit axis bounding the projection of the shape moving with `motion` over
+// [t0, t1]: the support along the axis at the mid-frame orientation, plus the linear
+// displacement, plus a bound on how far rotation moves any point along the axis. Slightly
+// widened for rounding, so that it is conservative in floating point.
+Interval sweptInterval(const Shape& shape, const Motion& motion, double t0, double t1,
+                       const Eigen::Vector3d& axis);
+
+// The same, with the per-body work (mid-frame rotation, end positions) done once for the
+// many axes of one body.
+class SweptBody {
+ public:
+  SweptBody(const Shape& shape, const Motion& motion, double t0, double t1);
+  Interval project(const Eigen::Vector3d& axis) const;
+
+ private:
+  const Shape* shape_;
+  Eigen::Matrix3d rotation_mid_t_;  // R(t_mid)^T: fixed frame -> body frame
+  Eigen::Vector3d p0_, p1_;         // body origin at t0 and t1
+  Eigen::Vector3d spin_axis_;       // unit angular velocity direction (zero if not rotating)
+  double chord_ = 0.0;              // bound on how far a point at unit radius moves, from t_mid
+  double core_radius_ = 0.0;        // farthest core point from the origin (margin excluded)
+};
+
+inline bool overlaps(const Interval& a, const Interval& b) { return a.lo <= b.hi && b.lo <= a.hi; }
+
+}  // namespace vadop

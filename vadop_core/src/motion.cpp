@@ -1,0 +1,66 @@
+#include "vadop/motion.h"
+
+#include "vadop/error.h"
+
+#include <cmath>
+
+namespace vadop {
+namespace {
+
+void requireFinite(const Eigen::Vector3d& v, const std::string& what, const char* field) {
+  if (!v.allFinite()) throw InvalidArgument(what + ": " + field + " is not finite");
+}
+
+}  // namespace
+
+Eigen::Quaterniond Motion::orientationAt(double t) const {
+  const Eigen::Vector3d rotation = angular_velocity * (t - t_ref);
+  const double angle = rotation.norm();
+  if (angle == 0.0) return orientation;
+  // Fixed-frame angular velocity: the increment multiplies from the left.
+  Eigen::Quaterniond q(Eigen::AngleAxisd(angle, rotation / angle) * orientation);
+  q.normalize();
+  return q;
+}
+
+Eigen::Isometry3d Motion::poseAt(double t) const {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = orientationAt(t).toRotationMatrix();
+  pose.translation() = positionAt(t);
+  return pose;
+}
+
+Motion makeMotion(const Eigen::Vector3d& position, const Eigen::Quaterniond& orientation,
+                  const Eigen::Vector3d& linear_velocity,
+                  const Eigen::Vector3d& angular_velocity, double t_ref) {
+  const std::string what = "motion";
+  requireFinite(position, what, "position");
+  if (!orientation.coeffs().allFinite()) throw InvalidArgument("motion: orientation is not finite");
+  if (orientation.norm() < 1e-9) {
+    throw InvalidArgument("motion: orientation is a zero quaternion (norm < 1e-9)");
+  }
+  requireFinite(linear_velocity, what, "linear_velocity");
+  requireFinite(angular_velocity, what, "angular_velocity");
+  if (!std::isfinite(t_ref)) throw InvalidArgument("motion: t_ref is not finite");
+  Motion m;
+  m.t_ref = t_ref;
+  m.position = position;
+  m.orientation = orientation.normalized();
+  m.linear_velocity = linear_velocity;
+  m.angular_velocity = angular_velocity;
+  return m;
+}
+
+void validateMotion(const Motion& m, const std::string& what) {
+  requireFinite(m.position, what, "position");
+  requireFinite(m.linear_velocity, what, "linear_velocity");
+  requireFinite(m.angular_velocity, what, "angular_velocity");
+  if (!m.orientation.coeffs().allFinite()) throw InvalidArgument(what + ": orientation is not finite");
+  if (std::abs(m.orientation.norm() - 1.0) > 1e-6) {
+    throw InvalidArgument(what + ": orientation is not a unit quaternion (norm " +
+                          std::to_string(m.orientation.norm()) + ")");
+  }
+  if (!std::isfinite(m.t_ref)) throw InvalidArgument(what + ": t_ref is not finite");
+}
+
+}  // namespace vadop

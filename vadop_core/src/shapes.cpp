@@ -1,0 +1,242 @@
+#include "vadop/shapes.h"
+
+#include "vadop/error.h"
+
+#include <cmath>
+#include <sstream>
+
+namespace vadop {
+namespace {
+
+std::string str(double v) {
+  std::ostringstream os;
+  os.precision(17);
+  os << v;
+  return os.str();
+}
+
+void requirePositive(double value, const char* field) {
+  if (!std::isfinite(value) || value <= 0.0) {
+    throw InvalidArgument(std::string(field) + " must be finite and > 0, got " + str(value));
+  }
+}
+
+void requireFinitePoints(const std::vector<Eigen::Vector3d>& points, const char* field) {
+  if (points.empty()) throw InvalidArgument(std::string(field) + " must not be empty");
+  for (size_t i = 0; i < points.size(); ++i) {
+    if (!points[i].allFinite()) {
+      throw InvalidArgument(std::string(field) + "[" + std::to_string(i) + "] is not finite");
+    }
+  }
+}
+
+double maxNorm(const std::vector<Eigen::Vector3d>& points) {
+  double r = 0.0;
+  for (const auto& p : points) r = std::max(r, p.norm());
+  return r;
+}
+
+void finish(Shape& s) {
+  switch (s.type) {
+    case ShapeType::kSphere: s.bounding_radius = s.radius; break;
+    case ShapeType::kBox: s.bounding_radius = s.half_extents.norm(); break;
+    case ShapeType::kCapsule: s.bounding_radius = s.half_length + s.radius; break;
+    case ShapeType::kCylinder: s.bounding_radius = std::hypot(s.half_length, s.radius); break;
+    case ShapeType::kConvex:
+    case ShapeType::kMesh: s.bounding_radius = maxNorm(s.points); break;
+  }
+  s.bounding_radius += s.margin;
+}
+
+}  // namespace
+
+const char* toString(ShapeType type) {
+  switch (type) {
+    case ShapeType::kSphere: return "sphere";
+    case ShapeType::kBox: return "box";
+    case ShapeType::kCapsule: return "capsule";
+    case ShapeType::kCylinder: return "cylinder";
+    case ShapeType::kConvex: return "convex";
+    case ShapeType::kMesh: return "mesh";
+  }
+  return "unknown";
+}
+
+Shape makeSphere(double radius) {
+  requirePositive(radius, "sphere radius");
+  Shape s;
+  s.type = ShapeType::kSphere;
+  s.radius = radius;
+  finish(s);
+  return s;
+}
+
+Shape makeBox(const Eigen::Vector3d& size) {
+  requirePositive(size.x(), "box size[0]");
+  requirePositive(size.y(), "box size[1]");
+  requirePositive(size.z(), "box size[2]");
+  Shape s;
+  s.type = ShapeType::kBox;
+  s.half_extents = 0.5 * size;
+  finish(s);
+  return s;
+}
+
+Shape makeCapsule(double radius, double length) {
+  requirePositive(radius, "capsule radius");
+  // A capsule of zero segment length is a sphere: allowed, but never negative.
+  if (!std::isfinite(length) || length < 0.0) {
+    throw InvalidArgument("capsule length must be finite and >= 0, got " + str(length));
+  }
+  Shape s;
+  s.type = ShapeType::kCapsule;
+  s.radius = radius;
+  s.half_length = 0.5 * length;
+  finish(s);
+  return s;
+}
+
+Shape makeCylinder(double radius, double length) {
+  requirePositive(radius, "cylinder radius");
+  requirePositive(length, "cylinder length");
+  Shape s;
+  s.type = ShapeType::kCylinder;
+  s.radius = radius;
+  s.half_length = 0.5 * length;
+  finish(s);
+  return s;
+}
+
+Shape makeConvex(std::vector<Eigen::Vector3d> points) {
+  requireFinitePoints(points, "convex points");
+  Shape s;
+  s.type = ShapeType::kConvex;
+  s.points = std::move(points);
+  finish(s);
+  return s;
+}
+
+Shape makeMesh(std::vector<Eigen::Vector3d> vertices, std::vector<std::array<int, 3>> triangles) {
+  requireFinitePoints(vertices, "mesh vertices");
+  if (triangles.empty()) throw InvalidArgument("mesh triangles must not be empty");
+  const int n = static_cast<int>(vertices.size());
+  for (size_t t = 0; t < triangles.size(); ++t) {
+    for (int c = 0; c < 3; ++c) {
+      const int idx = triangles[t][c];
+      if (idx < 0 || idx >= n) {
+        throw InvalidArgument("mesh triangles[" + std::to_string(t) + "][" + std::to_string(c) +
+                              "] = " + std::to_string(idx) + " is out of range [0, " +
+                              std::to_string(n) + ")");
+      }
+    }
+  }
+  Shape s;
+  s.type = ShapeType::kMesh;
+  s.points = std::move(vertices);
+  s.triangles = std::move(triangles);
+  finish(s);
+  return s;
+}
+
+Shape inflate(const Shape& shape, double padding) {
+  if (!std::isfinite(padding) || padding < 0.0) {
+    throw InvalidArgument("padding must be finite and >= 0, got " + str(padding));
+  }
+  Shape s = shape;
+  s.margin += padding;
+  finish(s);
+  return s;
+}
+
+void validateShape(const Shape& s, const std::string& what) {
+  try {
+    switch (s.type) {
+      case ShapeType::kSphere: requirePositive(s.radius, "sphere radius"); break;
+      case ShapeType::kBox:
+        requirePositive(s.half_extents.x(), "box half_extents[0]");
+        requirePositive(s.half_extents.y(), "box half_extents[1]");
+        requirePositive(s.half_extents.z(), "box half_extents[2]");
+        break;
+      case ShapeType::kCapsule:
+        requirePositive(s.radius, "capsule radius");
+        if (!std::isfinite(s.half_length) || s.half_length < 0.0) {
+          throw InvalidArgument("capsule half_length must be finite and >= 0");
+        }
+        break;
+      case ShapeType::kCylinder:
+        requirePositive(s.radius, "cylinder radius");
+        requirePositive(s.half_length, "cylinder half_length");
+        break;
+      case ShapeType::kConvex: requireFinitePoints(s.points, "convex points"); break;
+      case ShapeType::kMesh: requireFinitePoints(s.points, "mesh vertices"); break;
+    }
+    if (!std::isfinite(s.margin) || s.margin < 0.0) {
+      throw InvalidArgument("margin must be finite and >= 0, got " + str(s.margin));
+    }
+    Shape copy = s;
+    finish(copy);
+    if (!(std::abs(copy.bounding_radius - s.bounding_radius) <= 1e-12 * (1.0 + copy.bounding_radius))) {
+      throw InvalidArgument("bounding_radius is stale (build shapes with the make* functions)");
+    }
+  } catch (const InvalidArgument& e) {
+    throw InvalidArgument(what + ": " + e.what());
+  }
+}
+
+double support(const Shape& s, const Eigen::Vector3d& d) {
+  double h = 0.0;
+  switch (s.type) {
+    case ShapeType::kSphere: h = s.radius * d.norm(); break;
+    case ShapeType::kBox: h = s.half_extents.dot(d.cwiseAbs()); break;
+    case ShapeType::kCapsule: h = s.half_length * std::abs(d.z()) + s.radius * d.norm(); break;
+    case ShapeType::kCylinder:
+      h = s.half_length * std::abs(d.z()) + s.radius * std::hypot(d.x(), d.y());
+      break;
+    case ShapeType::kConvex:
+    case ShapeType::kMesh: {
+      h = -std::numeric_limits<double>::infinity();
+      for (const auto& p : s.points) h = std::max(h, p.dot(d));
+      break;
+    }
+  }
+  return h + s.margin * d.norm();
+}
+
+Eigen::Vector3d supportPoint(const Shape& s, const Eigen::Vector3d& d) {
+  const double dn = d.norm();
+  const Eigen::Vector3d u = dn > 0.0 ? Eigen::Vector3d(d / dn) : Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  auto sgn = [](double x) { return x >= 0.0 ? 1.0 : -1.0; };
+  switch (s.type) {
+    case ShapeType::kSphere: p = s.radius * u; break;
+    case ShapeType::kBox:
+      p = Eigen::Vector3d(sgn(u.x()) * s.half_extents.x(), sgn(u.y()) * s.half_extents.y(),
+                          sgn(u.z()) * s.half_extents.z());
+      break;
+    case ShapeType::kCapsule: p = Eigen::Vector3d(0, 0, sgn(u.z()) * s.half_length) + s.radius * u; break;
+    case ShapeType::kCylinder: {
+      const double r = std::hypot(u.x(), u.y());
+      p.z() = sgn(u.z()) * s.half_length;
+      if (r > 0.0) {
+        p.x() = s.radius * u.x() / r;
+        p.y() = s.radius * u.y() / r;
+      }
+      break;
+    }
+    case ShapeType::kConvex:
+    case ShapeType::kMesh: {
+      double best = -std::numeric_limits<double>::infinity();
+      for (const auto& q : s.points) {
+        const double v = q.dot(u);
+        if (v > best) {
+          best = v;
+          p = q;
+        }
+      }
+      break;
+    }
+  }
+  return p + s.margin * u;
+}
+
+}  // namespace vadop

@@ -1,0 +1,303 @@
+#include "vadop/sweep_prune.h"
+
+#include "vadop/error.h"
+
+#include <algorithm>
+#include <cmath>
+
+// How the candidate set stays exact (the invariant: a pair is in pairs_ iff the two bodies'
+// intervals overlap on every axis they share, for the values the lists were last sorted with).
+//  - A body whose axis set is unchanged keeps its endpoints; update() writes the new values and
+//    insertion sort moves them. Only a swap of a min past a max changes whether two intervals
+//    overlap on that axis. When one starts an overlap, the pair is tested on all shared axes
+//    with the new values and added if they all overlap; when one ends an overlap, the pair is
+//    dropped. After the last swap that touches a pair, its status is right: if it was an
+//    overlap start, the full test saw the final values; if there was none on any axis, the
+//    pair's per-axis status did not change and the invariant carried over.
+//  - A body whose axis set changes (or that is new) changes which axes it shares with everyone,
+//    which no swap reports. Such a body is taken out (its pairs erased, its endpoints marked
+//    dead), and after the sort it is merged back into its new lists and its pairs are found by
+//    querying each of its lists for intervals that overlap its own. Velocity alignment makes
+//    this rare: an axis set changes only when the direction of motion turns by more than the
+//    hysteresis, and fixed-axis modes never change sets.
+namespace vadop {
+
+SweepPruneBroadPhase::SweepPruneBroadPhase(const VadopConfig& config)
+    : SweepPruneBroadPhase(
+          [&] {
+            if (config.axes < 3 || config.axes > AxisPool::kMaxAxes) {
+              throw InvalidArgument("axes must be in [3, " + std::to_string(AxisPool::kMaxAxes) +
+                                    "], got " + std::to_string(config.axes));
+            }
+            return std::make_unique<AxisPool>(config.axes);
+          }(),
+          config, true) {}
+
+SweepPruneBroadPhase::SweepPruneBroadPhase(std::unique_ptr<AxisPool> pool, const VadopConfig& config,
+                                           bool aligned)
+    : pool_(std::move(pool)), config_(config), aligned_(aligned) {
+  if (aligned_) phi_ = validateVadopConfig(config_, *pool_);
+  const size_t m = pool_->size();
+  lists_.resize(m);
+  pending_.resize(m);
+  dead_.assign(m, 0);
+  max_length_.assign(m, 0.0);
+}
+
+std::unique_ptr<SweepPruneBroadPhase> SweepPruneBroadPhase::makeEveryAxis(int m) {
+  if (m < 3 || m > AxisPool::kMaxAxes) {
+    throw InvalidArgument("axes must be in [3, " + std::to_string(AxisPool::kMaxAxes) + "], got " +
+                          std::to_string(m));
+  }
+  VadopConfig config;
+  config.axes = m;
+  return std::unique_ptr<SweepPruneBroadPhase>(
+      new SweepPruneBroadPhase(std::make_unique<AxisPool>(m), config, false));
+}
+
+std::string SweepPruneBroadPhase::name() const {
+  if (aligned_) return "vadop";
+  return pool_->size() == 3 ? "sap" : "kdop";
+}
+
+size_t SweepPruneBroadPhase::memoryBytes() const {
+  size_t bytes = pairs_.memoryBytes() + states_.capacity() * sizeof(State) +
+                 dirty_.capacity() * sizeof(BodyId);
+  for (const auto& s : states_) bytes += s.entries.capacity() * sizeof(Entry);
+  for (const auto& l : lists_) bytes += l.capacity() * sizeof(Endpoint);
+  for (const auto& l : pending_) bytes += l.capacity() * sizeof(Endpoint);
+  return bytes;
+}
+
+std::vector<SweepPruneBroadPhase::AxisSpan> SweepPruneBroadPhase::volume(BodyId id) const {
+  requireKnown(id, "volume");
+  std::vector<AxisSpan> out;
+  const State& s = states_[id];
+  if (!s.listed) return out;
+  for (const Entry& e : s.entries) out.push_back({e.axis, Interval{e.lo, e.hi}});
+  return out;
+}
+
+void SweepPruneBroadPhase::onAdd(BodyId id) {
+  if (states_.size() <= id) states_.resize(id + 1);
+  states_[id] = State{};
+  states_[id].dirty = true;
+  dirty_.push_back(id);
+}
+
+void SweepPruneBroadPhase::onSetMotion(BodyId id) {
+  if (!states_[id].dirty) {
+    states_[id].dirty = true;
+    dirty_.push_back(id);
+  }
+}
+
+void SweepPruneBroadPhase::onRemove(BodyId id) {
+  // Immediately, so that the id can be handed out again before the next update.
+  if (states_[id].listed) unlist(id);
+  states_[id] = State{};
+  // A stale entry in dirty_ is skipped in computePairs (the body is not alive or is new).
+}
+
+void SweepPruneBroadPhase::setPosition(const Endpoint& e, uint32_t pos) {
+  Entry& entry = states_[e.body].entries[e.ref >> 1];
+  (e.isMax() ? entry.max_pos : entry.min_pos) = pos;
+}
+
+bool SweepPruneBroadPhase::overlapOnShared(BodyId a, BodyId b, uint32_t* first_shared) {
+  ++stats_.overlap_tests;
+  const auto& ea = states_[a].entries;
+  const auto& eb = states_[b].entries;
+  size_t i = 0, j = 0;
+  uint32_t first = kDead;
+  while (i < ea.size() && j < eb.size()) {
+    if (ea[i].axis < eb[j].axis) {
+      ++i;
+    } else if (eb[j].axis < ea[i].axis) {
+      ++j;
+    } else {
+      if (first == kDead) first = ea[i].axis;
+      if (ea[i].lo > eb[j].hi || eb[j].lo > ea[i].hi) {
+        if (first_shared) *first_shared = first;
+        return false;
+      }
+      ++i;
+      ++j;
+    }
+  }
+  if (first_shared) *first_shared = first;
+  // Two bodies that share no axis are a candidate (the paper's rule). With rho <= phi it cannot
+  // happen between two listed bodies; the rule stays for completeness.
+  return true;
+}
+
+template <class F>
+void SweepPruneBroadPhase::forEachOverlapOnAxis(BodyId id, const Entry& e, F&& f) const {
+  // Every interval on this axis is at most max_length_ long, so one that overlaps [lo, hi]
+  // has its min endpoint in [lo - max_length, hi]: a binary search and a short scan.
+  const auto& list = lists_[e.axis];
+  const double from = e.lo - max_length_[e.axis];
+  auto it = std::lower_bound(list.begin(), list.end(), from,
+                             [](const Endpoint& p, double v) { return p.value < v; });
+  for (; it != list.end() && it->value <= e.hi; ++it) {
+    if (it->isMax() || it->body == id || it->body == kDead) continue;
+    const Entry& other = states_[it->body].entries[it->ref >> 1];
+    if (other.hi < e.lo) continue;
+    f(it->body);
+  }
+}
+
+void SweepPruneBroadPhase::unlist(BodyId id) {
+  State& s = states_[id];
+  for (const Entry& e : s.entries) {
+    forEachOverlapOnAxis(id, e, [&](BodyId other) { pairs_.erase(id, other); });
+  }
+  for (const Entry& e : s.entries) {
+    lists_[e.axis][e.min_pos].body = kDead;
+    lists_[e.axis][e.max_pos].body = kDead;
+    dead_[e.axis] += 2;
+  }
+  s.listed = false;
+}
+
+void SweepPruneBroadPhase::compact(uint32_t axis) {
+  auto& list = lists_[axis];
+  uint32_t w = 0;
+  for (uint32_t r = 0; r < list.size(); ++r) {
+    if (list[r].body == kDead) continue;
+    if (w != r) {
+      list[w] = list[r];
+      setPosition(list[w], w);
+    }
+    ++w;
+  }
+  list.resize(w);
+  dead_[axis] = 0;
+}
+
+void SweepPruneBroadPhase::insertionSort(uint32_t axis) {
+  auto& list = lists_[axis];
+  const uint32_t n = static_cast<uint32_t>(list.size());
+  for (uint32_t i = 1; i < n; ++i) {
+    if (!before(list[i], list[i - 1])) continue;
+    const Endpoint x = list[i];
+    uint32_t j = i;
+    do {
+      const Endpoint& y = list[j - 1];
+      if (!x.isMax() && y.isMax()) {
+        // x's min moves left of y's max: the intervals start to overlap on this axis.
+        if (overlapOnShared(x.body, y.body, nullptr)) pairs_.insert(x.body, y.body);
+      } else if (x.isMax() && !y.isMax()) {
+        // x's max moves left of y's min: x now lies wholly below y on this axis.
+        pairs_.erase(x.body, y.body);
+      }
+      list[j] = y;
+      setPosition(list[j], j);
+      --j;
+      ++stats_.swaps;
+    } while (j > 0 && before(x, list[j - 1]));
+    list[j] = x;
+    setPosition(list[j], j);
+  }
+}
+
+void SweepPruneBroadPhase::mergePending(uint32_t axis) {
+  auto& add = pending_[axis];
+  if (add.empty()) return;
+  std::sort(add.begin(), add.end(), [](const Endpoint& x, const Endpoint& y) { return before(x, y); });
+  auto& list = lists_[axis];
+  const size_t old_size = list.size();
+  list.resize(old_size + add.size());
+  // Merge from the back; every element that lands at a new position gets it recorded.
+  size_t r = old_size, a = add.size(), w = list.size();
+  while (a > 0) {
+    --w;
+    if (r > 0 && before(add[a - 1], list[r - 1])) {
+      list[w] = list[--r];
+    } else {
+      list[w] = add[--a];
+    }
+    setPosition(list[w], static_cast<uint32_t>(w));
+  }
+  add.clear();
+}
+
+void SweepPruneBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& out) {
+  stats_ = Stats{};
+  const auto& b = bodies();
+  const double frame = t1 - t0;
+
+  // 1. Bodies whose motion changed: new axis set; take out those whose set changed.
+  std::vector<BodyId> reinsert;
+  for (BodyId id : dirty_) {
+    if (id >= b.size() || !b[id].alive || !states_[id].dirty) continue;
+    State& s = states_[id];
+    s.dirty = false;
+    std::vector<uint32_t> current;
+    current.reserve(s.entries.size());
+    for (const Entry& e : s.entries) current.push_back(e.axis);
+    std::vector<uint32_t> axes;
+    if (aligned_) {
+      axes = selectAxes(b[id].motion, b[id].shape->bounding_radius, frame, *pool_, config_, phi_, current);
+    } else if (!s.listed) {
+      axes.resize(pool_->size());
+      for (uint32_t k = 0; k < axes.size(); ++k) axes[k] = k;
+    } else {
+      axes = current;
+    }
+    if (s.listed && axes == current) continue;  // same lists: the sort below handles it
+    if (s.listed) unlist(id);
+    s.entries.clear();
+    for (uint32_t k : axes) s.entries.push_back(Entry{k, 0, 0, 0.0, 0.0});
+    reinsert.push_back(id);
+  }
+  dirty_.clear();
+  stats_.reinserted = reinsert.size();
+
+  // 2. New intervals for every body over [t0, t1].
+  std::fill(max_length_.begin(), max_length_.end(), 0.0);
+  for (BodyId id = 0; id < b.size(); ++id) {
+    if (!b[id].alive) continue;
+    State& s = states_[id];
+    const SweptBody swept(*b[id].shape, b[id].motion, t0, t1);
+    for (uint32_t i = 0; i < s.entries.size(); ++i) {
+      Entry& e = s.entries[i];
+      const Interval iv = swept.project(pool_->axis(static_cast<int>(e.axis)));
+      e.lo = iv.lo;
+      e.hi = iv.hi;
+      max_length_[e.axis] = std::max(max_length_[e.axis], iv.hi - iv.lo);
+      if (s.listed) {
+        lists_[e.axis][e.min_pos].value = iv.lo;
+        lists_[e.axis][e.max_pos].value = iv.hi;
+      } else {
+        pending_[e.axis].push_back(Endpoint{iv.lo, id, i << 1});
+        pending_[e.axis].push_back(Endpoint{iv.hi, id, (i << 1) | 1u});
+      }
+    }
+  }
+
+  // 3. Per axis: drop dead endpoints, re-sort (swaps maintain the pairs of bodies that stayed),
+  //    then merge the re-inserted bodies' endpoints in.
+  for (uint32_t k = 0; k < lists_.size(); ++k) {
+    if (dead_[k] > 0) compact(k);
+    insertionSort(k);
+    mergePending(k);
+    stats_.endpoints += lists_[k].size();
+  }
+  for (BodyId id : reinsert) states_[id].listed = true;
+
+  // 4. Pairs of the re-inserted bodies, found on each of their axes; a pair is reported from
+  //    the first axis the two share only, and only if it overlaps on all of them.
+  for (BodyId id : reinsert) {
+    for (const Entry& e : states_[id].entries) {
+      forEachOverlapOnAxis(id, e, [&](BodyId other) {
+        uint32_t first = kDead;
+        if (overlapOnShared(id, other, &first) && first == e.axis) pairs_.insert(id, other);
+      });
+    }
+  }
+
+  pairs_.appendTo(out);
+}
+
+}  // namespace vadop

@@ -1,0 +1,123 @@
+#include "vadop/vadop.h"
+
+#include "vadop/error.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+namespace vadop {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDeg = kPi / 180.0;
+
+// Relative widening of every interval: the support and dot products below are accurate to a
+// few ulps of the magnitudes involved; 1e-12 of them is far above that and far below any
+// length a user cares about.
+constexpr double kRoundingWiden = 1e-12;
+
+}  // namespace
+
+double validateVadopConfig(const VadopConfig& c, const AxisPool& pool) {
+  if (c.axes != pool.size()) {
+    throw InvalidArgument("axes = " + std::to_string(c.axes) + " does not match the pool size " +
+                          std::to_string(pool.size()));
+  }
+  if (!std::isfinite(c.phi_deg) || c.phi_deg < 0.0 || c.phi_deg > 90.0) {
+    throw InvalidArgument("phi_deg must be in [0, 90] (0 = the pool's covering radius), got " +
+                          std::to_string(c.phi_deg));
+  }
+  const double rho = pool.coveringRadius();
+  const double phi = c.phi_deg == 0.0 ? rho : c.phi_deg * kDeg;
+  if (phi < rho) {
+    throw InvalidArgument("phi_deg = " + std::to_string(c.phi_deg) +
+                          " is below the covering radius rho = " + std::to_string(rho / kDeg) +
+                          " deg of the " + std::to_string(pool.size()) +
+                          "-axis pool: two bodies' zones could share no axis; use phi_deg >= rho "
+                          "or more axes");
+  }
+  if (!std::isfinite(c.slow_fraction) || c.slow_fraction < 0.0) {
+    throw InvalidArgument("slow_fraction must be finite and >= 0, got " +
+                          std::to_string(c.slow_fraction));
+  }
+  if (!c.slow_direction.allFinite() || c.slow_direction.norm() < 1e-9) {
+    throw InvalidArgument("slow_direction must be a finite non-zero vector");
+  }
+  if (!std::isfinite(c.hysteresis_deg) || c.hysteresis_deg < 0.0 || c.hysteresis_deg > 90.0) {
+    throw InvalidArgument("hysteresis_deg must be in [0, 90], got " + std::to_string(c.hysteresis_deg));
+  }
+  return phi;
+}
+
+std::vector<uint32_t> selectAxes(const Motion& motion, double bounding_radius, double frame_length,
+                                 const AxisPool& pool, const VadopConfig& config, double phi_rad,
+                                 const std::vector<uint32_t>& previous) {
+  const int m = pool.size();
+  std::vector<uint32_t> out;
+  const double speed = motion.linear_velocity.norm();
+  const bool slow = !(speed * frame_length >= config.slow_fraction * bounding_radius) || speed == 0.0;
+  if (slow && config.slow_rule == SlowAxisRule::kAllAxes) {
+    out.resize(m);
+    for (int k = 0; k < m; ++k) out[k] = static_cast<uint32_t>(k);
+    return out;
+  }
+  const Eigen::Vector3d u =
+      slow ? Eigen::Vector3d(config.slow_direction.normalized()) : Eigen::Vector3d(motion.linear_velocity / speed);
+  // The tiny slack keeps an axis that lies exactly on the zone's rim (|u.a| == sin(rho)) in,
+  // whatever the rounding: the sharing guarantee needs the closed zone.
+  const double in_zone = std::sin(phi_rad) + 1e-12;
+  const double keep_zone = std::sin(std::min(phi_rad + config.hysteresis_deg * kDeg, kPi / 2)) + 1e-12;
+  size_t p = 0;
+  for (int k = 0; k < m; ++k) {
+    const double c = std::abs(u.dot(pool.axis(k)));
+    while (p < previous.size() && previous[p] < static_cast<uint32_t>(k)) ++p;
+    const bool was_used = p < previous.size() && previous[p] == static_cast<uint32_t>(k);
+    if (c <= in_zone || (was_used && c <= keep_zone)) out.push_back(static_cast<uint32_t>(k));
+  }
+  return out;
+}
+
+SweptBody::SweptBody(const Shape& shape, const Motion& motion, double t0, double t1)
+    : shape_(&shape) {
+  const double tm = 0.5 * (t0 + t1);
+  rotation_mid_t_ = motion.orientationAt(tm).toRotationMatrix().transpose();
+  p0_ = motion.positionAt(t0);
+  p1_ = motion.positionAt(t1);
+  core_radius_ = std::max(0.0, shape.bounding_radius - shape.margin);
+  const double w = motion.angular_velocity.norm();
+  if (w > 0.0) {
+    spin_axis_ = motion.angular_velocity / w;
+    // Largest rotation angle away from the mid-frame orientation; a point at radius r on the
+    // spin plane moves along a chord of 2 r sin(angle / 2), never more than 2 r.
+    const double angle = std::min(w * 0.5 * (t1 - t0), kPi);
+    chord_ = 2.0 * std::sin(0.5 * angle);
+  } else {
+    spin_axis_.setZero();
+  }
+}
+
+Interval SweptBody::project(const Eigen::Vector3d& a) const {
+  const Eigen::Vector3d a_body = rotation_mid_t_ * a;
+  const double up = support(*shape_, a_body);
+  const double down = support(*shape_, -a_body);
+  const double c0 = a.dot(p0_);
+  const double c1 = a.dot(p1_);
+  // Only the component of a point orthogonal to the spin axis moves, and only the part of the
+  // axis orthogonal to the spin axis sees it: hence |a x w_hat|.
+  const double rot = chord_ > 0.0 ? core_radius_ * chord_ * a.cross(spin_axis_).norm() : 0.0;
+  Interval iv;
+  iv.lo = std::min(c0, c1) - down - rot;
+  iv.hi = std::max(c0, c1) + up + rot;
+  const double widen = kRoundingWiden * (1.0 + std::max(std::abs(iv.lo), std::abs(iv.hi)));
+  iv.lo -= widen;
+  iv.hi += widen;
+  return iv;
+}
+
+Interval sweptInterval(const Shape& shape, const Motion& motion, double t0, double t1,
+                       const Eigen::Vector3d& axis) {
+  return SweptBody(shape, motion, t0, t1).project(axis);
+}
+
+}  // namespace vadop

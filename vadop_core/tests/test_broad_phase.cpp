@@ -1,0 +1,468 @@
+// Property tests of the sweep-and-prune broad phases (VADOP, k-DOP, AABB) against
+// independent references, over random scenes with velocity changes, adds and removes:
+//  1. the candidate set equals, pair for pair, the set a brute-force double loop computes
+//     from the same per-body intervals (overlap on every shared axis; no shared axis ->
+//     candidate), and no two bodies ever share no axis (the rho <= phi guarantee);
+//  2. each interval bounds the body's projection at densely sampled times (so a pair whose
+//     swept volumes intersect overlaps on every axis and is a candidate);
+//  3. end to end, with spheres (whose swept volumes are exactly capsules): every pair whose
+//     swept capsules intersect is a candidate.
+// VADOP_SOAK_FRAMES sets the total number of frames (default: a fast CI subset).
+#include "vadop/broad_phase.h"
+#include "vadop/error.h"
+#include "vadop/sweep_prune.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <map>
+#include <random>
+#include <set>
+
+namespace vadop {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+int soakFrames(int fallback) {
+  const char* env = std::getenv("VADOP_SOAK_FRAMES");
+  return env ? std::max(1, std::atoi(env)) : fallback;
+}
+
+struct SceneParams {
+  int n = 60;
+  double box = 10.0;
+  double fast_speed = 30.0;      // m/s for the fast bodies (frames are 1/30 s)
+  double fast_fraction = 0.3;
+  double static_fraction = 0.2;
+  double rotating_fraction = 0.3;
+  bool spheres_only = false;
+};
+
+class RandomScene {
+ public:
+  RandomScene(uint64_t seed, SceneParams p) : rng_(seed), p_(p) {}
+
+  Shape randomShape() {
+    std::uniform_real_distribution<double> size(0.05, 0.8);
+    const int type = p_.spheres_only ? 0 : std::uniform_int_distribution<int>(0, 4)(rng_);
+    switch (type) {
+      case 0: return makeSphere(size(rng_));
+      case 1: return makeBox(Eigen::Vector3d(size(rng_), size(rng_), 0.01 + 0.1 * size(rng_)));
+      case 2: return makeCapsule(0.5 * size(rng_), 2.0 * size(rng_));
+      case 3: return makeCylinder(size(rng_), size(rng_));
+      default: {
+        std::vector<Eigen::Vector3d> pts;
+        for (int i = 0; i < 8; ++i) pts.push_back(Eigen::Vector3d::Random() * size(rng_) + Eigen::Vector3d(0.1, 0, 0));
+        return makeConvex(pts);
+      }
+    }
+  }
+
+  Eigen::Vector3d unit() {
+    std::normal_distribution<double> g;
+    Eigen::Vector3d v(g(rng_), g(rng_), g(rng_));
+    return v.normalized();
+  }
+
+  Motion randomMotion(double t_ref, const Eigen::Vector3d* keep_position = nullptr) {
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    std::uniform_real_distribution<double> pos(-p_.box, p_.box);
+    Eigen::Vector3d p = keep_position ? *keep_position : Eigen::Vector3d(pos(rng_), pos(rng_), pos(rng_));
+    Eigen::Vector3d v = Eigen::Vector3d::Zero();
+    const double r = u01(rng_);
+    if (r < p_.static_fraction) {
+      // Static, or drifting below the slow threshold.
+      if (u01(rng_) < 0.5) v = unit() * 1e-3;
+    } else if (r < p_.static_fraction + p_.fast_fraction) {
+      v = unit() * p_.fast_speed * (0.5 + u01(rng_));
+    } else {
+      v = unit() * 2.0 * u01(rng_);
+    }
+    Eigen::Vector3d w = Eigen::Vector3d::Zero();
+    if (!p_.spheres_only && u01(rng_) < p_.rotating_fraction) w = unit() * 10.0 * u01(rng_);
+    Eigen::Quaterniond q(Eigen::AngleAxisd(2 * kPi * u01(rng_), unit()));
+    return makeMotion(p, q, v, w, t_ref);
+  }
+
+  // A slight turn of the current velocity: exercises the hysteresis and in-place updates.
+  Motion turned(const Motion& m, double t_ref) {
+    Motion out = m;
+    out.position = m.positionAt(t_ref);
+    out.orientation = m.orientationAt(t_ref);
+    out.t_ref = t_ref;
+    const double angle = std::uniform_real_distribution<double>(0.0, 0.2)(rng_);
+    out.linear_velocity = Eigen::AngleAxisd(angle, unit()) * m.linear_velocity;
+    return out;
+  }
+
+  std::mt19937_64& rng() { return rng_; }
+
+ private:
+  std::mt19937_64 rng_;
+  SceneParams p_;
+};
+
+// Reference 1: the candidate set from the same intervals, by a double loop.
+std::vector<Pair> oracle(const SweepPruneBroadPhase& bp, const std::vector<BodyId>& ids, size_t* unshared) {
+  std::map<BodyId, std::vector<SweepPruneBroadPhase::AxisSpan>> vol;
+  for (BodyId id : ids) vol[id] = bp.volume(id);
+  std::vector<Pair> out;
+  *unshared = 0;
+  for (size_t i = 0; i < ids.size(); ++i) {
+    for (size_t j = i + 1; j < ids.size(); ++j) {
+      const auto& a = vol[ids[i]];
+      const auto& b = vol[ids[j]];
+      bool shared = false, separated = false;
+      // Both lists are ascending in axis: a merge finds the shared axes.
+      for (size_t x = 0, y = 0; x < a.size() && y < b.size();) {
+        if (a[x].axis < b[y].axis) {
+          ++x;
+        } else if (b[y].axis < a[x].axis) {
+          ++y;
+        } else {
+          shared = true;
+          if (!overlaps(a[x].interval, b[y].interval)) separated = true;
+          ++x;
+          ++y;
+        }
+      }
+      if (!shared) ++*unshared;
+      if (!separated) out.push_back(makePair(ids[i], ids[j]));
+    }
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// Reference 2: intervals bound the projection of the shape at sampled times.
+void checkIntervalsBound(const SweepPruneBroadPhase& bp, BodyId id, double t0, double t1) {
+  const Shape& s = bp.shape(id);
+  const Motion& m = bp.motion(id);
+  for (const auto& span : bp.volume(id)) {
+    const Eigen::Vector3d a = bp.pool().axis(static_cast<int>(span.axis));
+    for (int k = 0; k <= 16; ++k) {
+      const double t = t0 + (t1 - t0) * k / 16.0;
+      const Eigen::Matrix3d R = m.orientationAt(t).toRotationMatrix();
+      const Eigen::Vector3d p = m.positionAt(t);
+      const double up = a.dot(p) + support(s, R.transpose() * a);
+      const double down = a.dot(p) - support(s, -(R.transpose() * a));
+      ASSERT_LE(up, span.interval.hi) << "body " << id << " axis " << span.axis << " t " << t;
+      ASSERT_GE(down, span.interval.lo) << "body " << id << " axis " << span.axis << " t " << t;
+    }
+  }
+}
+
+// The zone rule: a velocity-aligned body's axes include every axis within phi of
+// orthogonality to its direction of motion (or of the slow direction).
+void checkZone(const SweepPruneBroadPhase& bp, BodyId id, double frame) {
+  const Motion& m = bp.motion(id);
+  const double speed = m.linear_velocity.norm();
+  const bool slow = !(speed * frame >= 0.05 * bp.shape(id).bounding_radius) || speed == 0.0;
+  const Eigen::Vector3d u = slow ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d(m.linear_velocity / speed);
+  std::set<uint32_t> used;
+  for (const auto& s : bp.volume(id)) used.insert(s.axis);
+  for (int k = 0; k < bp.pool().size(); ++k) {
+    const double c = std::abs(u.dot(bp.pool().axis(k)));
+    if (c <= std::sin(bp.phi()) - 1e-9) ASSERT_TRUE(used.count(k)) << "body " << id << " misses zone axis " << k;
+  }
+}
+
+struct RunConfig {
+  std::string label;
+  std::function<std::unique_ptr<SweepPruneBroadPhase>()> make;
+  SceneParams scene;
+};
+
+struct RunTotals {
+  size_t frames = 0, pairs = 0, reinserted = 0;
+};
+
+RunTotals runScenario(const RunConfig& rc, uint64_t seed, int frames, bool check_bounds) {
+  RandomScene scene(seed, rc.scene);
+  auto bp = rc.make();
+  BruteForceBroadPhase brute;  // mirrors the same calls: same ids
+  std::vector<BodyId> ids;
+  const double dt = 1.0 / 30.0;
+  double t = 0.0;
+  for (int i = 0; i < rc.scene.n; ++i) {
+    const Shape s = scene.randomShape();
+    const Motion m = scene.randomMotion(t);
+    const BodyId id = bp->add(s, m);
+    EXPECT_EQ(brute.add(s, m), id);
+    ids.push_back(id);
+  }
+  RunTotals totals;
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  for (int f = 0; f < frames; ++f) {
+    // Random events between frames.
+    for (BodyId id : ids) {
+      const double r = u01(scene.rng());
+      if (r < 0.05) {
+        const Eigen::Vector3d p = bp->motion(id).positionAt(t);
+        const Motion m = scene.randomMotion(t, &p);
+        bp->setMotion(id, m);
+        brute.setMotion(id, m);
+      } else if (r < 0.15) {
+        const Motion m = scene.turned(bp->motion(id), t);
+        bp->setMotion(id, m);
+        brute.setMotion(id, m);
+      }
+    }
+    if (u01(scene.rng()) < 0.2 && ids.size() > 2) {
+      const size_t k = std::uniform_int_distribution<size_t>(0, ids.size() - 1)(scene.rng());
+      bp->remove(ids[k]);
+      brute.remove(ids[k]);
+      ids.erase(ids.begin() + static_cast<long>(k));
+    }
+    if (u01(scene.rng()) < 0.2) {
+      const Shape s = scene.randomShape();
+      const Motion m = scene.randomMotion(t);
+      const BodyId id = bp->add(s, m);
+      EXPECT_EQ(brute.add(s, m), id);
+      ids.push_back(id);
+    }
+    // Keep bodies near the box: bounce those that left it (a velocity change).
+    for (BodyId id : ids) {
+      const Motion& m = bp->motion(id);
+      const Eigen::Vector3d p = m.positionAt(t);
+      if (p.cwiseAbs().maxCoeff() > 2.0 * rc.scene.box && m.linear_velocity.dot(p) > 0) {
+        Motion back = m;
+        back.position = p;
+        back.orientation = m.orientationAt(t);
+        back.t_ref = t;
+        back.linear_velocity = -m.linear_velocity;
+        bp->setMotion(id, back);
+        brute.setMotion(id, back);
+      }
+    }
+    std::sort(ids.begin(), ids.end());
+    bp->update(t, t + dt);
+    size_t unshared = 0;
+    const auto expected = oracle(*bp, ids, &unshared);
+    EXPECT_EQ(unshared, 0u) << rc.label << " frame " << f << ": bodies sharing no axis";
+    const auto& got = bp->pairs();
+    if (got != expected) {
+      std::vector<Pair> missing, extra;
+      std::set_difference(expected.begin(), expected.end(), got.begin(), got.end(), std::back_inserter(missing));
+      std::set_difference(got.begin(), got.end(), expected.begin(), expected.end(), std::back_inserter(extra));
+      ADD_FAILURE() << rc.label << " seed " << seed << " frame " << f << ": " << missing.size()
+                    << " pairs missing, " << extra.size() << " extra"
+                    << (missing.empty() ? "" : ", first missing " + std::to_string(missing[0].a) + "-" +
+                                                   std::to_string(missing[0].b));
+      return totals;
+    }
+    if (check_bounds) {
+      for (BodyId id : ids) {
+        checkIntervalsBound(*bp, id, t, t + dt);
+        if (bp->velocityAligned()) checkZone(*bp, id, dt);
+        if (::testing::Test::HasFatalFailure()) return totals;
+      }
+    }
+    if (rc.scene.spheres_only) {
+      // Reference 3: exact swept volumes of non-rotating spheres.
+      brute.update(t, t + dt);
+      for (const Pair& p : brute.pairs()) {
+        if (!std::binary_search(got.begin(), got.end(), p)) {
+          ADD_FAILURE() << rc.label << " frame " << f << ": swept spheres " << p.a << "-" << p.b
+                        << " intersect but are not a candidate";
+          return totals;
+        }
+      }
+    }
+    totals.frames++;
+    totals.pairs += got.size();
+    totals.reinserted += bp->stats().reinserted;
+    t += dt;
+  }
+  return totals;
+}
+
+std::vector<RunConfig> configs() {
+  std::vector<RunConfig> out;
+  auto vadop = [](int m, double phi_deg, SlowAxisRule rule) {
+    return [=] {
+      VadopConfig c;
+      c.axes = m;
+      c.phi_deg = phi_deg;
+      c.slow_rule = rule;
+      return std::make_unique<SweepPruneBroadPhase>(c);
+    };
+  };
+  SceneParams mixed;
+  SceneParams spheres;
+  spheres.spheres_only = true;
+  spheres.n = 80;
+  SceneParams crowded;
+  crowded.n = 120;
+  crowded.box = 4.0;
+  out.push_back({"vadop m=3", vadop(3, 0, SlowAxisRule::kFixedZone), mixed});
+  out.push_back({"vadop m=7", vadop(7, 0, SlowAxisRule::kFixedZone), mixed});
+  out.push_back({"vadop m=20 all-axes slow", vadop(20, 0, SlowAxisRule::kAllAxes), mixed});
+  out.push_back({"vadop m=64", vadop(64, 0, SlowAxisRule::kFixedZone), crowded});
+  out.push_back({"vadop m=64 phi=30", vadop(64, 30, SlowAxisRule::kFixedZone), mixed});
+  out.push_back({"vadop m=200 spheres", vadop(200, 0, SlowAxisRule::kFixedZone), spheres});
+  out.push_back({"vadop m=1000", vadop(1000, 0, SlowAxisRule::kAllAxes), mixed});
+  out.push_back({"sap xyz", [] { return SweepPruneBroadPhase::makeEveryAxis(3); }, mixed});
+  out.push_back({"kdop m=13 spheres", [] { return SweepPruneBroadPhase::makeEveryAxis(13); }, spheres});
+  return out;
+}
+
+TEST(BroadPhaseProperty, CandidatesEqualOracleAndAreComplete) {
+  const auto cs = configs();
+  const int total = soakFrames(1800);
+  const int per_config = std::max(1, total / static_cast<int>(cs.size()));
+  size_t frames = 0;
+  for (size_t c = 0; c < cs.size(); ++c) {
+    // Several seeds, each a short life of its own scene.
+    int done = 0;
+    for (uint64_t seed = 1; done < per_config; ++seed) {
+      const int len = std::min(100, per_config - done);
+      const RunTotals r = runScenario(cs[c], seed * 7919 + c, len, /*check_bounds=*/seed % 3 == 1);
+      if (::testing::Test::HasFailure()) return;
+      frames += r.frames;
+      done += len;
+    }
+  }
+  RecordProperty("frames", static_cast<int>(frames));
+  std::printf("checked %zu frames over %zu configurations\n", frames, cs.size());
+}
+
+TEST(BroadPhase, VelocityAlignmentKeepsProjectionsStill) {
+  // A body moving along x at 30 m/s: on every one of its axes its interval moves by at most
+  // |v| dt sin(phi + hysteresis) per frame; on a plain x axis it would move |v| dt.
+  VadopConfig c;
+  c.axes = 64;
+  SweepPruneBroadPhase bp(c);
+  const Eigen::Vector3d v(30, 0, 0);
+  const BodyId id = bp.add(makeSphere(0.5), makeMotion(Eigen::Vector3d::Zero(), Eigen::Quaterniond::Identity(), v,
+                                                       Eigen::Vector3d::Zero()));
+  const double dt = 1.0 / 30.0;
+  bp.update(0, dt);
+  const auto first = bp.volume(id);
+  bp.update(dt, 2 * dt);
+  const auto second = bp.volume(id);
+  ASSERT_EQ(first.size(), second.size());
+  ASSERT_GT(first.size(), 0u);
+  const double bound = 30.0 * dt * std::sin(bp.phi() + 2.0 * kPi / 180.0) + 1e-9;
+  for (size_t k = 0; k < first.size(); ++k) {
+    EXPECT_LE(std::abs(second[k].interval.lo - first[k].interval.lo), bound);
+    // And the interval is tight: sphere diameter plus the small projected sweep.
+    EXPECT_LE(first[k].interval.hi - first[k].interval.lo, 1.0 + bound + 1e-9);
+  }
+}
+
+TEST(BroadPhase, SeparatedPairIsPrunedAndTouchingPairIsKept) {
+  for (auto make : {std::function<std::unique_ptr<SweepPruneBroadPhase>()>(
+                        [] { return std::make_unique<SweepPruneBroadPhase>(VadopConfig{}); }),
+                    std::function<std::unique_ptr<SweepPruneBroadPhase>()>(
+                        [] { return SweepPruneBroadPhase::makeEveryAxis(3); })}) {
+    auto bp = make();
+    const auto still = [](double x, double vx) {
+      return makeMotion(Eigen::Vector3d(x, 0, 0), Eigen::Quaterniond::Identity(), Eigen::Vector3d(vx, 0, 0),
+                        Eigen::Vector3d::Zero());
+    };
+    // Head-on: gap 2 m, closing at 60 m/s, 1/30 s: they meet within the frame.
+    const BodyId a = bp->add(makeSphere(0.5), still(-1.5, 30));
+    const BodyId b = bp->add(makeSphere(0.5), still(1.5, -30));
+    // Far away, not moving.
+    const BodyId c = bp->add(makeSphere(0.5), still(100, 0));
+    bp->update(0, 1.0 / 30.0);
+    EXPECT_EQ(bp->pairs(), (std::vector<Pair>{makePair(a, b)})) << bp->name();
+    // Exactly touching at rest counts (closed intervals).
+    bp->setMotion(a, still(99, 0));
+    bp->update(1.0 / 30.0, 2.0 / 30.0);
+    EXPECT_TRUE(std::binary_search(bp->pairs().begin(), bp->pairs().end(), makePair(a, c))) << bp->name();
+  }
+}
+
+TEST(BroadPhase, BadInputThrowsAndChangesNothing) {
+  VadopConfig c;
+  c.axes = 32;
+  SweepPruneBroadPhase bp(c);
+  const Motion ok = makeMotion(Eigen::Vector3d::Zero(), Eigen::Quaterniond::Identity(), Eigen::Vector3d(1, 0, 0),
+                               Eigen::Vector3d::Zero());
+  const BodyId a = bp.add(makeSphere(1), ok);
+  Motion moved = ok;
+  moved.position.x() = 1.5;
+  const BodyId b = bp.add(makeBox(Eigen::Vector3d(1, 1, 1)), moved);
+  bp.update(0, 0.1);
+  const auto before = bp.pairs();
+  ASSERT_EQ(before.size(), 1u);
+
+  Motion nan = ok;
+  nan.position.y() = std::nan("");
+  EXPECT_THROW(bp.add(makeSphere(1), nan), InvalidArgument);
+  Motion inf = ok;
+  inf.linear_velocity.z() = INFINITY;
+  EXPECT_THROW(bp.setMotion(a, inf), InvalidArgument);
+  Motion zero_q = ok;
+  zero_q.orientation = Eigen::Quaterniond(0, 0, 0, 0);
+  EXPECT_THROW(bp.setMotion(b, zero_q), InvalidArgument);
+  EXPECT_THROW(makeMotion(Eigen::Vector3d::Zero(), Eigen::Quaterniond(0, 0, 0, 0), Eigen::Vector3d::Zero(),
+                          Eigen::Vector3d::Zero()),
+               InvalidArgument);
+  EXPECT_THROW(bp.remove(77), InvalidArgument);
+  EXPECT_THROW(bp.setMotion(77, ok), InvalidArgument);
+  EXPECT_THROW(bp.update(1.0, 0.5), InvalidArgument);
+  EXPECT_THROW(bp.update(0, std::nan("")), InvalidArgument);
+  Shape bad = makeSphere(1);
+  bad.radius = -1;
+  EXPECT_THROW(bp.add(bad, ok), InvalidArgument);
+  EXPECT_THROW(makeSphere(0), InvalidArgument);
+  EXPECT_THROW(makeBox(Eigen::Vector3d(1, -1, 1)), InvalidArgument);
+  EXPECT_THROW(makeCapsule(std::nan(""), 1), InvalidArgument);
+  EXPECT_THROW(makeConvex({}), InvalidArgument);
+
+  EXPECT_EQ(bp.size(), 2u);
+  bp.update(0, 0.1);
+  EXPECT_EQ(bp.pairs(), before);
+  try {
+    bp.remove(12345);
+    FAIL() << "no throw";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("12345"), std::string::npos) << e.what();
+  }
+}
+
+TEST(BroadPhase, ConfigurationIsValidated) {
+  VadopConfig c;
+  c.axes = 64;
+  c.phi_deg = 1.0;  // below rho of a 64-axis pool
+  try {
+    SweepPruneBroadPhase bp(c);
+    FAIL() << "phi below rho accepted";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("covering radius"), std::string::npos) << e.what();
+  }
+  c.phi_deg = 95;
+  EXPECT_THROW(SweepPruneBroadPhase{c}, InvalidArgument);
+  c.phi_deg = std::nan("");
+  EXPECT_THROW(SweepPruneBroadPhase{c}, InvalidArgument);
+  c.phi_deg = 0;
+  c.axes = 2;
+  EXPECT_THROW(SweepPruneBroadPhase{c}, InvalidArgument);
+  c.axes = 64;
+  c.slow_direction = Eigen::Vector3d::Zero();
+  EXPECT_THROW(SweepPruneBroadPhase{c}, InvalidArgument);
+  EXPECT_THROW(SweepPruneBroadPhase::makeEveryAxis(1), InvalidArgument);
+}
+
+TEST(BroadPhase, IdsAreReusedSmallestFirst) {
+  SweepPruneBroadPhase bp(VadopConfig{});
+  const Motion m = makeMotion(Eigen::Vector3d::Zero(), Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero(),
+                              Eigen::Vector3d::Zero());
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(bp.add(makeSphere(1), m), static_cast<BodyId>(i));
+  bp.remove(3);
+  bp.remove(1);
+  EXPECT_EQ(bp.add(makeSphere(1), m), 1u);
+  EXPECT_EQ(bp.add(makeSphere(1), m), 3u);
+  EXPECT_EQ(bp.add(makeSphere(1), m), 5u);
+  bp.update(0, 0.1);
+  // All six spheres sit at the origin: every pair is a candidate.
+  EXPECT_EQ(bp.pairs().size(), 15u);
+}
+
+}  // namespace
+}  // namespace vadop
