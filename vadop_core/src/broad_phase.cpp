@@ -23,8 +23,6 @@ BodyId BroadPhase::add(std::shared_ptr<const Shape> shape, const Motion& motion)
     if (bodies_.size() >= 0xfffffff0u) throw InvalidArgument("add: too many bodies");
     id = static_cast<BodyId>(bodies_.size());
   }
-  // Reserve first so that nothing below can fail half-way.
-  if (id == bodies_.size()) bodies_.reserve(bodies_.size() + 1);
   Body body{std::move(shape), motion, true};
   if (id == bodies_.size()) {
     bodies_.push_back(std::move(body));
@@ -46,7 +44,8 @@ void BroadPhase::requireKnown(BodyId id, const char* operation) const {
 
 void BroadPhase::remove(BodyId id) {
   requireKnown(id, "remove");
-  free_ids_.reserve(free_ids_.size() + 1);
+  // Grow geometrically before anything changes, so the push below cannot fail half-way.
+  if (free_ids_.size() == free_ids_.capacity()) free_ids_.reserve(2 * free_ids_.capacity() + 8);
   onRemove(id);
   bodies_[id].alive = false;
   bodies_[id].shape.reset();
