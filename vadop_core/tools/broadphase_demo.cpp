@@ -27,17 +27,20 @@ struct Options {
   int frames = 60;
   double speed = 1.0;      // radii per frame
   double density = 0.01;   // sphere volume / box volume
-  int axes = 64;
-  double phi_deg = 0.0;
+  int axes = 32;
+  double phi_deg = 25.0;
   std::string methods = "vadop,sap,kdop,brute";
   uint64_t seed = 1;
+  double static_fraction = 0.0;  // share of bodies standing still (parked robots, furniture)
+  std::string slow_rule = "zone";
 };
 
 [[noreturn]] void usage(const char* msg) {
   std::fprintf(stderr,
                "error: %s\n"
                "usage: vadop_broadphase_demo [--n N] [--frames F] [--speed RADII_PER_FRAME] [--density D]\n"
-               "                             [--axes M] [--phi DEG] [--methods vadop,sap,kdop,brute] [--seed S]\n",
+               "                             [--axes M] [--phi DEG] [--methods vadop,sap,kdop,brute] [--seed S]\n"
+               "                             [--static-fraction F] [--slow-rule zone|all]\n",
                msg);
   std::exit(2);
 }
@@ -64,12 +67,16 @@ Options parse(int argc, char** argv) {
     else if (a == "--phi") o.phi_deg = number("--phi", v);
     else if (a == "--methods") o.methods = v;
     else if (a == "--seed") o.seed = static_cast<uint64_t>(number("--seed", v));
+    else if (a == "--static-fraction") o.static_fraction = number("--static-fraction", v);
+    else if (a == "--slow-rule") o.slow_rule = v;
     else usage(("unknown option " + a).c_str());
   }
   if (o.n <= 1) usage("--n must be >= 2");
   if (o.frames <= 0) usage("--frames must be > 0");
   if (o.speed < 0) usage("--speed must be >= 0");
   if (!(o.density > 0 && o.density <= 0.5)) usage("--density must be in (0, 0.5]");
+  if (!(o.static_fraction >= 0 && o.static_fraction <= 1)) usage("--static-fraction must be in [0, 1]");
+  if (o.slow_rule != "zone" && o.slow_rule != "all") usage("--slow-rule must be zone or all");
   return o;
 }
 
@@ -95,6 +102,7 @@ int main(int argc, char** argv) {
   for (auto& m : motions) {
     Eigen::Vector3d v(g(rng), g(rng), g(rng));
     v = v.normalized() * o.speed * radius * fps;
+    if (std::uniform_real_distribution<double>(0, 1)(rng) < o.static_fraction) v.setZero();
     m = vadop::makeMotion(Eigen::Vector3d(pos(rng), pos(rng), pos(rng)), Eigen::Quaterniond::Identity(), v,
                           Eigen::Vector3d::Zero(), 0.0);
   }
@@ -121,6 +129,7 @@ int main(int argc, char** argv) {
         vadop::VadopConfig c;
         c.axes = o.axes;
         c.phi_deg = o.phi_deg;
+        c.slow_rule = o.slow_rule == "all" ? vadop::SlowAxisRule::kAllAxes : vadop::SlowAxisRule::kFixedZone;
         bp = std::make_unique<vadop::SweepPruneBroadPhase>(c);
       } else if (std::string(name) == "sap") {
         bp = vadop::SweepPruneBroadPhase::makeEveryAxis(3);
