@@ -3,6 +3,7 @@
 #include "vadop/error.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 // How the candidate set stays exact (the invariant: a pair is in pairs_ iff the two bodies'
@@ -224,6 +225,8 @@ void SweepPruneBroadPhase::mergePending(uint32_t axis) {
 
 void SweepPruneBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& out) {
   stats_ = Stats{};
+  using Clock = std::chrono::steady_clock;
+  const auto start = Clock::now();
   const auto& b = bodies();
   const double frame = t1 - t0;
 
@@ -276,6 +279,9 @@ void SweepPruneBroadPhase::computePairs(double t0, double t1, std::vector<Pair>&
     }
   }
 
+  const auto sorted_from = Clock::now();
+  stats_.update_seconds = std::chrono::duration<double>(sorted_from - start).count();
+
   // 3. Per axis: drop dead endpoints, re-sort (swaps maintain the pairs of bodies that stayed),
   //    then merge the re-inserted bodies' endpoints in.
   for (uint32_t k = 0; k < lists_.size(); ++k) {
@@ -298,6 +304,7 @@ void SweepPruneBroadPhase::computePairs(double t0, double t1, std::vector<Pair>&
   }
 
   pairs_.appendTo(out);
+  stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - sorted_from).count();
 }
 
 }  // namespace vadop

@@ -48,6 +48,8 @@ class SweepPruneBroadPhase : public BroadPhase {
     size_t swaps = 0;          // insertion-sort moves in the last update
     size_t overlap_tests = 0;  // shared-axis tests triggered by swaps and queries
     size_t reinserted = 0;     // bodies whose axis set changed (or new) in the last update
+    double update_seconds = 0; // c_u: axis selection and new intervals
+    double sort_seconds = 0;   // c_s: re-sorting the lists and maintaining the pairs
   };
   const Stats& stats() const { return stats_; }
 
