@@ -109,7 +109,8 @@ int main(int argc, char** argv) {
 
   std::printf("%d spheres of radius %.1f in a box of side %.1f (density %.3f), %.2f radii/frame, %d frames\n", o.n,
               radius, 2 * half, o.density, o.speed, o.frames);
-  std::printf("%-8s %12s %12s %14s %12s %s\n", "method", "median ms", "max ms", "candidates/fr", "memory MB", "complete");
+  std::printf("%-8s %10s %10s %14s %12s %12s %10s %s\n", "method", "median ms", "max ms", "candidates/fr", "swaps/fr",
+              "tests/fr", "memory MB", "complete");
 
   const auto sphere = std::make_shared<const vadop::Shape>(vadop::makeSphere(radius));
   std::vector<std::vector<vadop::Pair>> truth;  // exact swept-sphere pairs, from brute force
@@ -143,7 +144,7 @@ int main(int argc, char** argv) {
     std::vector<vadop::Motion> m = motions;
     for (const auto& mo : m) bp->add(sphere, mo);
     std::vector<double> ms;
-    size_t candidates = 0;
+    size_t candidates = 0, swaps = 0, tests = 0;
     bool complete = true;
     for (int f = 0; f < o.frames; ++f) {
       const double t0 = f * dt;
@@ -167,6 +168,10 @@ int main(int argc, char** argv) {
       bp->update(t0, t0 + dt);
       ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
       candidates += bp->pairs().size();
+      if (const auto* sp = dynamic_cast<const vadop::SweepPruneBroadPhase*>(bp.get())) {
+        swaps += sp->stats().swaps;
+        tests += sp->stats().overlap_tests;
+      }
       if (std::string(name) == "brute") {
         truth.push_back(bp->pairs());
       } else if (!truth.empty()) {
@@ -177,8 +182,9 @@ int main(int argc, char** argv) {
     }
     std::vector<double> sorted = ms;
     std::sort(sorted.begin(), sorted.end());
-    std::printf("%-8s %12.3f %12.3f %14.1f %12.1f %s\n", name, sorted[sorted.size() / 2], sorted.back(),
-                static_cast<double>(candidates) / o.frames, bp->memoryBytes() / 1048576.0,
+    std::printf("%-8s %10.3f %10.3f %14.1f %12.0f %12.0f %10.1f %s\n", name, sorted[sorted.size() / 2], sorted.back(),
+                static_cast<double>(candidates) / o.frames, static_cast<double>(swaps) / o.frames,
+                static_cast<double>(tests) / o.frames, bp->memoryBytes() / 1048576.0,
                 std::string(name) == "brute" ? "(reference)" : truth.empty() ? "not checked" : complete ? "yes" : "NO");
     if (!complete) return 1;
   }

@@ -78,9 +78,16 @@ class SweepPruneBroadPhase : public BroadPhase {
   };
   struct State {
     std::vector<Entry> entries;  // ascending axis
+    // Which axes the body uses, one bit per pool axis, and for each 64-bit word the number of
+    // entries before it: the shared axes of two bodies are an AND away, and an axis' entry is
+    // found by a popcount. ceil(m / 64) words: fewer bits than the body has entries whenever
+    // sin(phi) > 1/64, which phi >= rho guarantees for every pool size allowed.
+    std::vector<uint64_t> axis_bits;
+    std::vector<uint16_t> rank;
     bool listed = false;         // endpoints are in the lists
     bool dirty = false;          // motion changed since the last update
   };
+  void setAxes(State& s, const std::vector<uint32_t>& axes);
 
   static bool before(const Endpoint& x, const Endpoint& y) {
     // Closed intervals: at equal values a min sorts before a max, so touching counts.
