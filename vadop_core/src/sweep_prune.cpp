@@ -41,7 +41,6 @@ SweepPruneBroadPhase::SweepPruneBroadPhase(std::unique_ptr<AxisPool> pool, const
   const size_t m = pool_->size();
   lists_.resize(m);
   pending_.resize(m);
-  dead_.assign(m, 0);
   max_length_.assign(m, 0.0);
 }
 
@@ -81,7 +80,10 @@ std::vector<SweepPruneBroadPhase::AxisSpan> SweepPruneBroadPhase::volume(BodyId 
 
 void SweepPruneBroadPhase::onAdd(BodyId id) {
   if (states_.size() <= id) states_.resize(id + 1);
+  // The generation survives the id's reuse, so endpoints of its previous owner stay stale.
+  const uint32_t generation = states_[id].generation;
   states_[id] = State{};
+  states_[id].generation = generation;
   states_[id].dirty = true;
   dirty_.push_back(id);
 }
@@ -96,13 +98,10 @@ void SweepPruneBroadPhase::onSetMotion(BodyId id) {
 void SweepPruneBroadPhase::onRemove(BodyId id) {
   // Immediately, so that the id can be handed out again before the next update.
   if (states_[id].listed) unlist(id);
+  const uint32_t generation = states_[id].generation;
   states_[id] = State{};
+  states_[id].generation = generation;
   // A stale entry in dirty_ is skipped in computePairs (the body is not alive or is new).
-}
-
-void SweepPruneBroadPhase::setPosition(const Endpoint& e, uint32_t pos) {
-  Entry& entry = states_[e.body].entries[e.ref >> 1];
-  (e.isMax() ? entry.max_pos : entry.min_pos) = pos;
 }
 
 // The hottest function of the engine counts bits; baseline x86-64 has no popcount
@@ -118,7 +117,7 @@ bool SweepPruneBroadPhase::overlapOnShared(BodyId a, BodyId b, uint32_t* first_s
   ++stats_.overlap_tests;
   const State& sa = states_[a];
   const State& sb = states_[b];
-  uint32_t first = kDead;
+  uint32_t first = kNoAxis;
   for (size_t w = 0; w < sa.axis_bits.size(); ++w) {
     const uint64_t wa = sa.axis_bits[w], wb = sb.axis_bits[w];
     for (uint64_t common = wa & wb; common != 0; common &= common - 1) {
@@ -126,7 +125,7 @@ bool SweepPruneBroadPhase::overlapOnShared(BodyId a, BodyId b, uint32_t* first_s
       const uint64_t below = (uint64_t{1} << bit) - 1;
       const Entry& ea = sa.entries[sa.rank[w] + __builtin_popcountll(wa & below)];
       const Entry& eb = sb.entries[sb.rank[w] + __builtin_popcountll(wb & below)];
-      if (first == kDead) first = ea.axis;
+      if (first == kNoAxis) first = ea.axis;
       if (ea.lo > eb.hi || eb.lo > ea.hi) {
         if (first_shared) *first_shared = first;
         return false;
@@ -139,13 +138,21 @@ bool SweepPruneBroadPhase::overlapOnShared(BodyId a, BodyId b, uint32_t* first_s
   return true;
 }
 
+uint32_t SweepPruneBroadPhase::firstSharedAxis(const State& a, const State& b) const {
+  for (size_t w = 0; w < a.axis_bits.size(); ++w) {
+    const uint64_t common = a.axis_bits[w] & b.axis_bits[w];
+    if (common != 0) return static_cast<uint32_t>(64 * w + __builtin_ctzll(common));
+  }
+  return kNoAxis;
+}
+
 void SweepPruneBroadPhase::setAxes(State& s, const std::vector<uint32_t>& axes) {
   const size_t words = (pool_->size() + 63) / 64;
   s.entries.clear();
   s.axis_bits.assign(words, 0);
   s.rank.assign(words, 0);
   for (uint32_t k : axes) {
-    s.entries.push_back(Entry{k, 0, 0, 0.0, 0.0});
+    s.entries.push_back(Entry{k, 0.0, 0.0});
     s.axis_bits[k / 64] |= uint64_t{1} << (k % 64);
   }
   for (size_t w = 1; w < words; ++w) {
@@ -162,8 +169,8 @@ void SweepPruneBroadPhase::forEachOverlapOnAxis(BodyId id, const Entry& e, F&& f
   auto it = std::lower_bound(list.begin(), list.end(), from,
                              [](const Endpoint& p, double v) { return p.value < v; });
   for (; it != list.end() && it->value <= e.hi; ++it) {
-    if (it->isMax() || it->body == id || it->body == kDead) continue;
-    const Entry& other = states_[it->body].entries[it->ref >> 1];
+    if (it->isMax() || it->body == id || !isLive(*it)) continue;
+    const Entry& other = states_[it->body].entries[it->entry()];
     if (other.hi < e.lo) continue;
     f(it->body);
   }
@@ -174,27 +181,21 @@ void SweepPruneBroadPhase::unlist(BodyId id) {
   for (const Entry& e : s.entries) {
     forEachOverlapOnAxis(id, e, [&](BodyId other) { pairs_.erase(id, other); });
   }
-  for (const Entry& e : s.entries) {
-    lists_[e.axis][e.min_pos].body = kDead;
-    lists_[e.axis][e.max_pos].body = kDead;
-    dead_[e.axis] += 2;
-  }
+  s.generation = (s.generation + 1) & 0x7ffffu;
   s.listed = false;
 }
 
-void SweepPruneBroadPhase::compact(uint32_t axis) {
+void SweepPruneBroadPhase::refresh(uint32_t axis) {
   auto& list = lists_[axis];
-  uint32_t w = 0;
-  for (uint32_t r = 0; r < list.size(); ++r) {
-    if (list[r].body == kDead) continue;
-    if (w != r) {
-      list[w] = list[r];
-      setPosition(list[w], w);
-    }
-    ++w;
+  size_t w = 0;
+  for (size_t r = 0; r < list.size(); ++r) {
+    Endpoint e = list[r];
+    if (!isLive(e)) continue;
+    const Entry& entry = states_[e.body].entries[e.entry()];
+    e.value = e.isMax() ? entry.hi : entry.lo;
+    list[w++] = e;
   }
   list.resize(w);
-  dead_[axis] = 0;
 }
 
 void SweepPruneBroadPhase::insertionSort(uint32_t axis) {
@@ -214,12 +215,10 @@ void SweepPruneBroadPhase::insertionSort(uint32_t axis) {
         pairs_.erase(x.body, y.body);
       }
       list[j] = y;
-      setPosition(list[j], j);
       --j;
       ++stats_.swaps;
     } while (j > 0 && before(x, list[j - 1]));
     list[j] = x;
-    setPosition(list[j], j);
   }
 }
 
@@ -230,7 +229,7 @@ void SweepPruneBroadPhase::mergePending(uint32_t axis) {
   auto& list = lists_[axis];
   const size_t old_size = list.size();
   list.resize(old_size + add.size());
-  // Merge from the back; every element that lands at a new position gets it recorded.
+  // Merge from the back.
   size_t r = old_size, a = add.size(), w = list.size();
   while (a > 0) {
     --w;
@@ -239,7 +238,6 @@ void SweepPruneBroadPhase::mergePending(uint32_t axis) {
     } else {
       list[w] = add[--a];
     }
-    setPosition(list[w], static_cast<uint32_t>(w));
   }
   add.clear();
 }
@@ -289,12 +287,9 @@ void SweepPruneBroadPhase::computePairs(double t0, double t1, std::vector<Pair>&
       e.lo = iv.lo;
       e.hi = iv.hi;
       max_length_[e.axis] = std::max(max_length_[e.axis], iv.hi - iv.lo);
-      if (s.listed) {
-        lists_[e.axis][e.min_pos].value = iv.lo;
-        lists_[e.axis][e.max_pos].value = iv.hi;
-      } else {
-        pending_[e.axis].push_back(Endpoint{iv.lo, id, i << 1});
-        pending_[e.axis].push_back(Endpoint{iv.hi, id, (i << 1) | 1u});
+      if (!s.listed) {
+        pending_[e.axis].push_back(Endpoint{iv.lo, id, makeRef(s.generation, i, false)});
+        pending_[e.axis].push_back(Endpoint{iv.hi, id, makeRef(s.generation, i, true)});
       }
     }
   }
@@ -302,10 +297,10 @@ void SweepPruneBroadPhase::computePairs(double t0, double t1, std::vector<Pair>&
   const auto sorted_from = Clock::now();
   stats_.update_seconds = std::chrono::duration<double>(sorted_from - start).count();
 
-  // 3. Per axis: drop dead endpoints, re-sort (swaps maintain the pairs of bodies that stayed),
-  //    then merge the re-inserted bodies' endpoints in.
+  // 3. Per axis: drop stale endpoints and load the new values, re-sort (swaps maintain the pairs
+  //    of bodies that stayed), then merge the re-inserted bodies' endpoints in.
   for (uint32_t k = 0; k < lists_.size(); ++k) {
-    if (dead_[k] > 0) compact(k);
+    refresh(k);
     insertionSort(k);
     mergePending(k);
     stats_.endpoints += lists_[k].size();
@@ -317,8 +312,9 @@ void SweepPruneBroadPhase::computePairs(double t0, double t1, std::vector<Pair>&
   for (BodyId id : reinsert) {
     for (const Entry& e : states_[id].entries) {
       forEachOverlapOnAxis(id, e, [&](BodyId other) {
-        uint32_t first = kDead;
-        if (overlapOnShared(id, other, &first) && first == e.axis) pairs_.insert(id, other);
+        // Bits first: the full interval test only on the one axis that reports the pair.
+        if (firstSharedAxis(states_[id], states_[other]) != e.axis) return;
+        if (overlapOnShared(id, other, nullptr)) pairs_.insert(id, other);
       });
     }
   }

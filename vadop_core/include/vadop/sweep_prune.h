@@ -62,20 +62,27 @@ class SweepPruneBroadPhase : public BroadPhase {
  private:
   SweepPruneBroadPhase(std::unique_ptr<AxisPool> pool, const VadopConfig& config, bool aligned);
 
-  static constexpr uint32_t kDead = ~uint32_t{0};
+  static constexpr uint32_t kNoAxis = ~uint32_t{0};
 
   struct Entry {  // one axis of one body
     uint32_t axis;
-    uint32_t min_pos;  // positions of its endpoints in lists_[axis]
-    uint32_t max_pos;
     double lo, hi;
   };
+  // Endpoints do not know their position and bodies do not track them: every update refreshes
+  // the values in one sequential pass per list, which costs one read per endpoint, where
+  // tracking positions costs a random write per swap. An endpoint whose generation differs from
+  // its body's is stale (the body left the list) and is dropped by that pass.
   struct Endpoint {
     double value;
-    uint32_t body;  // kDead once removed, until the next compaction
-    uint32_t ref;   // entry index << 1 | 1 for a max endpoint
+    uint32_t body;
+    uint32_t ref;  // generation << 13 | entry index << 1 | 1 for a max endpoint
     bool isMax() const { return ref & 1u; }
+    uint32_t entry() const { return (ref >> 1) & 0xfffu; }
+    uint32_t generation() const { return ref >> 13; }
   };
+  static uint32_t makeRef(uint32_t generation, uint32_t entry, bool is_max) {
+    return (generation << 13) | (entry << 1) | (is_max ? 1u : 0u);
+  }
   struct State {
     std::vector<Entry> entries;  // ascending axis
     // Which axes the body uses, one bit per pool axis, and for each 64-bit word the number of
@@ -84,22 +91,27 @@ class SweepPruneBroadPhase : public BroadPhase {
     // sin(phi) > 1/64, which phi >= rho guarantees for every pool size allowed.
     std::vector<uint64_t> axis_bits;
     std::vector<uint16_t> rank;
+    uint32_t generation = 0;     // of its live endpoints (19 bits)
     bool listed = false;         // endpoints are in the lists
     bool dirty = false;          // motion changed since the last update
   };
+  bool isLive(const Endpoint& e) const {
+    const State& s = states_[e.body];
+    return s.listed && s.generation == e.generation();
+  }
   void setAxes(State& s, const std::vector<uint32_t>& axes);
+  uint32_t firstSharedAxis(const State& a, const State& b) const;
 
   static bool before(const Endpoint& x, const Endpoint& y) {
     // Closed intervals: at equal values a min sorts before a max, so touching counts.
     return x.value < y.value || (x.value == y.value && !x.isMax() && y.isMax());
   }
-  void setPosition(const Endpoint& e, uint32_t pos);
-  // First axis the two bodies share (or kDead), and whether they overlap on all they share.
+  // First axis the two bodies share (or kNoAxis), and whether they overlap on all they share.
   bool overlapOnShared(BodyId a, BodyId b, uint32_t* first_shared);
-  void unlist(BodyId id);  // erase its pairs, mark its endpoints dead
+  void unlist(BodyId id);  // erase its pairs, make its endpoints stale
   template <class F>
   void forEachOverlapOnAxis(BodyId id, const Entry& e, F&& f) const;
-  void compact(uint32_t axis);
+  void refresh(uint32_t axis);  // drop stale endpoints, load the new values
   void insertionSort(uint32_t axis);
   void mergePending(uint32_t axis);
 
@@ -111,7 +123,6 @@ class SweepPruneBroadPhase : public BroadPhase {
   std::vector<BodyId> dirty_;
   std::vector<std::vector<Endpoint>> lists_;
   std::vector<std::vector<Endpoint>> pending_;
-  std::vector<uint32_t> dead_;
   std::vector<double> max_length_;
   PairSet pairs_;
   Stats stats_;
