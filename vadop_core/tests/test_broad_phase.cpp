@@ -312,7 +312,8 @@ std::vector<RunConfig> configs() {
 TEST(BroadPhaseProperty, CandidatesEqualOracleAndAreComplete) {
   const auto cs = configs();
   const int total = soakFrames(1800);
-  const int per_config = std::max(1, total / static_cast<int>(cs.size()));
+  const int configs_n = static_cast<int>(cs.size());
+  const int per_config = std::max(1, (total + configs_n - 1) / configs_n);  // at least `total` in all
   size_t frames = 0;
   for (size_t c = 0; c < cs.size(); ++c) {
     // Several seeds, each a short life of its own scene.
