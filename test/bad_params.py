@@ -1,0 +1,46 @@
+#!/usr/bin/python3
+"""rostest node: vadop_monitor started with malformed parameters exits with status 1 and a
+fatal error naming the parameter (bad_params.test)."""
+import os
+import subprocess
+import sys
+import unittest
+
+import rosgraph
+import roslib.packages
+import rosparam
+import rospy
+import rostest
+
+CASES = [
+    # (parameters, text the fatal error must contain)
+    ({"rate": -5.0}, "~rate"),
+    ({"horizon": "soon"}, "~horizon: must be a number"),
+    ({"bodies": [{"name": "a", "odom_topic": "/a", "shape": {"type": "sphere", "radius": -1.0}}]},
+     '~bodies[0] ("a").shape.radius: must be a number > 0, got -1'),
+    ({"bodies": [{"name": "a", "shape": {"type": "sphere", "radius": 1.0}}]},
+     '~bodies[0] ("a").odom_topic: is required'),
+    ({"ignore_pairs": [["a"]]}, "~ignore_pairs[0]"),
+]
+
+
+class BadParams(unittest.TestCase):
+    def test_fatal_error_names_the_parameter(self):
+        rospy.init_node("bad_params_test", anonymous=True)
+        exe = roslib.packages.find_node("vadop", "vadop_monitor")
+        self.assertTrue(exe, "vadop_monitor not found")
+        for k, (params, expected) in enumerate(CASES):
+            ns = "/bad_monitor_%d" % k
+            for key, value in params.items():
+                rospy.set_param(ns + "/" + key, value)
+            proc = subprocess.run([exe[0], "__name:=bad_monitor_%d" % k], stdout=subprocess.PIPE,
+                                  stderr=subprocess.STDOUT, timeout=60, env=os.environ)
+            out = proc.stdout.decode(errors="replace")
+            self.assertEqual(proc.returncode, 1, "case %d: exit status %d, output:\n%s" % (k, proc.returncode, out))
+            self.assertIn("bad parameter", out)
+            self.assertIn(expected, out, "case %d: output:\n%s" % (k, out))
+            rospy.delete_param(ns)
+
+
+if __name__ == "__main__":
+    rostest.rosrun("vadop", "bad_params", BadParams, sys.argv)

@@ -1,0 +1,387 @@
+// The body registry: states from odometry / twist + tf, motions of every element, and the
+// handling of bad messages (NaN/Inf, zero quaternion, out-of-order and duplicate stamps,
+// stale bodies, missing transforms, broken URDFs) without affecting the other bodies.
+#include "vadop_ros/body_registry.h"
+#include "fake_tf.h"
+#include "yaml_xmlrpc.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+using vadop_ros::BodyRegistry;
+using vadop_ros::BodyState;
+using vadop_ros::InputResult;
+using vadop_ros::MonitorParams;
+using vadop_test::FakeTf;
+
+namespace {
+
+const double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+MonitorParams params(const std::string& yaml_text) { return vadop_ros::parseParams(vadop_test::yaml(yaml_text)); }
+
+nav_msgs::Odometry odom(double stamp, double x, double y, double vx, double vy = 0.0, double yaw = 0.0,
+                        double wz = 0.0, const std::string& frame = "odom", const std::string& child = "") {
+  nav_msgs::Odometry m;
+  m.header.stamp = ros::Time(stamp);
+  m.header.frame_id = frame;
+  m.child_frame_id = child;
+  m.pose.pose.position.x = x;
+  m.pose.pose.position.y = y;
+  m.pose.pose.orientation.z = std::sin(yaw / 2);
+  m.pose.pose.orientation.w = std::cos(yaw / 2);
+  m.twist.twist.linear.x = vx;  // body frame (child_frame_id)
+  m.twist.twist.linear.y = vy;
+  m.twist.twist.angular.z = wz;
+  return m;
+}
+
+vadop_ros::ParamReader noParams() {
+  return [](const std::string&, std::string&) { return false; };
+}
+
+const char* kThree = R"(
+stale_timeout: 0.5
+bodies:
+  - {name: a, odom_topic: /a, shape: {type: sphere, radius: 0.5}}
+  - {name: b, odom_topic: /b, shape: {type: sphere, radius: 0.5}}
+  - {name: c, odom_topic: /c, shape: {type: box, size: [1, 1, 1]}}
+)";
+
+std::string testUrdf() {
+  std::string text = vadop_test::readFile(VADOP_TEST_DATA_DIR "/two_link.urdf");
+  const std::string key = "@DATA_DIR@";
+  for (size_t p = text.find(key); p != std::string::npos; p = text.find(key)) text.replace(p, key.size(), VADOP_TEST_DATA_DIR);
+  return text;
+}
+
+}  // namespace
+
+TEST(BodyRegistry, OdometryExtrapolatedToNowInTheFixedFrame) {
+  BodyRegistry r(params(kThree), noParams(), vadop_ros::makeDefaultMeshLoader());
+  FakeTf tf;
+  // Heading 90 degrees: the body-frame twist vx = 1 is +y in the fixed frame.
+  ASSERT_EQ(r.onOdometry(0, odom(10.0, 1.0, 2.0, 1.0, 0.0, M_PI / 2), ros::Time(10.0)), InputResult::kAccepted);
+  r.update(ros::Time(10.2), tf);
+  const auto& e = r.elements()[0];
+  ASSERT_TRUE(e.active);
+  const double now = r.seconds(ros::Time(10.2));
+  EXPECT_TRUE(e.motion.positionAt(now).isApprox(Eigen::Vector3d(1.0, 2.2, 0.0), 1e-9));
+  EXPECT_TRUE(e.motion.linear_velocity.isApprox(Eigen::Vector3d(0, 1, 0), 1e-9));
+  EXPECT_EQ(r.bodies()[0].status.state, BodyState::kOk);
+  // Bodies without a message are waiting, not monitored.
+  EXPECT_FALSE(r.elements()[1].active);
+  EXPECT_EQ(r.bodies()[1].status.state, BodyState::kWaiting);
+}
+
+TEST(BodyRegistry, OdometryInAnotherFrameGoesThroughTf) {
+  BodyRegistry r(params(kThree), noParams(), vadop_ros::makeDefaultMeshLoader());
+  FakeTf tf;
+  Eigen::Isometry3d map_in_odom = Eigen::Isometry3d::Identity();
+  map_in_odom.translation() = Eigen::Vector3d(10, 0, 0);
+  map_in_odom.linear() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  tf.set("odom", "map", map_in_odom);
+  ASSERT_EQ(r.onOdometry(0, odom(5.0, 1.0, 0.0, 2.0, 0.0, 0.0, 0.0, "map"), ros::Time(5.0)), InputResult::kAccepted);
+  r.update(ros::Time(5.0), tf);
+  const auto& e = r.elements()[0];
+  ASSERT_TRUE(e.active);
+  EXPECT_TRUE(e.motion.position.isApprox(Eigen::Vector3d(10, 1, 0), 1e-9));
+  EXPECT_TRUE(e.motion.linear_velocity.isApprox(Eigen::Vector3d(0, 2, 0), 1e-9));
+}
+
+TEST(BodyRegistry, NanAndZeroQuaternionAreDroppedAndMarked) {
+  BodyRegistry r(params(kThree), noParams(), vadop_ros::makeDefaultMeshLoader());
+  FakeTf tf;
+  ASSERT_EQ(r.onOdometry(0, odom(1.0, 0, 0, 1), ros::Time(1.0)), InputResult::kAccepted);
+  ASSERT_EQ(r.onOdometry(1, odom(1.0, 5, 0, -1), ros::Time(1.0)), InputResult::kAccepted);
+
+  EXPECT_EQ(r.onOdometry(0, odom(1.1, kNaN, 0, 1), ros::Time(1.1)), InputResult::kInvalid);
+  auto inf_twist = odom(1.1, 0, 0, 1);
+  inf_twist.twist.twist.angular.z = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(r.onOdometry(0, inf_twist, ros::Time(1.1)), InputResult::kInvalid);
+  auto zero_q = odom(1.1, 0.1, 0, 1);
+  zero_q.pose.pose.orientation.w = 0.0;
+  EXPECT_EQ(r.onOdometry(0, zero_q, ros::Time(1.1)), InputResult::kInvalid);
+  auto huge = odom(1.1, 1e12, 0, 1);
+  EXPECT_EQ(r.onOdometry(0, huge, ros::Time(1.1)), InputResult::kInvalid);
+
+  const auto& st = r.bodies()[0].status;
+  EXPECT_EQ(st.dropped_invalid, 4u);
+  EXPECT_NE(st.last_invalid.find("out of range"), std::string::npos);
+  EXPECT_EQ(st.accepted, 1u);
+
+  // The body keeps its last good state, and the other body is unaffected.
+  r.update(ros::Time(1.2), tf);
+  ASSERT_TRUE(r.elements()[0].active);
+  EXPECT_TRUE(r.elements()[0].motion.positionAt(r.seconds(ros::Time(1.2))).isApprox(Eigen::Vector3d(0.2, 0, 0), 1e-9));
+  ASSERT_TRUE(r.elements()[1].active);
+  EXPECT_EQ(r.bodies()[1].status.dropped_invalid, 0u);
+}
+
+TEST(BodyRegistry, NanInTwistStampedIsDropped) {
+  BodyRegistry r(params(R"(
+bodies:
+  - {name: t, twist_topic: /t, frame: t_link, shape: {type: sphere, radius: 0.5}}
+)"),
+                 noParams(), vadop_ros::makeDefaultMeshLoader());
+  geometry_msgs::TwistStamped m;
+  m.header.stamp = ros::Time(1.0);
+  m.twist.linear.x = kNaN;
+  EXPECT_EQ(r.onTwist(0, m, ros::Time(1.0)), InputResult::kInvalid);
+  EXPECT_NE(r.bodies()[0].status.last_invalid.find("twist.linear.x"), std::string::npos);
+}
+
+TEST(BodyRegistry, OutOfOrderAndDuplicateStampsAreIgnored) {
+  BodyRegistry r(params(kThree), noParams(), vadop_ros::makeDefaultMeshLoader());
+  FakeTf tf;
+  ASSERT_EQ(r.onOdometry(0, odom(2.0, 2.0, 0, 1), ros::Time(2.0)), InputResult::kAccepted);
+  EXPECT_EQ(r.onOdometry(0, odom(2.0, 9.0, 0, 1), ros::Time(2.01)), InputResult::kOutOfOrder);  // duplicate
+  EXPECT_EQ(r.onOdometry(0, odom(1.5, 9.0, 0, 1), ros::Time(2.02)), InputResult::kOutOfOrder);  // older
+  EXPECT_EQ(r.bodies()[0].status.dropped_out_of_order, 2u);
+  r.update(ros::Time(2.0), tf);
+  EXPECT_TRUE(r.elements()[0].motion.positionAt(r.seconds(ros::Time(2.0))).isApprox(Eigen::Vector3d(2, 0, 0), 1e-9));
+  EXPECT_EQ(r.onOdometry(0, odom(2.1, 2.1, 0, 1), ros::Time(2.1)), InputResult::kAccepted);
+}
+
+TEST(BodyRegistry, ZeroStampUsesTheReceiptTime) {
+  BodyRegistry r(params(kThree), noParams(), vadop_ros::makeDefaultMeshLoader());
+  FakeTf tf;
+  ASSERT_EQ(r.onOdometry(0, odom(0.0, 0, 0, 1), ros::Time(7.0)), InputResult::kAccepted);
+  r.update(ros::Time(7.5), tf);
+  EXPECT_TRUE(r.elements()[0].motion.positionAt(r.seconds(ros::Time(7.5))).isApprox(Eigen::Vector3d(0.5, 0, 0), 1e-9));
+}
+
+TEST(BodyRegistry, StaleBodyStandsStillAtItsLastPose) {
+  BodyRegistry r(params(kThree), noParams(), vadop_ros::makeDefaultMeshLoader());
+  FakeTf tf;
+  ASSERT_EQ(r.onOdometry(0, odom(1.0, 3.0, 0, 1.0, 0, 0, 0.5), ros::Time(1.0)), InputResult::kAccepted);
+  r.update(ros::Time(1.4), tf);
+  EXPECT_EQ(r.bodies()[0].status.state, BodyState::kOk);
+  r.update(ros::Time(1.6), tf);
+  EXPECT_EQ(r.bodies()[0].status.state, BodyState::kStale);
+  const auto& e = r.elements()[0];
+  ASSERT_TRUE(e.active);
+  EXPECT_TRUE(e.motion.linear_velocity.isZero());
+  EXPECT_TRUE(e.motion.angular_velocity.isZero());
+  EXPECT_TRUE(e.motion.positionAt(r.seconds(ros::Time(1.6))).isApprox(Eigen::Vector3d(3, 0, 0), 1e-9));
+  // A new message revives it.
+  ASSERT_EQ(r.onOdometry(0, odom(1.7, 3.7, 0, 1.0), ros::Time(1.7)), InputResult::kAccepted);
+  r.update(ros::Time(1.7), tf);
+  EXPECT_EQ(r.bodies()[0].status.state, BodyState::kOk);
+}
+
+TEST(BodyRegistry, MissingTfSkipsOnlyThatBody) {
+  BodyRegistry r(params(kThree), noParams(), vadop_ros::makeDefaultMeshLoader());
+  FakeTf tf;
+  ASSERT_EQ(r.onOdometry(0, odom(1.0, 0, 0, 1, 0, 0, 0, "nowhere"), ros::Time(1.0)), InputResult::kAccepted);
+  ASSERT_EQ(r.onOdometry(1, odom(1.0, 5, 0, -1), ros::Time(1.0)), InputResult::kAccepted);
+  r.update(ros::Time(1.0), tf);
+  EXPECT_FALSE(r.elements()[0].active);
+  EXPECT_EQ(r.bodies()[0].status.state, BodyState::kTfMissing);
+  EXPECT_NE(r.bodies()[0].status.tf_error.find("nowhere"), std::string::npos);
+  EXPECT_TRUE(r.elements()[1].active);
+  EXPECT_EQ(r.bodies()[1].status.state, BodyState::kOk);
+  // The transform appears: monitored again.
+  tf.set("odom", "nowhere", Eigen::Isometry3d::Identity());
+  r.update(ros::Time(1.1), tf);
+  EXPECT_TRUE(r.elements()[0].active);
+  EXPECT_EQ(r.bodies()[0].status.state, BodyState::kOk);
+}
+
+TEST(BodyRegistry, TwistWithPoseFromTf) {
+  BodyRegistry r(params(R"(
+bodies:
+  - {name: t, twist_topic: /t, frame: t_link, shape: {type: sphere, radius: 0.5}}
+)"),
+                 noParams(), vadop_ros::makeDefaultMeshLoader());
+  FakeTf tf;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() = Eigen::Vector3d(1, 1, 0);
+  pose.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  tf.set("odom", "t_link", pose, ros::Time(3.0));
+  geometry_msgs::TwistStamped m;
+  m.header.stamp = ros::Time(3.0);
+  m.twist.linear.x = 2.0;  // body frame (empty frame_id): -x in odom
+  ASSERT_EQ(r.onTwist(0, m, ros::Time(3.0)), InputResult::kAccepted);
+  r.update(ros::Time(3.5), tf);
+  const auto& e = r.elements()[0];
+  ASSERT_TRUE(e.active);
+  EXPECT_TRUE(e.motion.linear_velocity.isApprox(Eigen::Vector3d(-2, 0, 0), 1e-9));
+  EXPECT_TRUE(e.motion.positionAt(r.seconds(ros::Time(3.5))).isApprox(Eigen::Vector3d(0, 1, 0), 1e-9));
+}
+
+TEST(BodyRegistry, RigidUrdfLinksGetTheRigidBodyVelocityField) {
+  const std::string urdf = testUrdf();
+  BodyRegistry r(params(R"(
+bodies:
+  - {name: bot, odom_topic: /bot, robot_description: bot_description}
+)"),
+                 [&](const std::string& name, std::string& value) {
+                   if (name != "bot_description") return false;
+                   value = urdf;
+                   return true;
+                 },
+                 vadop_ros::makeDefaultMeshLoader());
+  // One error: the missing mesh, naming the link.
+  const auto errors = r.geometryErrors();
+  ASSERT_GE(errors.size(), 1u);
+  EXPECT_NE(errors[0].find("body \"bot\""), std::string::npos);
+  EXPECT_NE(errors[0].find("link \"broken\""), std::string::npos);
+
+  FakeTf tf;
+  // Spinning at 1 rad/s about z, moving at 1 m/s along x; child frame = base_link.
+  ASSERT_EQ(r.onOdometry(0, odom(1.0, 0, 0, 1.0, 0, 0, 1.0, "odom", "bot/base_link"), ros::Time(1.0)),
+            InputResult::kAccepted);
+  r.update(ros::Time(1.0), tf);
+  const auto& bodies = r.bodies();
+  bool saw_arm = false;
+  for (const size_t ei : bodies[0].elements) {
+    const auto& e = r.elements()[ei];
+    ASSERT_TRUE(e.active) << e.id;
+    EXPECT_TRUE(e.motion.angular_velocity.isApprox(Eigen::Vector3d(0, 0, 1), 1e-12));
+    const Eigen::Vector3d rr = e.motion.position;  // body at the origin
+    const Eigen::Vector3d expected = Eigen::Vector3d(1, 0, 0) + Eigen::Vector3d(0, 0, 1).cross(rr);
+    EXPECT_TRUE(e.motion.linear_velocity.isApprox(expected, 1e-12)) << e.id;
+    if (e.link == "arm") {
+      saw_arm = true;
+      EXPECT_EQ(e.id, "bot/arm");
+      EXPECT_TRUE(e.motion.position.isApprox(Eigen::Vector3d(0.2, 0, 0.3), 1e-12));
+      EXPECT_TRUE(e.motion.linear_velocity.isApprox(Eigen::Vector3d(1, 0.2, 0), 1e-12));
+    }
+    if (e.link == "base_link" && e.id == "bot/base_link#1") {
+      EXPECT_TRUE(e.motion.position.isApprox(Eigen::Vector3d(0, 0, 0.3), 1e-12));
+    }
+  }
+  EXPECT_TRUE(saw_arm);
+}
+
+TEST(BodyRegistry, RigidUrdfBodyFrameMayBeAChildLink) {
+  const std::string urdf = testUrdf();
+  BodyRegistry r(params("bodies: [{name: bot, odom_topic: /bot, robot_description: d}]"),
+                 [&](const std::string&, std::string& value) {
+                   value = urdf;
+                   return true;
+                 },
+                 vadop_ros::makeDefaultMeshLoader());
+  FakeTf tf;
+  // The odometry reports the pose of the mast link (0.4 above base_link).
+  auto m = odom(1.0, 0, 0, 0);
+  m.child_frame_id = "mast";
+  m.pose.pose.position.z = 1.4;
+  ASSERT_EQ(r.onOdometry(0, m, ros::Time(1.0)), InputResult::kAccepted);
+  r.update(ros::Time(1.0), tf);
+  for (const size_t ei : r.bodies()[0].elements) {
+    const auto& e = r.elements()[ei];
+    if (e.id == "bot/base_link") EXPECT_NEAR(e.motion.position.z(), 1.0 + 0.1, 1e-12);
+    if (e.id == "bot/mast") EXPECT_NEAR(e.motion.position.z(), 1.4 + 0.5, 1e-12);
+  }
+}
+
+TEST(BodyRegistry, TfLinksGetTheirOwnVelocity) {
+  const std::string urdf =
+      "<robot name='r'><link name='base'><collision><geometry><sphere radius='0.2'/></geometry></collision></link>"
+      "<link name='arm'><collision><origin xyz='1 0 0'/><geometry><sphere radius='0.1'/></geometry></collision></link>"
+      "<joint name='j' type='revolute'><parent link='base'/><child link='arm'/><axis xyz='0 0 1'/>"
+      "<limit lower='-3' upper='3' effort='1' velocity='1'/></joint></robot>";
+  BodyRegistry r(params("bodies: [{name: r, odom_topic: /r, robot_description: d, tf_prefix: r}]"),
+                 [&](const std::string&, std::string& value) {
+                   value = urdf;
+                   return true;
+                 },
+                 vadop_ros::makeDefaultMeshLoader());
+  FakeTf tf;
+  tf.set("odom", "r/base", Eigen::Isometry3d::Identity(), ros::Time(1.0));
+  tf.set("r/base", "r/arm", Eigen::Isometry3d::Identity(), ros::Time(1.0));
+  ASSERT_EQ(r.onOdometry(0, odom(1.0, 0, 0, 0, 0, 0, 0, "odom", "r/base"), ros::Time(1.0)), InputResult::kAccepted);
+  r.update(ros::Time(1.0), tf);
+  // The arm joint turns at 0.5 rad/s: tf pose at t = 1.1 rotated by 0.05 rad.
+  Eigen::Isometry3d turned = Eigen::Isometry3d::Identity();
+  turned.linear() = Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  tf.set("r/base", "r/arm", turned, ros::Time(1.1));
+  ASSERT_EQ(r.onOdometry(0, odom(1.1, 0, 0, 0, 0, 0, 0, "odom", "r/base"), ros::Time(1.1)), InputResult::kAccepted);
+  r.update(ros::Time(1.1), tf);
+  const auto& body = r.bodies()[0];
+  ASSERT_EQ(body.elements.size(), 2u);
+  const auto& arm = r.elements()[body.elements[1]];
+  ASSERT_EQ(arm.link, "arm");
+  ASSERT_TRUE(arm.active);
+  EXPECT_EQ(arm.tf_frame, "r/arm");
+  EXPECT_NEAR(arm.motion.angular_velocity.z(), 0.5, 1e-9);
+  // The collision origin 1 m along the arm's x: velocity w x r = 0.5 * (-sin, cos).
+  EXPECT_NEAR(arm.motion.linear_velocity.x(), -0.5 * std::sin(0.05), 1e-9);
+  EXPECT_NEAR(arm.motion.linear_velocity.y(), 0.5 * std::cos(0.05), 1e-9);
+  // A missing link transform skips that link only.
+  tf.erase("r/arm");
+  ASSERT_EQ(r.onOdometry(0, odom(1.2, 0, 0, 0, 0, 0, 0, "odom", "r/base"), ros::Time(1.2)), InputResult::kAccepted);
+  r.update(ros::Time(1.2), tf);
+  EXPECT_TRUE(r.elements()[body.elements[0]].active);
+  EXPECT_FALSE(r.elements()[body.elements[1]].active);
+  EXPECT_EQ(r.bodies()[0].status.state, BodyState::kTfMissing);
+  EXPECT_EQ(r.bodies()[0].status.links_skipped, 1u);
+}
+
+TEST(BodyRegistry, BrokenUrdfLeavesTheOtherBodiesMonitored) {
+  BodyRegistry r(params(R"(
+bodies:
+  - {name: broken, odom_topic: /x, robot_description: bad}
+  - {name: missing, odom_topic: /y, robot_description: nowhere}
+  - {name: fine, odom_topic: /z, shape: {type: sphere, radius: 1}}
+)"),
+                 [](const std::string& name, std::string& value) {
+                   if (name != "bad") return false;
+                   value = "<robot name='x'><link name='a'>";
+                   return true;
+                 },
+                 vadop_ros::makeDefaultMeshLoader());
+  const auto errors = r.geometryErrors();
+  ASSERT_EQ(errors.size(), 2u);
+  EXPECT_NE(errors[0].find("body \"broken\": robot_description \"bad\""), std::string::npos);
+  EXPECT_NE(errors[1].find("body \"missing\": robot_description parameter \"nowhere\" does not exist"),
+            std::string::npos);
+  EXPECT_EQ(r.bodies()[0].status.state, BodyState::kNoGeometry);
+  FakeTf tf;
+  ASSERT_EQ(r.onOdometry(2, odom(1.0, 0, 0, 0), ros::Time(1.0)), InputResult::kAccepted);
+  ASSERT_EQ(r.onOdometry(0, odom(1.0, 0, 0, 0), ros::Time(1.0)), InputResult::kAccepted);
+  r.update(ros::Time(1.0), tf);
+  EXPECT_EQ(r.bodies()[0].status.state, BodyState::kNoGeometry);
+  EXPECT_EQ(r.bodies()[2].status.state, BodyState::kOk);
+  EXPECT_EQ(r.elements().size(), 1u);
+  EXPECT_TRUE(r.elements()[0].active);
+}
+
+TEST(BodyRegistry, StaticObstaclesArePosedOnce) {
+  BodyRegistry r(params(R"(
+static_obstacles:
+  - {name: wall, shape: {type: box, size: [1, 10, 2]}, pose: {position: [5, 0, 1], rpy: [0, 0, 1.5707963267948966]}}
+)"),
+                 noParams(), vadop_ros::makeDefaultMeshLoader());
+  ASSERT_EQ(r.elements().size(), 1u);
+  const auto& e = r.elements()[0];
+  EXPECT_TRUE(e.active);
+  EXPECT_TRUE(e.motion.position.isApprox(Eigen::Vector3d(5, 0, 1)));
+  EXPECT_TRUE(e.motion.linear_velocity.isZero());
+  EXPECT_EQ(r.bodies()[0].status.state, BodyState::kStatic);
+}
+
+TEST(BodyRegistry, BodyFrameOtherThanTheOdometryChildFrame) {
+  BodyRegistry r(params(R"(
+bodies:
+  - {name: a, odom_topic: /a, frame: a/base_link, shape: {type: sphere, radius: 0.5}}
+)"),
+                 noParams(), vadop_ros::makeDefaultMeshLoader());
+  FakeTf tf;
+  Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
+  offset.translation() = Eigen::Vector3d(1.0, 0.0, 0.5);  // base_link 1 m ahead of base_footprint
+  tf.set("a/base_footprint", "a/base_link", offset);
+  // Turning at 1 rad/s on the spot: the base_link origin moves at w x r = (0, 1, 0).
+  ASSERT_EQ(r.onOdometry(0, odom(1.0, 0, 0, 0, 0, 0, 1.0, "odom", "a/base_footprint"), ros::Time(1.0)),
+            InputResult::kAccepted);
+  r.update(ros::Time(1.0), tf);
+  const auto& e = r.elements()[0];
+  ASSERT_TRUE(e.active);
+  EXPECT_TRUE(e.motion.position.isApprox(Eigen::Vector3d(1.0, 0.0, 0.5), 1e-12));
+  EXPECT_TRUE(e.motion.linear_velocity.isApprox(Eigen::Vector3d(0.0, 1.0, 0.0), 1e-12));
+  EXPECT_TRUE(e.motion.angular_velocity.isApprox(Eigen::Vector3d(0.0, 0.0, 1.0), 1e-12));
+}

@@ -1,0 +1,64 @@
+// ~ignore_pairs glob matching.
+#include "vadop_ros/pair_filter.h"
+
+#include <gtest/gtest.h>
+
+using vadop_ros::ElementKey;
+using vadop_ros::globMatch;
+using vadop_ros::PairFilter;
+using vadop_ros::patternMatches;
+
+TEST(Glob, Basics) {
+  EXPECT_TRUE(globMatch("abc", "abc"));
+  EXPECT_FALSE(globMatch("abc", "abd"));
+  EXPECT_FALSE(globMatch("abc", "abcd"));
+  EXPECT_FALSE(globMatch("abcd", "abc"));
+  EXPECT_TRUE(globMatch("*", ""));
+  EXPECT_TRUE(globMatch("*", "anything/at/all"));
+  EXPECT_TRUE(globMatch("a*", "a"));
+  EXPECT_TRUE(globMatch("a*c", "abbbc"));
+  EXPECT_FALSE(globMatch("a*c", "abbbd"));
+  EXPECT_TRUE(globMatch("*c", "abc"));
+  EXPECT_TRUE(globMatch("a**c", "ac"));
+  EXPECT_TRUE(globMatch("robot_*/arm*", "robot_12/arm_link"));
+  EXPECT_FALSE(globMatch("robot_*/arm*", "robot_12/base"));
+  EXPECT_TRUE(globMatch("*/gripper*", "r1/gripper_left"));
+  EXPECT_FALSE(globMatch("", "a"));
+  EXPECT_TRUE(globMatch("", ""));
+  EXPECT_FALSE(globMatch("ABC", "abc"));  // case-sensitive
+  // Backtracking: the first '*' must give back characters.
+  EXPECT_TRUE(globMatch("*ab*ab", "xxabyyabab"));
+  EXPECT_FALSE(globMatch("*ab*ab", "xxabyyaba"));
+}
+
+TEST(Glob, LinearTimeOnAdversarialInput) {
+  const std::string text(20000, 'a');
+  const std::string pattern = "*a*a*a*a*a*a*a*a*b";
+  EXPECT_FALSE(globMatch(pattern, text));  // must return promptly
+}
+
+TEST(Glob, ElementMatching) {
+  const ElementKey primitive{"robot_1", ""};
+  const ElementKey link{"robot_1", "mast"};
+  EXPECT_TRUE(patternMatches("robot_1", primitive));
+  EXPECT_TRUE(patternMatches("robot_*", primitive));
+  EXPECT_TRUE(patternMatches("robot_1/*", primitive));
+  EXPECT_FALSE(patternMatches("robot_1/mast", primitive));
+  EXPECT_TRUE(patternMatches("robot_1/*", link));
+  EXPECT_TRUE(patternMatches("robot_1/mast", link));
+  EXPECT_TRUE(patternMatches("*/mast", link));
+  EXPECT_TRUE(patternMatches("robot_*", link));  // '*' crosses '/'
+  EXPECT_FALSE(patternMatches("robot_1", link));
+  EXPECT_FALSE(patternMatches("robot_2/*", link));
+}
+
+TEST(PairFilter, EitherOrder) {
+  const PairFilter f({{"robot_1/*", "shelf"}, {"*/gripper", "parcel_*"}});
+  EXPECT_TRUE(f.ignored({"robot_1", "base"}, {"shelf", ""}));
+  EXPECT_TRUE(f.ignored({"shelf", ""}, {"robot_1", "base"}));
+  EXPECT_FALSE(f.ignored({"robot_2", "base"}, {"shelf", ""}));
+  EXPECT_TRUE(f.ignored({"parcel_7", ""}, {"arm", "gripper"}));
+  EXPECT_FALSE(f.ignored({"parcel_7", ""}, {"arm", "wrist"}));
+  EXPECT_FALSE(f.ignored({"robot_1", "base"}, {"robot_1", "mast"}));
+  EXPECT_FALSE(PairFilter().ignored({"a", ""}, {"b", ""}));
+}

@@ -1,0 +1,187 @@
+// ~parameters of vadop_monitor: defaults, the documented example config, templates, and
+// malformed values -> ParamError naming the parameter.
+#include "vadop_ros/params.h"
+#include "yaml_xmlrpc.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+using vadop_ros::MonitorParams;
+using vadop_ros::ParamError;
+using vadop_ros::parseParams;
+using vadop_test::yaml;
+
+namespace {
+
+// The message of the ParamError thrown for `text` (fails the test when none is thrown).
+std::string errorOf(const std::string& text) {
+  try {
+    parseParams(yaml(text));
+  } catch (const ParamError& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "no ParamError for:\n" << text;
+  return "";
+}
+
+const char* kTwoBodies = R"(
+bodies:
+  - {name: a, odom_topic: /a/odom, shape: {type: sphere, radius: 0.5}}
+  - {name: b, odom_topic: /b/odom, shape: {type: sphere, radius: 0.5}}
+)";
+
+}  // namespace
+
+TEST(Params, DefaultsWhenEmpty) {
+  const MonitorParams p = parseParams(XmlRpc::XmlRpcValue());
+  EXPECT_EQ(p.fixed_frame, "odom");
+  EXPECT_DOUBLE_EQ(p.rate, 30.0);
+  EXPECT_DOUBLE_EQ(p.horizon, 2.0);
+  EXPECT_DOUBLE_EQ(p.padding, 0.0);
+  EXPECT_DOUBLE_EQ(p.stale_timeout, 0.5);
+  EXPECT_EQ(p.axes, 32);
+  EXPECT_DOUBLE_EQ(p.phi_deg, 25.0);
+  EXPECT_FALSE(p.self_collision);
+  EXPECT_TRUE(p.bodies.empty());
+  EXPECT_TRUE(p.static_obstacles.empty());
+}
+
+TEST(Params, ExampleConfigParses) {
+  const MonitorParams p = parseParams(yaml(vadop_test::readFile(VADOP_CONFIG_DIR "/monitor.yaml")));
+  ASSERT_EQ(p.bodies.size(), 5u);  // robot_1, robot_2 and the agent_{i} template x 3
+  EXPECT_EQ(p.bodies[0].name, "robot_1");
+  EXPECT_EQ(p.bodies[0].source, vadop_ros::VelocitySource::kOdometry);
+  EXPECT_EQ(p.bodies[0].shape.type, vadop::ShapeType::kCylinder);
+  EXPECT_DOUBLE_EQ(p.bodies[0].shape.half_length, 0.25);
+  EXPECT_EQ(p.bodies[1].source, vadop_ros::VelocitySource::kTwist);
+  EXPECT_EQ(p.bodies[1].frame, "robot_2/base_link");
+  EXPECT_EQ(p.bodies[4].name, "agent_2");
+  EXPECT_EQ(p.bodies[4].topic, "/agent_2/odom");
+  EXPECT_EQ(p.bodies[4].tf_prefix, "agent_2");
+  EXPECT_TRUE(p.bodies[4].links_from_tf);
+  EXPECT_EQ(p.bodies[4].robot_description, "/agent_description");
+  ASSERT_EQ(p.static_obstacles.size(), 2u);
+  EXPECT_NEAR(p.static_obstacles[0].pose.translation().x(), 2.0, 1e-12);
+  ASSERT_EQ(p.ignore_pairs.size(), 2u);
+  EXPECT_EQ(p.ignore_pairs[1].first, "*/gripper*");
+}
+
+TEST(Params, ShapesAsInTheSceneFormat) {
+  const MonitorParams p = parseParams(yaml(R"(
+bodies:
+  - {name: s, odom_topic: s, shape: {type: sphere, radius: 1}}
+  - {name: b, odom_topic: b, shape: {type: box, size: [1, 2, 3]}}
+  - {name: c, odom_topic: c, shape: {type: cylinder, radius: 0.5, length: 2}}
+  - {name: k, odom_topic: k, shape: {type: capsule, radius: 0.5, length: 0}}
+)"));
+  ASSERT_EQ(p.bodies.size(), 4u);
+  EXPECT_DOUBLE_EQ(p.bodies[0].shape.radius, 1.0);
+  EXPECT_DOUBLE_EQ(p.bodies[1].shape.half_extents.z(), 1.5);
+  EXPECT_DOUBLE_EQ(p.bodies[2].shape.half_length, 1.0);
+  EXPECT_EQ(p.bodies[3].shape.type, vadop::ShapeType::kCapsule);
+}
+
+TEST(Params, TopLevelErrorsNameTheParameter) {
+  EXPECT_NE(errorOf("rate: -1").find("~rate"), std::string::npos);
+  EXPECT_NE(errorOf("rate: 0").find("~rate"), std::string::npos);
+  EXPECT_NE(errorOf("horizon: abc").find("~horizon: must be a number"), std::string::npos);
+  EXPECT_NE(errorOf("horizon: 100").find("~horizon"), std::string::npos);
+  EXPECT_NE(errorOf("padding: -0.1").find("~padding"), std::string::npos);
+  EXPECT_NE(errorOf("stale_timeout: 0").find("~stale_timeout"), std::string::npos);
+  EXPECT_NE(errorOf("fixed_frame: 3").find("~fixed_frame: must be a string"), std::string::npos);
+  EXPECT_NE(errorOf("fixed_frame: ''").find("~fixed_frame"), std::string::npos);
+  EXPECT_NE(errorOf("self_collision: 1").find("~self_collision"), std::string::npos);
+  EXPECT_NE(errorOf("axes: 2.5").find("~axes"), std::string::npos);
+  EXPECT_NE(errorOf("axes: 1").find("~axes"), std::string::npos);
+  EXPECT_NE(errorOf("phi_deg: 95").find("~phi_deg"), std::string::npos);
+  EXPECT_NE(errorOf("bodies: {name: a}").find("~bodies: must be a list"), std::string::npos);
+  EXPECT_NE(errorOf("ignore_pairs: [[a]]").find("~ignore_pairs[0]"), std::string::npos);
+  EXPECT_NE(errorOf("ignore_pairs: [[a, 3]]").find("~ignore_pairs[0][1]"), std::string::npos);
+  EXPECT_NE(errorOf("horizon: .nan").find("~horizon"), std::string::npos);
+}
+
+TEST(Params, BodyErrorsNameTheBodyAndField) {
+  EXPECT_EQ(errorOf(R"(
+bodies:
+  - {name: a, odom_topic: /a, shape: {type: sphere, radius: 0.5}}
+  - {name: b, odom_topic: /b, shape: {type: sphere, radius: -1}}
+)"),
+            "~bodies[1] (\"b\").shape.radius: must be a number > 0, got -1");
+  EXPECT_NE(errorOf("bodies: [{name: a, shape: {type: sphere, radius: 1}}]").find("~bodies[0] (\"a\").odom_topic: is required"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: a, odom_topic: x, twist_topic: y, frame: f, shape: {type: sphere, radius: 1}}]")
+                .find("~bodies[0] (\"a\"): give one velocity source"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: a, twist_topic: y, shape: {type: sphere, radius: 1}}]").find("~bodies[0] (\"a\").frame"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: a, odom_topic: x}]").find("~bodies[0] (\"a\").shape: is required"), std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: a, odom_topic: x, robot_description: d, shape: {type: sphere, radius: 1}}]")
+                .find("give one geometry source"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: a, odom_topic: x, odom_topc: y, shape: {type: sphere, radius: 1}}]")
+                .find("~bodies[0] (\"a\").odom_topc: unknown key"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{odom_topic: x, shape: {type: sphere, radius: 1}}]").find("~bodies[0].name: is required"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: a/b, odom_topic: x, shape: {type: sphere, radius: 1}}]").find("must not contain '/'"),
+            std::string::npos);
+  EXPECT_NE(errorOf(R"(
+bodies:
+  - {name: a, odom_topic: x, shape: {type: sphere, radius: 1}}
+  - {name: a, odom_topic: y, shape: {type: sphere, radius: 1}}
+)").find("~bodies[1] (\"a\").name: duplicate body name"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: a, odom_topic: x, shape: {type: box, size: [1, 2]}}]").find(".shape.size: must be a list of 3"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: a, odom_topic: x, shape: {type: box, size: [1, 0, 2]}}]").find(".shape.size[1]"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: a, odom_topic: x, shape: {type: cone, radius: 1}}]").find(".shape.type: must be sphere"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: a, odom_topic: x, shape: {type: cylinder, radius: 1}}]").find(".shape.length: is required"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: a, odom_topic: x, shape: {type: sphere, radius: 1, lenght: 2}}]").find(".shape.lenght: unknown key"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: a, odom_topic: x, tf_prefix: p, shape: {type: sphere, radius: 1}}]").find(".tf_prefix"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: a, count: 2, odom_topic: x, shape: {type: sphere, radius: 1}}]").find(".name: must contain {i}"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: 'a{i}', count: 0, odom_topic: x, shape: {type: sphere, radius: 1}}]").find(".count"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [3]").find("~bodies[0]: must be a dictionary"), std::string::npos);
+}
+
+TEST(Params, ObstacleErrorsNameTheObstacle) {
+  EXPECT_NE(errorOf("static_obstacles: [{name: w, shape: {type: box, size: [1, 1, 1]}, pose: {orientation: [0, 0, 0, 0]}}]")
+                .find("~static_obstacles[0] (\"w\").pose.orientation: must not be a zero quaternion"),
+            std::string::npos);
+  EXPECT_NE(errorOf("static_obstacles: [{name: w, shape: {type: box, size: [1, 1, 1]}, pose: {position: [0, 0]}}]")
+                .find("~static_obstacles[0] (\"w\").pose.position"),
+            std::string::npos);
+  EXPECT_NE(errorOf(std::string(kTwoBodies) + "static_obstacles: [{name: a, shape: {type: sphere, radius: 1}}]")
+                .find("duplicate body name"),
+            std::string::npos);
+}
+
+TEST(Params, TemplateExpandsEveryField) {
+  const MonitorParams p = parseParams(yaml(R"(
+bodies:
+  - name: "agent_{i}"
+    count: 3
+    odom_topic: "/agent_{i}/odom"
+    robot_description: "/agent_{i}_description"
+    tf_prefix: "agent_{i}/"
+)"));
+  ASSERT_EQ(p.bodies.size(), 3u);
+  EXPECT_EQ(p.bodies[2].name, "agent_2");
+  EXPECT_EQ(p.bodies[2].topic, "/agent_2/odom");
+  EXPECT_EQ(p.bodies[2].robot_description, "/agent_2_description");
+  EXPECT_EQ(p.bodies[2].tf_prefix, "agent_2");  // trailing '/' dropped
+}
+
+TEST(Params, UnknownTopLevelKeysAreListed) {
+  const auto root = yaml("rate: 10\nhorizn: 3\n");
+  const auto unknown = vadop_ros::unknownTopLevelKeys(root);
+  ASSERT_EQ(unknown.size(), 1u);
+  EXPECT_EQ(unknown[0], "horizn");
+}

@@ -1,0 +1,116 @@
+// The prediction pipeline: named bodies, a broad phase kept up to date incrementally, and the
+// narrow phase on every candidate pair.
+//
+// predict(t0, horizon) runs the broad phase over [t0, t0 + horizon], then timeOfImpact on each
+// candidate pair, and returns every pair that touches within the window, sorted by time, then
+// by the insertion order of the bodies (a = the body added first, the normal points from a to
+// b). A pair already touching at t0 has time t0. The result does not depend on the broad phase
+// chosen: each is complete, and each sees the shapes padded by the narrow phase's tolerance,
+// so every pair the narrow phase can report (gap <= tolerance) is a candidate for all of them.
+//
+// Names are any non-empty strings. Bad input throws vadop::InvalidArgument naming the body and
+// leaves the world unchanged (strong guarantee). Not thread-safe.
+#pragma once
+
+#include "vadop/broad_phase.h"
+#include "vadop/distance.h"
+#include "vadop/motion.h"
+#include "vadop/shapes.h"
+#include "vadop/time_of_impact.h"
+#include "vadop/vadop.h"
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+namespace vadop {
+
+enum class BroadPhaseKind {
+  kVadop,  // VADOP: SweepPruneBroadPhase with WorldConfig::vadop
+  kSap,    // sweep and prune of swept AABBs on x, y, z
+  kBrute,  // every pair, by swept bounding spheres: ground truth for small scenes
+};
+
+const char* toString(BroadPhaseKind kind);
+// "vadop", "sap" or "brute"; throws vadop::InvalidArgument otherwise.
+BroadPhaseKind parseBroadPhaseKind(const std::string& name);
+
+struct WorldConfig {
+  BroadPhaseKind broad_phase = BroadPhaseKind::kVadop;
+  VadopConfig vadop;  // axes, phi_deg, ...: used (and validated) by kVadop only
+  ToiOptions toi;
+};
+
+struct WorldImpact {
+  std::string a, b;     // a was added before b
+  uint64_t a_key = 0;   // insertion-order keys (World::key): a_key < b_key; for ImpactQueue
+  uint64_t b_key = 0;
+  Impact impact;        // time, contact point, normal from a to b (see time_of_impact.h)
+};
+
+class World {
+ public:
+  // Throws vadop::InvalidArgument for a bad configuration (tolerance; for kVadop axes, phi,
+  // ...). Building the VADOP axis pool takes tens of milliseconds: reuse a World rather than
+  // building one per query.
+  explicit World(const WorldConfig& config = {});
+  ~World();
+  World(const World&) = delete;
+  World& operator=(const World&) = delete;
+  World(World&&) noexcept;
+  World& operator=(World&&) noexcept;
+
+  // Throws when the id is empty or already used, or the shape or motion is invalid.
+  void add(const std::string& id, const Shape& shape, const Motion& motion);
+  // Throws when the id is unknown.
+  void remove(const std::string& id);
+  // A new velocity (or pose): takes effect at the next predict. Throws when the id is unknown
+  // or the motion invalid.
+  void setMotion(const std::string& id, const Motion& motion);
+
+  bool contains(const std::string& id) const { return by_name_.count(id) != 0; }
+  size_t size() const { return by_name_.size(); }
+  // Ids in insertion order.
+  std::vector<std::string> ids() const;
+  const Shape& shape(const std::string& id) const;
+  const Motion& motion(const std::string& id) const;
+  // The body's insertion-order key: later adds get larger keys (a body removed and added again
+  // gets a new one). These are the keys WorldImpact and ImpactQueue use.
+  uint64_t key(const std::string& id) const;
+
+  // Every pair that touches within [t0, t0 + horizon], sorted by (time, a_key, b_key).
+  // Throws when t0 or horizon is not finite, horizon < 0, or a body's motion leaves the finite
+  // range within the window.
+  std::vector<WorldImpact> predict(double t0, double horizon);
+  // The same, restricted to the pairs involving at least one of `only` (for example the bodies
+  // whose velocity just changed, in the response loop of ImpactQueue). Throws on unknown ids.
+  std::vector<WorldImpact> predict(double t0, double horizon, const std::vector<std::string>& only);
+
+  const WorldConfig& config() const { return config_; }
+  const BroadPhase& broadPhase() const { return *broad_phase_; }
+  // Narrow-phase calls made by the last predict (its candidate pairs, after any `only` filter).
+  size_t lastCandidateCount() const { return last_candidates_; }
+
+ private:
+  struct Record {
+    std::string name;
+    uint64_t key = 0;
+    // The shape as given, prepared for the narrow phase (the broad phase holds it padded).
+    std::optional<PreparedShape> prepared;
+  };
+  const Record& record(const std::string& id, const char* operation) const;
+  BodyId bodyId(const std::string& id, const char* operation) const;
+  std::vector<WorldImpact> run(double t0, double horizon, const std::vector<char>* mask);
+
+  WorldConfig config_;
+  std::unique_ptr<BroadPhase> broad_phase_;
+  std::vector<Record> records_;  // by BodyId of the broad phase
+  std::unordered_map<std::string, BodyId> by_name_;
+  uint64_t next_key_ = 0;
+  size_t last_candidates_ = 0;
+};
+
+}  // namespace vadop

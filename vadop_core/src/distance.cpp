@@ -1,0 +1,1032 @@
+// Static distance (GJK on cores) and the certified conservative-advancement step.
+// See distance.h for the model (cores + rounding, meshes as triangle soups).
+#include "vadop/distance.h"
+
+#include "vadop/error.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <string>
+#include <vector>
+
+namespace vadop {
+namespace detail {
+
+enum class CoreKind { kPoint, kSegment, kBox, kCylinder, kPoints, kMesh };
+
+struct Tri {
+  Eigen::Vector3d v[3];  // body frame
+  double lever = 0.0;    // max |x| over the padded triangle (body origin)
+};
+
+struct BvhNode {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();  // body frame
+  double radius = 0.0;  // bounding sphere of the node's padded triangles
+  double lever = 0.0;   // max |x| over the node's padded triangles (body origin)
+  int left = -1;
+  int right = -1;
+  int tri = -1;  // leaf: triangle index
+};
+
+struct PreparedShapeData {
+  Shape shape;
+  CoreKind kind = CoreKind::kPoint;
+  double rounding = 0.0;  // sphere / capsule radius + margin; margin for the other cores
+  double lever = 0.0;     // bounding_radius: max |x| over the padded shape
+  double half_length = 0.0;
+  double cyl_radius = 0.0;
+  Eigen::Vector3d half_extents = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3d> points;  // convex
+  std::vector<Tri> tris;                // mesh
+  std::vector<BvhNode> nodes;
+  int root = -1;
+};
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// ---------------------------------------------------------------------------------------
+// Support mappings
+
+Eigen::Vector3d coreSupportBody(const PreparedShapeData& s, const Eigen::Vector3d& d) {
+  switch (s.kind) {
+    case CoreKind::kPoint: return Eigen::Vector3d::Zero();
+    case CoreKind::kSegment: return Eigen::Vector3d(0.0, 0.0, d.z() >= 0.0 ? s.half_length : -s.half_length);
+    case CoreKind::kBox:
+      return Eigen::Vector3d(d.x() >= 0.0 ? s.half_extents.x() : -s.half_extents.x(),
+                             d.y() >= 0.0 ? s.half_extents.y() : -s.half_extents.y(),
+                             d.z() >= 0.0 ? s.half_extents.z() : -s.half_extents.z());
+    case CoreKind::kCylinder: {
+      Eigen::Vector3d p(0.0, 0.0, d.z() >= 0.0 ? s.half_length : -s.half_length);
+      const double r = std::hypot(d.x(), d.y());
+      if (r > 0.0) {
+        p.x() = s.cyl_radius * (d.x() / r);
+        p.y() = s.cyl_radius * (d.y() / r);
+      }
+      return p;
+    }
+    case CoreKind::kPoints: {
+      const Eigen::Vector3d* best = &s.points[0];
+      double bv = best->dot(d);
+      for (size_t i = 1; i < s.points.size(); ++i) {
+        const double v = s.points[i].dot(d);
+        if (v > bv) {
+          bv = v;
+          best = &s.points[i];
+        }
+      }
+      return *best;
+    }
+    case CoreKind::kMesh: break;  // meshes are queried triangle by triangle
+  }
+  return Eigen::Vector3d::Zero();
+}
+
+// A posed convex core with rounding: a whole primitive or one triangle of a mesh.
+struct Convex {
+  const PreparedShapeData* shape = nullptr;  // null: the triangle `tri` (world frame)
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();  // body origin (the rotation centre)
+  std::array<Eigen::Vector3d, 3> tri;
+  double rounding = 0.0;
+  double lever = 0.0;  // max |x - p| over the padded convex
+
+  // Farthest core point along d (world frame; d need not be unit).
+  Eigen::Vector3d support(const Eigen::Vector3d& d) const {
+    if (shape == nullptr) {
+      const double a = tri[0].dot(d), b = tri[1].dot(d), c = tri[2].dot(d);
+      if (a >= b && a >= c) return tri[0];
+      return b >= c ? tri[1] : tri[2];
+    }
+    return R * coreSupportBody(*shape, R.transpose() * d) + p;
+  }
+  // Support value of the padded convex about p: max over x of (x - p).u (u need not be unit).
+  double h(const Eigen::Vector3d& u) const { return (support(u) - p).dot(u) + rounding * u.norm(); }
+};
+
+Convex makeConvex(const PreparedShapeData& s, const Eigen::Matrix3d& R, const Eigen::Vector3d& p) {
+  Convex c;
+  c.shape = &s;
+  c.R = R;
+  c.p = p;
+  c.rounding = s.rounding;
+  c.lever = s.lever;
+  return c;
+}
+
+Convex makeTriangle(const PreparedShapeData& mesh, int tri, const Eigen::Matrix3d& R,
+                    const Eigen::Vector3d& p) {
+  Convex c;
+  const Tri& t = mesh.tris[tri];
+  for (int k = 0; k < 3; ++k) c.tri[k] = R * t.v[k] + p;
+  c.p = p;
+  c.rounding = mesh.rounding;
+  c.lever = t.lever;
+  return c;
+}
+
+// ---------------------------------------------------------------------------------------
+// GJK (Gilbert-Johnson-Keerthi). The simplex is reduced to the face/edge/vertex holding
+// the closest point; that point is computed as a plane projection or a perpendicular (not
+// from barycentric weights), so its direction stays accurate when it is tiny compared with
+// the simplex, i.e. near contact, where the certified lower bound depends on it. The best
+// lower bound seen (support of A - B along -v) is kept with its direction.
+
+struct SVert {
+  Eigen::Vector3d w, a, b;  // w = a - b
+};
+
+struct Gjk {
+  bool overlap = false;    // the cores intersect (origin in the Minkowski difference)
+  double dist = 0.0;       // |v|: an upper bound of the core distance
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();  // a - b
+  Eigen::Vector3d a = Eigen::Vector3d::Zero(), b = Eigen::Vector3d::Zero();
+  int iterations = 0;
+  // The direction (along a - b) that certified the largest lower bound of the core distance.
+  double best_lower = -std::numeric_limits<double>::infinity();
+  Eigen::Vector3d best_dir = Eigen::Vector3d::Zero();
+};
+
+SVert makeVert(const Convex& A, const Convex& B, const Eigen::Vector3d& d) {
+  // Support of A - B along d.
+  SVert s;
+  s.a = A.support(d);
+  s.b = B.support(-d);
+  s.w = s.a - s.b;
+  return s;
+}
+
+// Closest point to the origin on segment s[0]s[1]; reduces the simplex. Returns weights.
+void closestSegment(SVert* s, int& n, double* lambda) {
+  const Eigen::Vector3d ab = s[1].w - s[0].w;
+  const double t = -s[0].w.dot(ab);
+  const double denom = ab.squaredNorm();
+  if (t <= 0.0 || denom <= 0.0) {
+    n = 1;
+    lambda[0] = 1.0;
+    return;
+  }
+  if (t >= denom) {
+    s[0] = s[1];
+    n = 1;
+    lambda[0] = 1.0;
+    return;
+  }
+  lambda[1] = t / denom;
+  lambda[0] = 1.0 - lambda[1];
+  n = 2;
+}
+
+// Closest point to the origin on a triangle. The origin is projected onto the triangle's
+// plane (n (n.A) / n.n, accurate in direction even when the closest point is tiny compared
+// with the triangle) and its barycentric coordinates are signed areas measured along n
+// (no squared conditioning); when the projection falls outside, the closest point lies on
+// an edge facing it. Writes the reduced simplex to out[0..m) with weights.
+void closestTriangle(const SVert& A, const SVert& B, const SVert& C, SVert* out, int& m,
+                     double* lambda) {
+  const Eigen::Vector3d ab = B.w - A.w, ac = C.w - A.w;
+  const Eigen::Vector3d n = ab.cross(ac);
+  const double nn = n.squaredNorm();
+  const SVert* v3[3] = {&A, &B, &C};
+  if (nn > 1e-28 * ab.squaredNorm() * ac.squaredNorm() && nn > 0.0) {
+    const Eigen::Vector3d p = n * (n.dot(A.w) / nn);
+    double l[3];
+    l[0] = n.dot((B.w - p).cross(C.w - p)) / nn;
+    l[1] = n.dot((C.w - p).cross(A.w - p)) / nn;
+    l[2] = n.dot((A.w - p).cross(B.w - p)) / nn;
+    if (l[0] >= 0.0 && l[1] >= 0.0 && l[2] >= 0.0) {
+      const double sum = l[0] + l[1] + l[2];
+      out[0] = A; out[1] = B; out[2] = C; m = 3;
+      for (int k = 0; k < 3; ++k) lambda[k] = l[k] / sum;
+      return;
+    }
+    // Edges opposite a negative coordinate face the projection.
+    double best = kInf;
+    for (int k = 0; k < 3; ++k) {
+      if (l[k] >= 0.0) continue;
+      SVert s[2] = {*v3[(k + 1) % 3], *v3[(k + 2) % 3]};
+      int ns = 2;
+      double ls[2];
+      closestSegment(s, ns, ls);
+      Eigen::Vector3d v = ls[0] * s[0].w;
+      if (ns == 2) v += ls[1] * s[1].w;
+      if (v.squaredNorm() < best) {
+        best = v.squaredNorm();
+        m = ns;
+        for (int q = 0; q < ns; ++q) { out[q] = s[q]; lambda[q] = ls[q]; }
+      }
+    }
+    return;
+  }
+  // Degenerate (collinear) triangle: the closest of its edges.
+  double best = kInf;
+  for (int k = 0; k < 3; ++k) {
+    SVert s[2] = {*v3[(k + 1) % 3], *v3[(k + 2) % 3]};
+    int ns = 2;
+    double ls[2];
+    closestSegment(s, ns, ls);
+    Eigen::Vector3d v = ls[0] * s[0].w;
+    if (ns == 2) v += ls[1] * s[1].w;
+    if (v.squaredNorm() < best) {
+      best = v.squaredNorm();
+      m = ns;
+      for (int q = 0; q < ns; ++q) { out[q] = s[q]; lambda[q] = ls[q]; }
+    }
+  }
+}
+
+// The closest point itself, computed from the reduced simplex in the most accurate form:
+// a plane projection for a triangle, a perpendicular for a segment.
+Eigen::Vector3d closestPoint(const SVert* s, int n, const double* lambda) {
+  if (n == 3) {
+    const Eigen::Vector3d nrm = (s[1].w - s[0].w).cross(s[2].w - s[0].w);
+    const double nn = nrm.squaredNorm();
+    if (nn > 0.0) return nrm * (nrm.dot(s[0].w) / nn);
+  }
+  if (n == 2) {
+    const Eigen::Vector3d ab = s[1].w - s[0].w;
+    const double aa = ab.squaredNorm();
+    if (aa > 0.0) return s[0].w - ab * (s[0].w.dot(ab) / aa);
+  }
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();
+  for (int k = 0; k < n; ++k) v += lambda[k] * s[k].w;
+  return v;
+}
+
+// Reduces the simplex to the support of the closest point; false when the origin lies
+// inside the tetrahedron (overlap).
+bool closestOnSimplex(SVert* s, int& n, double* lambda) {
+  if (n == 1) {
+    lambda[0] = 1.0;
+    return true;
+  }
+  if (n == 2) {
+    closestSegment(s, n, lambda);
+    return true;
+  }
+  if (n == 3) {
+    SVert out[3];
+    int m = 0;
+    closestTriangle(s[0], s[1], s[2], out, m, lambda);
+    for (int k = 0; k < m; ++k) s[k] = out[k];
+    n = m;
+    return true;
+  }
+  // Tetrahedron: faces with the origin outside (or a degenerate, flat tetrahedron).
+  static const int faces[4][4] = {{0, 1, 2, 3}, {0, 2, 3, 1}, {0, 3, 1, 2}, {1, 3, 2, 0}};
+  double best = kInf;
+  SVert best_s[3];
+  double best_l[3] = {0, 0, 0};
+  int best_m = 0;
+  bool any_outside = false;
+  for (const auto& f : faces) {
+    const Eigen::Vector3d& q0 = s[f[0]].w;
+    const Eigen::Vector3d nrm = (s[f[1]].w - q0).cross(s[f[2]].w - q0);
+    const Eigen::Vector3d x = s[f[3]].w - q0;
+    const double side_o = -q0.dot(nrm);
+    const double side_x = x.dot(nrm);
+    const bool degenerate = std::abs(side_x) <= 1e-12 * nrm.norm() * x.norm();
+    if (!(degenerate || side_o * side_x < 0.0)) continue;
+    any_outside = true;
+    SVert out[3];
+    int m = 0;
+    double l[3];
+    closestTriangle(s[f[0]], s[f[1]], s[f[2]], out, m, l);
+    Eigen::Vector3d v = Eigen::Vector3d::Zero();
+    for (int k = 0; k < m; ++k) v += l[k] * out[k].w;
+    const double d = v.squaredNorm();
+    if (d < best) {
+      best = d;
+      best_m = m;
+      for (int k = 0; k < m; ++k) { best_s[k] = out[k]; best_l[k] = l[k]; }
+    }
+  }
+  if (!any_outside) return false;
+  n = best_m;
+  for (int k = 0; k < n; ++k) { s[k] = best_s[k]; lambda[k] = best_l[k]; }
+  return true;
+}
+
+Gjk runGjk(const Convex& A, const Convex& B, Eigen::Vector3d guess, double abs_tol, double rel_tol,
+           int max_iter) {
+  Gjk r;
+  if (!(guess.squaredNorm() > 0.0) || !guess.allFinite()) guess = A.p - B.p;
+  if (!(guess.squaredNorm() > 0.0)) guess = Eigen::Vector3d::UnitX();
+  // Scale for "numerically zero": the size of the coordinates involved.
+  const double scale = 1.0 + A.p.norm() + B.p.norm() + A.lever + B.lever;
+  const double tiny = 1e-14 * scale;
+
+  SVert s[4];
+  int n = 1;
+  s[0] = makeVert(A, B, -guess);
+  double lambda[4] = {1.0, 0.0, 0.0, 0.0};
+  Eigen::Vector3d v = s[0].w;
+  Eigen::Vector3d pa = s[0].a, pb = s[0].b;
+  int it = 0;
+  for (; it < max_iter; ++it) {
+    const double vv = v.squaredNorm();
+    if (vv <= tiny * tiny) {
+      r.overlap = true;  // touching exactly (within rounding): distance 0
+      break;
+    }
+    const SVert w = makeVert(A, B, -v);
+    const double vn = std::sqrt(vv);
+    const double lower = v.dot(w.w) / vn;  // distance >= lower (separating plane)
+    if (lower > r.best_lower) {
+      r.best_lower = lower;
+      r.best_dir = v / vn;
+    }
+    if (vn - lower <= std::max(abs_tol, rel_tol * vn)) break;
+    bool duplicate = false;
+    for (int k = 0; k < n; ++k) {
+      if ((s[k].w - w.w).squaredNorm() <= tiny * tiny) duplicate = true;
+    }
+    if (duplicate) break;
+    SVert saved[4];
+    const int saved_n = n;
+    for (int k = 0; k < n; ++k) saved[k] = s[k];
+    s[n++] = w;
+    if (!closestOnSimplex(s, n, lambda)) {
+      r.overlap = true;
+      break;
+    }
+    const Eigen::Vector3d nv = closestPoint(s, n, lambda);
+    Eigen::Vector3d na = Eigen::Vector3d::Zero(), nb = Eigen::Vector3d::Zero();
+    for (int k = 0; k < n; ++k) {
+      na += lambda[k] * s[k].a;
+      nb += lambda[k] * s[k].b;
+    }
+    if (nv.squaredNorm() >= vv) {  // no progress (rounding): keep the previous answer
+      n = saved_n;
+      for (int k = 0; k < n; ++k) s[k] = saved[k];
+      break;
+    }
+    v = nv;
+    pa = na;
+    pb = nb;
+  }
+  r.iterations = it + 1;
+  r.v = v;
+  r.a = pa;
+  r.b = pb;
+  r.dist = r.overlap ? 0.0 : v.norm();
+  return r;
+}
+
+// Separation of the padded convexes along unit n (from a to b): certified lower bound of
+// their signed distance.
+double separation(const Convex& A, const Convex& B, const Eigen::Vector3d& n) {
+  return n.dot(B.p - A.p) - A.h(n) - B.h(-n);
+}
+
+Eigen::Vector3d anyPerpendicular(const Eigen::Vector3d& n) {
+  const Eigen::Vector3d t = std::abs(n.x()) < 0.6 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  return n.cross(t).normalized();
+}
+
+// Overlapping cores: the direction of least penetration, by maximising the separation
+// over unit directions (hill climbing from the centre line and the bodies' axes).
+Eigen::Vector3d penetrationDirection(const Convex& A, const Convex& B, const Eigen::Vector3d& hint) {
+  std::vector<Eigen::Vector3d> cand;
+  if (hint.squaredNorm() > 0.0) cand.push_back(hint.normalized());
+  const Eigen::Vector3d cc = B.p - A.p;
+  if (cc.squaredNorm() > 0.0) cand.push_back(cc.normalized());
+  // Centroids of the cores (meaningful for triangles, whose p is the mesh origin).
+  const Eigen::Vector3d ca = A.shape ? A.p : Eigen::Vector3d((A.tri[0] + A.tri[1] + A.tri[2]) / 3.0);
+  const Eigen::Vector3d cb = B.shape ? B.p : Eigen::Vector3d((B.tri[0] + B.tri[1] + B.tri[2]) / 3.0);
+  if ((cb - ca).squaredNorm() > 0.0) cand.push_back((cb - ca).normalized());
+  for (const Convex* c : {&A, &B}) {
+    if (c->shape) {
+      for (int k = 0; k < 3; ++k) {
+        cand.push_back(c->R.col(k));
+        cand.push_back(-c->R.col(k));
+      }
+    } else {
+      const Eigen::Vector3d tn = (c->tri[1] - c->tri[0]).cross(c->tri[2] - c->tri[0]);
+      if (tn.squaredNorm() > 0.0) {
+        cand.push_back(tn.normalized());
+        cand.push_back(-tn.normalized());
+      }
+    }
+  }
+  for (int k = 0; k < 3; ++k) {
+    cand.push_back(Eigen::Vector3d::Unit(k));
+    cand.push_back(-Eigen::Vector3d::Unit(k));
+  }
+  Eigen::Vector3d best = cand[0];
+  double bs = -kInf;
+  for (const auto& c : cand) {
+    const double s = separation(A, B, c);
+    if (s > bs) {
+      bs = s;
+      best = c;
+    }
+  }
+  double step = 0.25;
+  for (int it = 0; it < 400 && step > 1e-7; ++it) {
+    const Eigen::Vector3d e1 = anyPerpendicular(best);
+    const Eigen::Vector3d e2 = best.cross(e1);
+    bool improved = false;
+    for (const Eigen::Vector3d& e : {e1, Eigen::Vector3d(-e1), e2, Eigen::Vector3d(-e2)}) {
+      const Eigen::Vector3d c = (best + step * e).normalized();
+      const double s = separation(A, B, c);
+      if (s > bs) {
+        bs = s;
+        best = c;
+        improved = true;
+        break;
+      }
+    }
+    if (!improved) step *= 0.5;
+  }
+  return best;
+}
+
+// Distance between two posed convexes. `cert` receives the unit direction (a to b) along
+// which lower_bound was certified; it can differ from the witness normal by the GJK's
+// angular accuracy (near contact the witness direction is the better contact normal, the
+// certified one the better separating plane).
+DistanceResult convexDistance(const Convex& A, const Convex& B, const Eigen::Vector3d& guess,
+                              double abs_tol, double rel_tol, int max_iter, Eigen::Vector3d* cert) {
+  const Gjk g = runGjk(A, B, guess, abs_tol, rel_tol, max_iter);
+  DistanceResult r;
+  r.iterations = g.iterations;
+  const double rounding = A.rounding + B.rounding;
+  if (!g.overlap) {
+    // The certified direction: the final one or the best seen during the iteration,
+    // whichever separates more (they differ when rounding tilts the last simplex).
+    Eigen::Vector3d n = -g.v / g.dist;
+    double lower = separation(A, B, n);
+    if (g.best_dir.squaredNorm() > 0.0) {
+      const Eigen::Vector3d nb = -g.best_dir;
+      const double lb = separation(A, B, nb);
+      if (lb > lower) {
+        lower = lb;
+        n = nb;
+      }
+    }
+    const Eigen::Vector3d m = -g.v / g.dist;  // witness direction
+    r.normal = m;
+    r.distance = g.dist - rounding;
+    r.lower_bound = std::min(lower, r.distance);
+    r.point_a = g.a + A.rounding * m;
+    r.point_b = g.b - B.rounding * m;
+    if (cert) *cert = n;
+    return r;
+  }
+  r.cores_overlap = true;
+  const Eigen::Vector3d n = penetrationDirection(A, B, -g.v);
+  if (cert) *cert = n;
+  r.normal = n;
+  r.lower_bound = separation(A, B, n);
+  r.distance = r.lower_bound;
+  r.point_a = A.support(n) + A.rounding * n;
+  r.point_b = B.support(-n) - B.rounding * n;
+  return r;
+}
+
+// ---------------------------------------------------------------------------------------
+// Certified step along a separating direction.
+
+struct Kin {
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();  // linear velocity of the body origin
+  Eigen::Vector3d w = Eigen::Vector3d::Zero();  // angular velocity (fixed frame)
+};
+
+// First root of a concave f with f(0) > 0 on [0, horizon]: the largest certified step
+// (f > 0 on [0, step)); `clear` when f > 0 on the whole horizon. For concave f the chord
+// root never passes the root, and any point with f > 0 is safe (f > 0 between 0 and it).
+template <class F>
+double concaveStep(const F& f, double f0, double horizon, bool* clear) {
+  *clear = false;
+  if (!(f0 > 0.0)) return 0.0;
+  const double fT = f(horizon);
+  if (fT > 0.0) {
+    *clear = true;
+    return horizon;
+  }
+  double lo = 0.0, flo = f0, hi = horizon, fhi = fT;
+  for (int k = 0; k < 16; ++k) {
+    double x = lo + (hi - lo) * (flo / (flo - fhi));
+    if (k % 3 == 2) x = 0.5 * (lo + hi);  // bisection keeps hi moving too
+    if (!(x > lo && x < hi)) break;
+    const double fx = f(x);
+    if (fx > 0.0) {
+      lo = x;
+      flo = fx;
+    } else {
+      hi = x;
+      fhi = fx;
+    }
+    if (hi - lo <= 0.02 * lo) break;
+  }
+  return lo;
+}
+
+// Largest step in [0, horizon] such that the gap of A and B stays > adv, certified by the
+// separation along a direction n (unit, a to b) found at the current time; `clear` when
+// that holds over the whole horizon. Three certificates, the best step wins (each is a
+// lower bound of the gap for all later times, so any of them is safe):
+//
+// (1) n fixed in the world frame:
+//     s(t+D) >= n.(P + D V) - hA(n - D wa x n) - hB(-n + D wb x n)
+//                - D^2/2 (ra |wa| |wa x n| + rb |wb| |wb x n|)
+//     with P = pb - pa, V = vb - va, hX the support of the padded shape about its origin at
+//     time t. Rotating n by -w D differs from its first-order term by at most
+//     |w| |w x n| D^2 / 2 and support functions are Lipschitz in the direction with the
+//     lever arm r. Exact for translation. Also s(t+D) >= s(t) - D (-n.V + ra|wa x n| + rb|wb x n|).
+// (2) n attached to b (it turns with b, like a face normal of b, so b's support along it is
+//     constant): with E = exp([w] D), u = Ea^T Eb n (|u - n - D (wb - wa) x n| <=
+//     (|wa| + |wb|)^2 D^2 / 2) and Eb n = n + D wb x n + e (|e| <= |wb| |wb x n| D^2 / 2):
+//     s(t+D) >= n.P + D ((wb x n).P + n.V) + D^2 min(0, (wb x n).V)
+//                - |wb| |wb x n| D^2 (|P| + D |V|) / 2 - hB(-n)
+//                - hA(n + D (wb - wa) x n) - ra (|wa| + |wb|)^2 D^2 / 2.
+//     This follows a rotating face closely: its first-order term is the true rate.
+// (3) n attached to a: the same with the roles of a and b exchanged.
+// All three are concave in D.
+// `cap`: the caller only needs to know the step up to cap (a mesh's best step so far);
+// the refinements stop as soon as a certificate reaches it.
+double separationStep(const Convex& A, const Kin& ka, const Convex& B, const Kin& kb,
+                      const Eigen::Vector3d& n, double horizon, double adv, double cap, bool* clear) {
+  *clear = false;
+  const Eigen::Vector3d ua = ka.w.cross(n), ub = kb.w.cross(n);
+  const double kA = ua.norm(), kB = ub.norm();
+  const Eigen::Vector3d P = B.p - A.p;
+  const Eigen::Vector3d V = kb.v - ka.v;
+  const double base = n.dot(P);
+  const double hA0 = A.h(n), hB0 = B.h(-n);
+  const double f0 = base - hA0 - hB0 - adv;
+  if (!(f0 > 0.0)) return 0.0;
+  const double closing = -n.dot(V);
+  const double mu = closing + A.lever * kA + B.lever * kB;
+  const double step_lin = mu > 0.0 ? f0 / mu : kInf;
+  if (step_lin >= horizon) {
+    *clear = true;
+    return horizon;
+  }
+  if (kA == 0.0 && kB == 0.0) return step_lin;  // translation: the exact linear law
+  if (step_lin >= cap) return step_lin;
+  double best = step_lin;
+  const double wa = ka.w.norm(), wb = kb.w.norm();
+  // (1) fixed axis.
+  {
+    const double q = 0.5 * (A.lever * wa * kA + B.lever * wb * kB);
+    auto L = [&](double D) { return base + D * n.dot(V) - A.h(n - D * ua) - B.h(-n + D * ub) - q * D * D - adv; };
+    bool c = false;
+    best = std::max(best, concaveStep(L, f0, horizon, &c));
+    if (c) {
+      *clear = true;
+      return horizon;
+    }
+    if (best >= cap) return best;
+  }
+  const Eigen::Vector3d rel = (kb.w - ka.w).cross(n);
+  const double wsum2 = (wa + wb) * (wa + wb);
+  const double Pn = P.norm(), Vn = V.norm();
+  // (2) attached to b.
+  if (kB > 0.0) {
+    const double r1 = ub.dot(P) + n.dot(V);
+    const double c2 = std::max(0.0, -ub.dot(V)) + 0.5 * wb * kB * Pn + 0.5 * A.lever * wsum2;
+    const double c3 = 0.5 * wb * kB * Vn;
+    auto L = [&](double D) { return base + D * r1 - (c2 + c3 * D) * D * D - hB0 - A.h(n + D * rel) - adv; };
+    bool c = false;
+    best = std::max(best, concaveStep(L, f0, horizon, &c));
+    if (c) {
+      *clear = true;
+      return horizon;
+    }
+    if (best >= cap) return best;
+  }
+  // (3) attached to a: the axis -n turns with a.
+  if (kA > 0.0) {
+    const double r1 = ua.dot(P) + n.dot(V);
+    const double c2 = std::max(0.0, -ua.dot(V)) + 0.5 * wa * kA * Pn + 0.5 * B.lever * wsum2;
+    const double c3 = 0.5 * wa * kA * Vn;
+    auto L = [&](double D) { return base + D * r1 - (c2 + c3 * D) * D * D - hA0 - B.h(-n + D * rel) - adv; };
+    bool c = false;
+    best = std::max(best, concaveStep(L, f0, horizon, &c));
+    if (c) {
+      *clear = true;
+      return horizon;
+    }
+  }
+  return std::min(best, horizon);
+}
+
+// ---------------------------------------------------------------------------------------
+// Bounding-volume traversal (meshes), a convex primitive acting as a single leaf.
+
+struct Side {
+  const PreparedShapeData* d = nullptr;
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  Kin kin;
+  bool mesh = false;
+
+  int root() const { return mesh ? d->root : 0; }
+  bool leaf(int i) const { return !mesh || d->nodes[i].tri >= 0; }
+  Eigen::Vector3d centre(int i) const { return mesh ? Eigen::Vector3d(R * d->nodes[i].centre + p) : p; }
+  double radius(int i) const { return mesh ? d->nodes[i].radius : d->lever; }
+  double lever(int i) const { return mesh ? d->nodes[i].lever : d->lever; }
+  Convex convex(int i) const { return mesh ? makeTriangle(*d, d->nodes[i].tri, R, p) : makeConvex(*d, R, p); }
+};
+
+struct Tolerances {
+  double abs_tol;
+  double rel_tol;
+  int max_iter;
+};
+
+// Closest pair over all leaf pairs (static distance for meshes).
+DistanceResult meshDistance(const Side& A, const Side& B, const Tolerances& tol) {
+  DistanceResult best;
+  best.distance = kInf;
+  best.lower_bound = kInf;
+  int iterations = 0;
+  std::vector<std::pair<int, int>> stack;
+  stack.emplace_back(A.root(), B.root());
+  // lower_bound: min over every leaf pair of its certified bound; pruned pairs are bounded
+  // by their spheres (a valid lower bound of everything inside).
+  double pruned_lower = kInf;
+  while (!stack.empty()) {
+    const auto [ia, ib] = stack.back();
+    stack.pop_back();
+    const double D = (A.centre(ia) - B.centre(ib)).norm() - A.radius(ia) - B.radius(ib);
+    if (D >= best.distance) {
+      pruned_lower = std::min(pruned_lower, D);
+      continue;
+    }
+    if (A.leaf(ia) && B.leaf(ib)) {
+      const Convex ca = A.convex(ia), cb = B.convex(ib);
+      DistanceResult r = convexDistance(ca, cb, ca.p - cb.p, tol.abs_tol, tol.rel_tol, tol.max_iter, nullptr);
+      iterations += r.iterations;
+      best.lower_bound = std::min(best.lower_bound, r.lower_bound);
+      if (r.distance < best.distance) {
+        const double lb = best.lower_bound;
+        best = r;
+        best.lower_bound = lb;
+      }
+      continue;
+    }
+    const bool split_a = !A.leaf(ia) && (B.leaf(ib) || A.radius(ia) >= B.radius(ib));
+    int c1, c2;
+    if (split_a) {
+      c1 = A.d->nodes[ia].left;
+      c2 = A.d->nodes[ia].right;
+      const double d1 = (A.centre(c1) - B.centre(ib)).norm() - A.radius(c1);
+      const double d2 = (A.centre(c2) - B.centre(ib)).norm() - A.radius(c2);
+      if (d1 < d2) std::swap(c1, c2);  // push the farther first
+      stack.emplace_back(c1, ib);
+      stack.emplace_back(c2, ib);
+    } else {
+      c1 = B.d->nodes[ib].left;
+      c2 = B.d->nodes[ib].right;
+      const double d1 = (B.centre(c1) - A.centre(ia)).norm() - B.radius(c1);
+      const double d2 = (B.centre(c2) - A.centre(ia)).norm() - B.radius(c2);
+      if (d1 < d2) std::swap(c1, c2);
+      stack.emplace_back(ia, c1);
+      stack.emplace_back(ia, c2);
+    }
+  }
+  best.lower_bound = std::min(best.lower_bound, pruned_lower);
+  best.lower_bound = std::min(best.lower_bound, best.distance);
+  best.iterations = iterations;
+  return best;
+}
+
+// The reported contact: near touching, the witness direction of a GJK run stopped at a
+// gap accuracy delta can be off by about sqrt(2 delta / gap) radians (the closest point
+// slides along a flat or ruled patch of the Minkowski difference at second order), so the
+// contact that ends the advancement is recomputed to rounding accuracy.
+DistanceResult refineContact(const Convex& A, const Convex& B, const DistanceResult& coarse) {
+  if (coarse.cores_overlap) return coarse;
+  const double scale = 1.0 + A.p.norm() + B.p.norm() + A.lever + B.lever;
+  DistanceResult fine = convexDistance(A, B, -coarse.normal, 1e-15 * scale, 0.0, 256, nullptr);
+  if (fine.cores_overlap || !(fine.distance <= coarse.distance)) return coarse;
+  fine.iterations += coarse.iterations;
+  return fine;
+}
+
+// Best-first traversal of the pairs of bounding balls, ordered by the step each pair could
+// at most limit: the search stops as soon as no remaining pair can shorten the best step.
+AdvanceStep meshStep(const Side& A, const Side& B, double horizon, double touch, double adv,
+                     const Tolerances& tol) {
+  AdvanceStep out;
+  out.closest.distance = kInf;
+  out.closest.lower_bound = kInf;
+  double best_step = horizon;
+  int iterations = 0;
+  int closest_a = -1, closest_b = -1;
+  struct Item {
+    double key;  // the pair cannot limit the step below key (-inf: may touch now)
+    double D;    // lower bound of the pair's gap now
+    int ia, ib;
+    bool operator<(const Item& o) const { return key > o.key; }  // min-heap
+  };
+  auto bound = [&](int ia, int ib) {
+    const Eigen::Vector3d ca_w = A.centre(ia), cb_w = B.centre(ib);
+    const Eigen::Vector3d dc = cb_w - ca_w;
+    const double dcn = dc.norm();
+    Item it{-kInf, dcn - A.radius(ia) - B.radius(ib), ia, ib};
+    if (it.D > touch && dcn > 0.0) {
+      // The two bounding balls, separated along the fixed centre line u: their separation
+      // closes at most at mu (the balls turn about their own centres; only the centres'
+      // motion counts), and it bounds the gap of everything inside them.
+      const Eigen::Vector3d u = dc / dcn;
+      const double mu = u.dot(A.kin.v - B.kin.v) + A.kin.w.cross(u).norm() * (ca_w - A.p).norm() +
+                        B.kin.w.cross(u).norm() * (cb_w - B.p).norm();
+      it.key = mu > 0.0 ? (it.D - adv) / mu : kInf;
+    }
+    return it;
+  };
+  std::vector<Item> heap;
+  heap.push_back(bound(A.root(), B.root()));
+  while (!heap.empty()) {
+    std::pop_heap(heap.begin(), heap.end());
+    const Item it = heap.back();
+    heap.pop_back();
+    if (out.touching) {
+      if (it.D >= out.closest.distance) continue;  // looking for the closest contact only
+    } else if (it.key >= best_step) {
+      break;  // no remaining pair can shorten the step (the heap is ordered by key)
+    }
+    const int ia = it.ia, ib = it.ib;
+    if (A.leaf(ia) && B.leaf(ib)) {
+      const Convex ca = A.convex(ia), cb = B.convex(ib);
+      const Eigen::Vector3d ga = ca.shape ? ca.p : Eigen::Vector3d((ca.tri[0] + ca.tri[1] + ca.tri[2]) / 3.0);
+      const Eigen::Vector3d gb = cb.shape ? cb.p : Eigen::Vector3d((cb.tri[0] + cb.tri[1] + cb.tri[2]) / 3.0);
+      if (!out.touching && (gb - ga).squaredNorm() > 0.0) {
+        // Cheap screen before GJK: the exact separation of the two pieces along their
+        // centroid line with the linear motion bound (a valid certificate, only weaker).
+        const Eigen::Vector3d u = (gb - ga).normalized();
+        const double su = u.dot(cb.p - ca.p) - ca.h(u) - cb.h(-u);
+        if (su > touch) {
+          const double mu = u.dot(A.kin.v - B.kin.v) + ca.lever * A.kin.w.cross(u).norm() +
+                            cb.lever * B.kin.w.cross(u).norm();
+          if (mu <= 0.0 || su - adv >= best_step * mu) continue;
+        }
+      }
+      Eigen::Vector3d cert;
+      const DistanceResult r = convexDistance(ca, cb, ga - gb, tol.abs_tol, tol.rel_tol, tol.max_iter, &cert);
+      iterations += r.iterations;
+      if (r.distance < out.closest.distance) {
+        out.closest = r;
+        closest_a = ia;
+        closest_b = ib;
+      }
+      if (r.cores_overlap || r.distance <= touch) {
+        out.touching = true;
+        continue;
+      }
+      if (out.touching) continue;
+      bool clear = false;
+      const double st = separationStep(ca, A.kin, cb, B.kin, cert, horizon, adv, best_step, &clear);
+      best_step = std::min(best_step, st);
+      continue;
+    }
+    const bool split_a = !A.leaf(ia) && (B.leaf(ib) || A.radius(ia) >= B.radius(ib));
+    if (split_a) {
+      heap.push_back(bound(A.d->nodes[ia].left, ib));
+      std::push_heap(heap.begin(), heap.end());
+      heap.push_back(bound(A.d->nodes[ia].right, ib));
+      std::push_heap(heap.begin(), heap.end());
+    } else {
+      heap.push_back(bound(ia, B.d->nodes[ib].left));
+      std::push_heap(heap.begin(), heap.end());
+      heap.push_back(bound(ia, B.d->nodes[ib].right));
+      std::push_heap(heap.begin(), heap.end());
+    }
+  }
+  out.closest.iterations = iterations;
+  if (out.touching) {
+    out.closest = refineContact(A.convex(closest_a), B.convex(closest_b), out.closest);
+    return out;
+  }
+  out.step = best_step;
+  // Clear: every leaf pair examined certified the whole horizon and every other pair was
+  // bounded beyond it.
+  out.clear = best_step >= horizon;
+  if (!std::isfinite(out.closest.distance)) {
+    // Every pair was bounded away: report the centres' direction.
+    const Eigen::Vector3d cc = B.p - A.p;
+    out.closest.normal = cc.squaredNorm() > 0.0 ? Eigen::Vector3d(cc.normalized()) : Eigen::Vector3d::UnitX();
+    out.closest.point_a = A.p;
+    out.closest.point_b = B.p;
+    out.closest.distance = out.closest.lower_bound =
+        (B.centre(B.root()) - A.centre(A.root())).norm() - A.radius(A.root()) - B.radius(B.root());
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------
+// Preparation
+
+void buildBvh(PreparedShapeData& d) {
+  const auto& P = d.shape.points;
+  const auto& T = d.shape.triangles;
+  const double m = d.shape.margin;
+  const int n = static_cast<int>(T.size());
+  d.tris.resize(n);
+  std::vector<Eigen::Vector3d> centroid(n);
+  for (int i = 0; i < n; ++i) {
+    double lever = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      d.tris[i].v[k] = P[T[i][k]];
+      lever = std::max(lever, d.tris[i].v[k].norm());
+    }
+    d.tris[i].lever = lever + m;
+    centroid[i] = (d.tris[i].v[0] + d.tris[i].v[1] + d.tris[i].v[2]) / 3.0;
+  }
+  std::vector<int> idx(n);
+  std::iota(idx.begin(), idx.end(), 0);
+  d.nodes.reserve(2 * n);
+  // Explicit stack: (begin, end, node index, parent slot) built depth first.
+  struct Job {
+    int begin, end, node;
+  };
+  auto makeNode = [&](int begin, int end) {
+    BvhNode node;
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant(kInf), hi = Eigen::Vector3d::Constant(-kInf);
+    double lever = 0.0;
+    for (int i = begin; i < end; ++i) {
+      const Tri& t = d.tris[idx[i]];
+      for (int k = 0; k < 3; ++k) {
+        lo = lo.cwiseMin(t.v[k]);
+        hi = hi.cwiseMax(t.v[k]);
+      }
+      lever = std::max(lever, t.lever);
+    }
+    node.centre = 0.5 * (lo + hi);
+    double r = 0.0;
+    for (int i = begin; i < end; ++i) {
+      const Tri& t = d.tris[idx[i]];
+      for (int k = 0; k < 3; ++k) r = std::max(r, (t.v[k] - node.centre).norm());
+    }
+    node.radius = r + m;
+    node.lever = lever;
+    if (end - begin == 1) node.tri = idx[begin];
+    d.nodes.push_back(node);
+    return static_cast<int>(d.nodes.size()) - 1;
+  };
+  d.root = makeNode(0, n);
+  std::vector<Job> jobs{{0, n, d.root}};
+  while (!jobs.empty()) {
+    const Job j = jobs.back();
+    jobs.pop_back();
+    if (j.end - j.begin <= 1) continue;
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant(kInf), hi = Eigen::Vector3d::Constant(-kInf);
+    for (int i = j.begin; i < j.end; ++i) {
+      lo = lo.cwiseMin(centroid[idx[i]]);
+      hi = hi.cwiseMax(centroid[idx[i]]);
+    }
+    int axis = 0;
+    (hi - lo).maxCoeff(&axis);
+    const int mid = j.begin + (j.end - j.begin) / 2;
+    std::nth_element(idx.begin() + j.begin, idx.begin() + mid, idx.begin() + j.end,
+                     [&](int x, int y) { return centroid[x][axis] < centroid[y][axis]; });
+    const int left = makeNode(j.begin, mid);
+    const int right = makeNode(mid, j.end);
+    d.nodes[j.node].left = left;
+    d.nodes[j.node].right = right;
+    jobs.push_back({j.begin, mid, left});
+    jobs.push_back({mid, j.end, right});
+  }
+}
+
+Tolerances distanceTolerances(const DistanceOptions& o) { return {o.tolerance, o.relative_tolerance, o.max_iterations}; }
+
+void checkPose(const Eigen::Isometry3d& pose, const char* what) {
+  if (!pose.matrix().allFinite()) throw InvalidArgument(std::string(what) + " is not finite");
+}
+
+Side makeSide(const PreparedShapeData& d, const Eigen::Matrix3d& R, const Eigen::Vector3d& p) {
+  Side s;
+  s.d = &d;
+  s.R = R;
+  s.p = p;
+  s.mesh = d.kind == CoreKind::kMesh;
+  return s;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------
+
+AdvanceStep advanceStep(const PreparedShape& a, const Motion& ma, const PreparedShape& b,
+                        const Motion& mb, double t, double horizon, double touch_gap,
+                        double advance_gap, Eigen::Vector3d* hint) {
+  const PreparedShapeData& da = a.data();
+  const PreparedShapeData& db = b.data();
+  Side A = makeSide(da, ma.isRotating() ? ma.orientationAt(t).toRotationMatrix()
+                                        : ma.orientation.toRotationMatrix(),
+                    ma.positionAt(t));
+  Side B = makeSide(db, mb.isRotating() ? mb.orientationAt(t).toRotationMatrix()
+                                        : mb.orientation.toRotationMatrix(),
+                    mb.positionAt(t));
+  A.kin.v = ma.linear_velocity;
+  A.kin.w = ma.angular_velocity;
+  B.kin.v = mb.linear_velocity;
+  B.kin.w = mb.angular_velocity;
+  // GJK accuracy: a small fraction of the band between the advance target and the touch
+  // threshold, so that the loop always reaches "touching" after landing on the target.
+  const Tolerances tol{0.01 * (touch_gap - advance_gap), 1e-7, 128};
+  if (A.mesh || B.mesh) return meshStep(A, B, horizon, touch_gap, advance_gap, tol);
+
+  AdvanceStep out;
+  const Convex ca = makeConvex(da, A.R, A.p), cb = makeConvex(db, B.R, B.p);
+  const Eigen::Vector3d guess = (hint && hint->squaredNorm() > 0.0) ? *hint : Eigen::Vector3d(ca.p - cb.p);
+  Eigen::Vector3d cert;
+  out.closest = convexDistance(ca, cb, guess, tol.abs_tol, tol.rel_tol, tol.max_iter, &cert);
+  if (hint) *hint = -out.closest.normal;
+  if (out.closest.cores_overlap || out.closest.distance <= touch_gap) {
+    out.touching = true;
+    out.closest = refineContact(ca, cb, out.closest);
+    return out;
+  }
+  out.step = separationStep(ca, A.kin, cb, B.kin, cert, horizon, advance_gap, horizon, &out.clear);
+  return out;
+}
+
+}  // namespace detail
+
+PreparedShape::PreparedShape(const Shape& shape) {
+  validateShape(shape, "shape");
+  auto d = std::make_shared<detail::PreparedShapeData>();
+  d->shape = shape;
+  d->lever = shape.bounding_radius;
+  d->rounding = shape.margin;
+  switch (shape.type) {
+    case ShapeType::kSphere:
+      d->kind = detail::CoreKind::kPoint;
+      d->rounding += shape.radius;
+      break;
+    case ShapeType::kCapsule:
+      d->kind = detail::CoreKind::kSegment;
+      d->half_length = shape.half_length;
+      d->rounding += shape.radius;
+      break;
+    case ShapeType::kBox:
+      d->kind = detail::CoreKind::kBox;
+      d->half_extents = shape.half_extents;
+      break;
+    case ShapeType::kCylinder:
+      d->kind = detail::CoreKind::kCylinder;
+      d->half_length = shape.half_length;
+      d->cyl_radius = shape.radius;
+      break;
+    case ShapeType::kConvex:
+      d->kind = detail::CoreKind::kPoints;
+      d->points = shape.points;
+      break;
+    case ShapeType::kMesh: {
+      // validateShape checks the vertices; the triangles are checked here, before use.
+      if (shape.triangles.empty()) throw InvalidArgument("shape: mesh triangles must not be empty");
+      const int nv = static_cast<int>(shape.points.size());
+      for (size_t t = 0; t < shape.triangles.size(); ++t) {
+        for (int c = 0; c < 3; ++c) {
+          const int idx = shape.triangles[t][c];
+          if (idx < 0 || idx >= nv) {
+            throw InvalidArgument("shape: mesh triangles[" + std::to_string(t) + "][" + std::to_string(c) +
+                                  "] = " + std::to_string(idx) + " is out of range [0, " + std::to_string(nv) + ")");
+          }
+        }
+      }
+      d->kind = detail::CoreKind::kMesh;
+      detail::buildBvh(*d);
+      break;
+    }
+  }
+  data_ = std::move(d);
+}
+
+const Shape& PreparedShape::shape() const { return data_->shape; }
+
+DistanceResult distance(const PreparedShape& a, const Eigen::Isometry3d& pose_a,
+                        const PreparedShape& b, const Eigen::Isometry3d& pose_b,
+                        const DistanceOptions& options) {
+  detail::checkPose(pose_a, "pose_a");
+  detail::checkPose(pose_b, "pose_b");
+  if (!(std::isfinite(options.tolerance) && options.tolerance > 0.0) ||
+      !(std::isfinite(options.relative_tolerance) && options.relative_tolerance >= 0.0) ||
+      options.max_iterations <= 0) {
+    throw InvalidArgument("distance options: tolerance must be finite and > 0, relative_tolerance >= 0, max_iterations > 0");
+  }
+  const detail::Tolerances tol = detail::distanceTolerances(options);
+  const detail::Side A = detail::makeSide(a.data(), pose_a.linear(), pose_a.translation());
+  const detail::Side B = detail::makeSide(b.data(), pose_b.linear(), pose_b.translation());
+  if (A.mesh || B.mesh) return detail::meshDistance(A, B, tol);
+  const detail::Convex ca = detail::makeConvex(a.data(), A.R, A.p);
+  const detail::Convex cb = detail::makeConvex(b.data(), B.R, B.p);
+  return detail::convexDistance(ca, cb, ca.p - cb.p, tol.abs_tol, tol.rel_tol, tol.max_iter, nullptr);
+}
+
+DistanceResult distance(const Shape& a, const Eigen::Isometry3d& pose_a, const Shape& b,
+                        const Eigen::Isometry3d& pose_b, const DistanceOptions& options) {
+  return distance(PreparedShape(a), pose_a, PreparedShape(b), pose_b, options);
+}
+
+}  // namespace vadop

@@ -1,0 +1,224 @@
+#include "vadop/world.h"
+
+#include "vadop/error.h"
+#include "vadop/sweep_prune.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+#include <utility>
+
+namespace vadop {
+namespace {
+
+std::string str(double v) {
+  std::ostringstream os;
+  os.precision(17);
+  os << v;
+  return os.str();
+}
+
+// The id in double quotes, with quotes, backslashes and control characters escaped, so that a
+// message always stays on one line.
+std::string quoted(const std::string& id) {
+  std::string out = "\"";
+  for (const char c : id) {
+    const auto u = static_cast<unsigned char>(c);
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += c;
+    } else if (u < 0x20 || u == 0x7f) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", u);
+      out += buf;
+    } else {
+      out += c;
+    }
+  }
+  return out + "\"";
+}
+
+std::unique_ptr<BroadPhase> makeBroadPhase(const WorldConfig& c) {
+  switch (c.broad_phase) {
+    case BroadPhaseKind::kVadop: return std::make_unique<SweepPruneBroadPhase>(c.vadop);  // validates
+    case BroadPhaseKind::kSap: return SweepPruneBroadPhase::makeEveryAxis(3);
+    case BroadPhaseKind::kBrute: return std::make_unique<BruteForceBroadPhase>();
+  }
+  throw InvalidArgument("World: unknown broad phase kind " + std::to_string(static_cast<int>(c.broad_phase)));
+}
+
+}  // namespace
+
+const char* toString(BroadPhaseKind kind) {
+  switch (kind) {
+    case BroadPhaseKind::kVadop: return "vadop";
+    case BroadPhaseKind::kSap: return "sap";
+    case BroadPhaseKind::kBrute: return "brute";
+  }
+  return "unknown";
+}
+
+BroadPhaseKind parseBroadPhaseKind(const std::string& name) {
+  if (name == "vadop") return BroadPhaseKind::kVadop;
+  if (name == "sap") return BroadPhaseKind::kSap;
+  if (name == "brute") return BroadPhaseKind::kBrute;
+  throw InvalidArgument("unknown broad phase " + quoted(name) + " (expected vadop, sap or brute)");
+}
+
+World::World(const WorldConfig& config) : config_(config) {
+  const ToiOptions& o = config.toi;
+  if (!(std::isfinite(o.tolerance) && o.tolerance > 0.0)) {
+    throw InvalidArgument("World: toi.tolerance must be finite and > 0, got " + str(o.tolerance));
+  }
+  if (o.max_iterations <= 0) {
+    throw InvalidArgument("World: toi.max_iterations must be > 0, got " + std::to_string(o.max_iterations));
+  }
+  broad_phase_ = makeBroadPhase(config);
+}
+
+World::~World() = default;
+World::World(World&&) noexcept = default;
+World& World::operator=(World&&) noexcept = default;
+
+void World::add(const std::string& id, const Shape& shape, const Motion& motion) {
+  const std::string what = "add body " + quoted(id);
+  if (id.empty()) throw InvalidArgument("add: the body id must not be empty");
+  if (by_name_.count(id)) throw InvalidArgument(what + ": a body with this id already exists");
+  validateShape(shape, what + ": shape");
+  validateMotion(motion, what + ": motion");
+
+  // Everything that can fail happens before the first change (strong guarantee).
+  Record rec;
+  rec.name = id;
+  rec.key = next_key_;
+  rec.prepared.emplace(shape);
+  // Padded by the narrow phase's tolerance: every pair the narrow phase can report as touching
+  // (gap <= tolerance) then has intersecting swept volumes, hence is a candidate for every
+  // (complete) broad phase, and the result does not depend on the broad phase chosen.
+  const Shape padded = inflate(shape, config_.toi.tolerance);
+  // Room for one more record and one more name, grown geometrically (reserve(size + 1) would
+  // reallocate on every add): the insertions below then cannot allocate or rehash.
+  if (records_.size() == records_.capacity()) records_.reserve(std::max<size_t>(16, 2 * records_.capacity()));
+  if (static_cast<double>(by_name_.size() + 1) >
+      by_name_.max_load_factor() * static_cast<double>(by_name_.bucket_count())) {
+    by_name_.reserve(2 * by_name_.size() + 16);
+  }
+  std::unordered_map<std::string, BodyId> scratch;
+  scratch.emplace(id, 0);
+  auto node = scratch.extract(scratch.begin());  // the map node, allocated up front
+
+  const BodyId bid = broad_phase_->add(padded, motion);  // strong guarantee
+  // From here on nothing throws.
+  if (bid == records_.size()) {
+    records_.push_back(std::move(rec));  // capacity reserved; Record moves without throwing
+  } else {
+    records_[bid] = std::move(rec);
+  }
+  node.mapped() = bid;
+  by_name_.insert(std::move(node));
+  ++next_key_;
+}
+
+void World::remove(const std::string& id) {
+  const BodyId bid = bodyId(id, "remove");
+  broad_phase_->remove(bid);  // strong guarantee; nothing below throws
+  by_name_.erase(id);
+  records_[bid] = Record{};
+}
+
+void World::setMotion(const std::string& id, const Motion& motion) {
+  const BodyId bid = bodyId(id, "setMotion");
+  validateMotion(motion, "setMotion body " + quoted(id) + ": motion");
+  broad_phase_->setMotion(bid, motion);
+}
+
+std::vector<std::string> World::ids() const {
+  std::vector<const Record*> alive;
+  alive.reserve(by_name_.size());
+  for (const auto& kv : by_name_) alive.push_back(&records_[kv.second]);
+  std::sort(alive.begin(), alive.end(), [](const Record* x, const Record* y) { return x->key < y->key; });
+  std::vector<std::string> out;
+  out.reserve(alive.size());
+  for (const Record* r : alive) out.push_back(r->name);
+  return out;
+}
+
+BodyId World::bodyId(const std::string& id, const char* operation) const {
+  const auto it = by_name_.find(id);
+  if (it == by_name_.end()) throw InvalidArgument(std::string(operation) + ": unknown body " + quoted(id));
+  return it->second;
+}
+
+const World::Record& World::record(const std::string& id, const char* operation) const {
+  return records_[bodyId(id, operation)];
+}
+
+const Shape& World::shape(const std::string& id) const { return record(id, "shape").prepared->shape(); }
+
+const Motion& World::motion(const std::string& id) const {
+  return broad_phase_->motion(bodyId(id, "motion"));
+}
+
+uint64_t World::key(const std::string& id) const { return record(id, "key").key; }
+
+std::vector<WorldImpact> World::predict(double t0, double horizon) { return run(t0, horizon, nullptr); }
+
+std::vector<WorldImpact> World::predict(double t0, double horizon, const std::vector<std::string>& only) {
+  std::vector<char> mask(records_.size(), 0);
+  for (const std::string& id : only) mask[bodyId(id, "predict")] = 1;
+  return run(t0, horizon, &mask);
+}
+
+std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector<char>* mask) {
+  if (!std::isfinite(t0)) throw InvalidArgument("predict: t0 must be finite, got " + str(t0));
+  if (!std::isfinite(horizon) || horizon < 0.0) {
+    throw InvalidArgument("predict: horizon must be finite and >= 0, got " + str(horizon));
+  }
+  const double t1 = t0 + horizon;
+  if (!std::isfinite(t1)) throw InvalidArgument("predict: t0 + horizon is not finite");
+  // Poses must stay far from overflow over the window, or the geometry turns into inf/NaN.
+  for (const auto& kv : by_name_) {
+    const Motion& m = broad_phase_->motion(kv.second);
+    for (const double t : {t0, t1}) {
+      const double dt = t - m.t_ref;
+      if (!std::isfinite(m.positionAt(t).squaredNorm()) ||
+          !std::isfinite((m.angular_velocity * dt).squaredNorm())) {
+        throw InvalidArgument("predict: body " + quoted(kv.first) + ": its pose at t = " + str(t) +
+                              " is out of the finite range (position or rotation angle too large)");
+      }
+    }
+  }
+
+  broad_phase_->update(t0, t1);
+  std::vector<WorldImpact> out;
+  size_t calls = 0;
+  for (const Pair& p : broad_phase_->pairs()) {
+    if (mask && !(*mask)[p.a] && !(*mask)[p.b]) continue;
+    ++calls;
+    BodyId ia = p.a, ib = p.b;
+    if (records_[ib].key < records_[ia].key) std::swap(ia, ib);  // a = the body added first
+    const Record* ra = &records_[ia];
+    const Record* rb = &records_[ib];
+    const Motion& ma = broad_phase_->motion(ia);
+    const Motion& mb = broad_phase_->motion(ib);
+    const Impact hit = timeOfImpact(*ra->prepared, ma, *rb->prepared, mb, t0, t1, config_.toi);
+    if (!hit.hit) continue;
+    WorldImpact w;
+    w.a = ra->name;
+    w.b = rb->name;
+    w.a_key = ra->key;
+    w.b_key = rb->key;
+    w.impact = hit;
+    out.push_back(std::move(w));
+  }
+  last_candidates_ = calls;
+  std::sort(out.begin(), out.end(), [](const WorldImpact& x, const WorldImpact& y) {
+    if (x.impact.time != y.impact.time) return x.impact.time < y.impact.time;
+    if (x.a_key != y.a_key) return x.a_key < y.a_key;
+    return x.b_key < y.b_key;
+  });
+  return out;
+}
+
+}  // namespace vadop

@@ -1,0 +1,353 @@
+// World: the pipeline (broad phase + narrow phase) behind vadop_predict.
+//  - analytic scenes (head-on spheres, touching at t0, a = the body added first);
+//  - add/remove/setMotion errors name the body and leave the world unchanged;
+//  - the broad phases vadop, sap and brute give identical results on random 1,000-body scenes;
+//  - the incremental broad phase, fed many predicts with setMotion/add/remove in between,
+//    agrees with a world built from scratch each time;
+//  - the ImpactQueue response loop on a Newton's cradle.
+#include "vadop/error.h"
+#include "vadop/impact_queue.h"
+#include "vadop/scene_io.h"
+#include "vadop/world.h"
+
+#include "world_scene_gen.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <map>
+#include <algorithm>
+#include <cstdio>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace vadop {
+namespace {
+
+Motion moving(const Eigen::Vector3d& p, const Eigen::Vector3d& v, double t_ref = 0.0) {
+  return makeMotion(p, Eigen::Quaterniond::Identity(), v, Eigen::Vector3d::Zero(), t_ref);
+}
+Motion still(const Eigen::Vector3d& p) { return moving(p, Eigen::Vector3d::Zero()); }
+
+// The tolerance of the narrow phase: an impact is reported when the gap reaches tol/2, so
+// head-on bodies closing at speed s are reported tol / (2 s) before they touch.
+const double kTol = ToiOptions{}.tolerance;
+
+TEST(World, HeadOnSpheres) {
+  World w;
+  w.add("left", makeSphere(0.5), moving({0, 0, 0}, {1, 0, 0}));
+  w.add("right", makeSphere(0.25), moving({4, 0, 0}, {-2, 0, 0}));
+  w.add("far", makeSphere(0.5), still({0, 50, 0}));
+  const auto out = w.predict(0.0, 2.0);
+  ASSERT_EQ(out.size(), 1u);
+  // Gap 4 - 0.75 = 3.25 closing at 3 m/s: touch at 13/12 s.
+  const double t = 13.0 / 12.0 - kTol / (2 * 3.0);
+  EXPECT_EQ(out[0].a, "left");
+  EXPECT_EQ(out[0].b, "right");
+  EXPECT_NEAR(out[0].impact.time, t, 1e-12);
+  // Contact point: between the surfaces, at x = t + 0.5 (left) and 4 - 2t - 0.25 (right).
+  EXPECT_NEAR(out[0].impact.point.x(), 0.5 * ((t + 0.5) + (4 - 2 * t - 0.25)), 1e-12);
+  EXPECT_NEAR(out[0].impact.point.y(), 0.0, 1e-15);
+  EXPECT_NEAR((out[0].impact.normal - Eigen::Vector3d::UnitX()).norm(), 0.0, 1e-15);
+  EXPECT_LT(out[0].a_key, out[0].b_key);
+  EXPECT_EQ(w.lastCandidateCount(), 1u);
+
+  // A window that ends before the contact finds nothing; one that starts after t0 = 0 does.
+  EXPECT_TRUE(w.predict(0.0, 1.0).empty());
+  const auto later = w.predict(1.0, 0.5);
+  ASSERT_EQ(later.size(), 1u);
+  EXPECT_NEAR(later[0].impact.time, t, 1e-12);
+}
+
+TEST(World, PairsTouchingAtTheStartHaveTimeT0) {
+  World w;
+  w.add("a", makeBox({1, 1, 1}), still({0, 0, 0}));
+  w.add("b", makeSphere(0.5), still({0.9, 0, 0}));  // overlapping the box
+  w.add("c", makeSphere(0.5), moving({0.9, 0, 0}, {0, 1, 0}));  // overlapping both, leaving along y
+  w.add("d", makeCapsule(0.2, 1.0), moving({5, 0, 0}, {0, 0, 1}));
+  const auto now = w.predict(0.0, 1.0);
+  ASSERT_EQ(now.size(), 3u);
+  for (const auto& x : now) {
+    EXPECT_EQ(x.impact.time, 0.0);
+    EXPECT_TRUE(x.impact.initially_touching);
+  }
+  EXPECT_EQ(now[0].a + now[0].b, "ab");
+  EXPECT_EQ(now[1].a + now[1].b, "ac");
+  EXPECT_EQ(now[2].a + now[2].b, "bc");
+  EXPECT_GT(now[0].impact.normal.x(), 0.5);  // from a (the box) towards b
+  // Later windows: t0 is the time of the pairs touching at their start, whatever t0 is; the
+  // sphere c has left (1 m/s along y) by t0 = 2.
+  const auto later = w.predict(2.0, 1.0);
+  ASSERT_EQ(later.size(), 1u);
+  EXPECT_EQ(later[0].a + later[0].b, "ab");
+  EXPECT_EQ(later[0].impact.time, 2.0);
+}
+
+TEST(World, AIsTheBodyAddedFirstEvenWhenIdsAreReused) {
+  World w;
+  w.add("x", makeSphere(0.5), still({100, 0, 0}));
+  w.add("y", makeSphere(0.5), still({0, 0, 0}));
+  w.remove("x");  // frees the broad phase's slot 0, which "z" then takes
+  w.add("z", makeSphere(0.5), moving({3, 0, 0}, {-1, 0, 0}));
+  EXPECT_LT(w.key("y"), w.key("z"));
+  EXPECT_EQ(w.ids(), (std::vector<std::string>{"y", "z"}));
+  const auto out = w.predict(0.0, 5.0);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].a, "y");
+  EXPECT_EQ(out[0].b, "z");
+  EXPECT_GT(out[0].impact.normal.x(), 0.99);  // from y (at 0) to z (coming from +x)
+  // Removed and added again: a new key, after every other body.
+  w.remove("y");
+  w.add("y", makeSphere(0.5), still({0, 0, 0}));
+  const auto again = w.predict(0.0, 5.0);
+  ASSERT_EQ(again.size(), 1u);
+  EXPECT_EQ(again[0].a, "z");
+  EXPECT_LT(again[0].impact.normal.x(), -0.99);
+}
+
+TEST(World, SortsByTimeThenInsertionOrder) {
+  World w;
+  // Three pairs touching at t0 (ties) and two later contacts, added in a scrambled order.
+  w.add("p", makeSphere(1.0), still({0, 0, 0}));
+  w.add("q", makeSphere(1.0), still({20, 0, 0}));
+  w.add("r", makeSphere(1.0), still({1.5, 0, 0}));   // touches p
+  w.add("s", makeSphere(1.0), still({21, 0, 0}));    // touches q
+  w.add("t", makeSphere(1.0), moving({0, 10, 0}, {0, -4, 0}));  // reaches p at ~2 s
+  w.add("u", makeSphere(1.0), moving({20, 5, 0}, {0, -4, 0}));  // reaches q at ~0.75 s
+  w.add("v", makeSphere(1.0), still({0.5, 1.5, 0}));  // touches p and r
+  const auto out = w.predict(0.0, 3.0);
+  std::vector<std::string> got;
+  for (const auto& x : out) got.push_back(x.a + "-" + x.b);
+  // Keys p0 q1 r2 s3 t4 u5 v6. At t0 four pairs touch: ties in key order (p,r) (p,v) (q,s)
+  // (r,v). Then u comes down on q (gap 3 at 4 m/s: 0.75 s) and s (|(1, 5 - 4t)| = 2: 0.817 s);
+  // t comes down on v (|(0.5, 8.5 - 4t)| = 2: 1.641 s), p (2 s) and r (|(1.5, 10 - 4t)| = 2: 2.169 s).
+  EXPECT_EQ(got, (std::vector<std::string>{"p-r", "p-v", "q-s", "r-v", "q-u", "s-u", "t-v", "p-t", "r-t"}));
+  ASSERT_EQ(out.size(), 9u);
+  EXPECT_NEAR(out[4].impact.time, 0.75, 1e-6);
+  EXPECT_NEAR(out[5].impact.time, (5 - std::sqrt(3.0)) / 4, 1e-6);
+  EXPECT_NEAR(out[6].impact.time, (8.5 - std::sqrt(3.75)) / 4, 1e-6);
+  EXPECT_NEAR(out[7].impact.time, 2.0, 1e-6);
+  EXPECT_NEAR(out[8].impact.time, (10 - std::sqrt(1.75)) / 4, 1e-6);
+  for (size_t i = 1; i < out.size(); ++i) EXPECT_LE(out[i - 1].impact.time, out[i].impact.time);
+}
+
+TEST(World, BadInputNamesTheBodyAndLeavesTheWorldUnchanged) {
+  World w;
+  w.add("a", makeSphere(0.5), moving({0, 0, 0}, {1, 0, 0}));
+  w.add("b", makeSphere(0.5), still({3, 0, 0}));
+  const auto before = impactsToJsonLines(w.predict(0.0, 5.0));
+  ASSERT_FALSE(before.empty());
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+
+  auto expectError = [&](auto&& call, const std::string& needle1, const std::string& needle2) {
+    try {
+      call();
+      ADD_FAILURE() << "no exception; expected one mentioning " << needle1;
+    } catch (const InvalidArgument& e) {
+      EXPECT_NE(std::string(e.what()).find(needle1), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(needle2), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(w.size(), 2u);
+    EXPECT_EQ(w.ids(), (std::vector<std::string>{"a", "b"}));
+    EXPECT_EQ(impactsToJsonLines(w.predict(0.0, 5.0)), before);
+  };
+  Shape bad_sphere = makeSphere(1.0);
+  bad_sphere.radius = -1.0;
+  Motion nan_motion = still({0, 0, 0});
+  nan_motion.linear_velocity.y() = nan;
+  expectError([&] { w.add("a", makeSphere(1.0), still({9, 9, 9})); }, "\"a\"", "already exists");
+  expectError([&] { w.add("", makeSphere(1.0), still({9, 9, 9})); }, "id", "empty");
+  expectError([&] { w.add("c", bad_sphere, still({9, 9, 9})); }, "\"c\"", "radius");
+  expectError([&] { w.add("c", makeSphere(1.0), nan_motion); }, "\"c\"", "linear_velocity");
+  expectError([&] { w.remove("nope"); }, "\"nope\"", "unknown");
+  expectError([&] { w.setMotion("nope", still({0, 0, 0})); }, "\"nope\"", "unknown");
+  expectError([&] { w.setMotion("b", nan_motion); }, "\"b\"", "linear_velocity");
+  expectError([&] { w.motion("nope"); }, "\"nope\"", "unknown");
+  expectError([&] { w.predict(nan, 1.0); }, "t0", "finite");
+  expectError([&] { w.predict(0.0, -1.0); }, "horizon", ">= 0");
+  expectError([&] { w.predict(0.0, 1.0, {"a", "nope"}); }, "\"nope\"", "unknown");
+  // A motion whose pose overflows within the window: rejected by predict, naming the body.
+  w.add("fast", makeSphere(1.0), moving({0, 0, 0}, {1e300, 0, 0}));
+  try {
+    w.predict(0.0, 1e10);
+    ADD_FAILURE() << "no exception";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("\"fast\""), std::string::npos) << e.what();
+  }
+  w.remove("fast");
+  EXPECT_EQ(impactsToJsonLines(w.predict(0.0, 5.0)), before);
+  // Bad configurations.
+  WorldConfig c;
+  c.vadop.axes = 2;
+  EXPECT_THROW(World{c}, InvalidArgument);
+  c = WorldConfig{};
+  c.vadop.phi_deg = 1.0;  // below the covering radius of 32 axes
+  EXPECT_THROW(World{c}, InvalidArgument);
+  c = WorldConfig{};
+  c.toi.tolerance = 0.0;
+  EXPECT_THROW(World{c}, InvalidArgument);
+  // The VADOP settings matter (and are checked) for the VADOP broad phase only.
+  c = WorldConfig{};
+  c.broad_phase = BroadPhaseKind::kSap;
+  c.vadop.axes = 2;
+  EXPECT_NO_THROW(World{c});
+}
+
+TEST(World, BroadPhaseKindNames) {
+  EXPECT_EQ(parseBroadPhaseKind("vadop"), BroadPhaseKind::kVadop);
+  EXPECT_EQ(parseBroadPhaseKind("sap"), BroadPhaseKind::kSap);
+  EXPECT_EQ(parseBroadPhaseKind("brute"), BroadPhaseKind::kBrute);
+  EXPECT_THROW(parseBroadPhaseKind("kdop"), InvalidArgument);
+  for (auto k : {BroadPhaseKind::kVadop, BroadPhaseKind::kSap, BroadPhaseKind::kBrute}) {
+    EXPECT_EQ(parseBroadPhaseKind(toString(k)), k);
+  }
+}
+
+std::string predictLines(const Scene& scene, BroadPhaseKind kind, size_t* candidates = nullptr) {
+  WorldConfig c;
+  c.broad_phase = kind;
+  World w(c);
+  addToWorld(scene, w);
+  const std::string out = impactsToJsonLines(w.predict(0.0, scene.horizon));
+  if (candidates) *candidates = w.lastCandidateCount();
+  return out;
+}
+
+TEST(World, BroadPhasesGiveIdenticalResultsOnRandomScenes) {
+  size_t total_impacts = 0;
+  for (uint64_t seed = 1; seed <= 3; ++seed) {
+    const Scene scene = parseScene(testing_scene::randomSceneJson(seed));
+    ASSERT_EQ(scene.bodies.size(), 1000u);
+    size_t cand_vadop = 0, cand_sap = 0, cand_brute = 0;
+    const std::string vadop = predictLines(scene, BroadPhaseKind::kVadop, &cand_vadop);
+    const std::string sap = predictLines(scene, BroadPhaseKind::kSap, &cand_sap);
+    const std::string brute = predictLines(scene, BroadPhaseKind::kBrute, &cand_brute);
+    const size_t lines = static_cast<size_t>(std::count(vadop.begin(), vadop.end(), '\n'));
+    EXPECT_GT(lines, 200u) << "seed " << seed << ": too few contacts to compare";
+    EXPECT_EQ(vadop, sap) << "seed " << seed;
+    EXPECT_EQ(vadop, brute) << "seed " << seed;
+    // The broad phases differ (else the comparison would be vacuous).
+    EXPECT_TRUE(cand_vadop != cand_sap || cand_sap != cand_brute);
+    std::printf("seed %llu: 1000 bodies, %zu impacts; candidates vadop %zu, sap %zu, brute %zu\n",
+                static_cast<unsigned long long>(seed), lines, cand_vadop, cand_sap, cand_brute);
+    total_impacts += lines;
+  }
+  RecordProperty("impacts", static_cast<int>(total_impacts));
+}
+
+TEST(World, IncrementalUpdatesMatchAWorldBuiltFromScratch) {
+  // Frames of a random scene with velocity changes, removes and re-adds between predicts.
+  testing_scene::GenParams p;
+  p.n = 200;
+  p.box = 6.0;
+  const Scene scene = parseScene(testing_scene::randomSceneJson(11, p));
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-3.0, 3.0);
+  for (auto kind : {BroadPhaseKind::kVadop, BroadPhaseKind::kSap, BroadPhaseKind::kBrute}) {
+    WorldConfig c;
+    c.broad_phase = kind;
+    World inc(c);
+    addToWorld(scene, inc);
+    std::vector<SceneBody> current(scene.bodies.begin(), scene.bodies.end());  // in key order
+    size_t compared = 0;
+    for (int frame = 0; frame < 12; ++frame) {
+      const double t0 = 0.1 * frame;
+      // New velocities for a few bodies, from their pose at t0.
+      for (int k = 0; k < 10; ++k) {
+        SceneBody& b = current[rng() % current.size()];
+        const Motion& m = b.motion;
+        b.motion = makeMotion(m.positionAt(t0), m.orientationAt(t0), Eigen::Vector3d(u(rng), u(rng), u(rng)),
+                              m.angular_velocity, t0);
+        inc.setMotion(b.id, b.motion);
+      }
+      // Remove one body and add it back (it moves to the end of the insertion order).
+      const size_t r = rng() % current.size();
+      SceneBody moved = current[r];
+      current.erase(current.begin() + static_cast<long>(r));
+      inc.remove(moved.id);
+      inc.add(moved.id, moved.shape, moved.motion);
+      current.push_back(moved);
+
+      World fresh(c);
+      for (const auto& b : current) fresh.add(b.id, b.shape, b.motion);
+      const auto got = inc.predict(t0, 0.1);
+      const auto want = fresh.predict(t0, 0.1);
+      ASSERT_EQ(impactsToJsonLines(got), impactsToJsonLines(want)) << toString(kind) << " frame " << frame;
+      compared += got.size();
+    }
+    EXPECT_GT(compared, 50u) << toString(kind);
+  }
+}
+
+TEST(World, PredictRestrictedToSomeBodiesIsTheFilteredFullPrediction) {
+  const Scene scene = parseScene(testing_scene::randomSceneJson(4));
+  World w;
+  addToWorld(scene, w);
+  const auto all = w.predict(0.0, scene.horizon);
+  const std::vector<std::string> only{scene.bodies[3].id, scene.bodies[500].id, scene.bodies[999].id};
+  std::vector<WorldImpact> want;
+  for (const auto& x : all) {
+    for (const auto& id : only) {
+      if (x.a == id || x.b == id) {
+        want.push_back(x);
+        break;
+      }
+    }
+  }
+  const auto got = w.predict(0.0, scene.horizon, only);
+  EXPECT_EQ(impactsToJsonLines(got), impactsToJsonLines(want));
+  EXPECT_LT(w.lastCandidateCount(), 100u);
+  EXPECT_TRUE(w.predict(0.0, scene.horizon, {}).empty());
+}
+
+TEST(World, ResponseLoopWithTheImpactQueueOnANewtonsCradle) {
+  // Three unit-mass spheres on the x axis; A moves at 1 m/s towards B and C (at rest).
+  // Elastic responses swap velocities: A stops at B (t = 2), then B stops at C (t = 4).
+  // Without invalidation the stale A-C impact (t = 5, predicted at the start) would pop.
+  World w;
+  w.add("A", makeSphere(0.5), moving({0, 0, 0}, {1, 0, 0}));
+  w.add("B", makeSphere(0.5), still({3, 0, 0}));
+  w.add("C", makeSphere(0.5), still({6, 0, 0}));
+  const double end = 10.0;
+  ImpactQueue q;
+  std::map<uint64_t, std::string> name;
+  for (const auto& id : w.ids()) name[w.key(id)] = id;
+  for (const auto& x : w.predict(0.0, end)) q.push(x.a_key, x.b_key, x.impact);
+  ASSERT_EQ(q.size(), 2u);  // A-B at 2, A-C at 5
+  std::vector<std::string> events;
+  std::vector<double> times;
+  while (!q.empty()) {
+    const QueuedImpact hit = q.pop();
+    const double t = hit.impact.time;
+    const std::string a = name[hit.a], b = name[hit.b];
+    events.push_back(a + "-" + b);
+    times.push_back(t);
+    // Equal masses, head-on, elastic: exchange the velocity components along the normal.
+    const Motion ma = w.motion(a), mb = w.motion(b);
+    const Eigen::Vector3d n = hit.impact.normal;
+    const Eigen::Vector3d va = ma.linear_velocity, vb = mb.linear_velocity;
+    const Eigen::Vector3d dv = (va - vb).dot(n) * n;
+    w.setMotion(a, moving(ma.positionAt(t), va - dv, t));
+    w.setMotion(b, moving(mb.positionAt(t), vb + dv, t));
+    q.invalidate(hit.a);
+    q.invalidate(hit.b);
+    for (const auto& x : w.predict(t, end - t, {a, b})) {
+      // The pair just resolved still touches at t, but separates: not a new impact.
+      if (x.a_key == hit.a && x.b_key == hit.b && x.impact.time <= t) continue;
+      q.push(x.a_key, x.b_key, x.impact);
+    }
+    ASSERT_LT(events.size(), 10u) << "the loop does not terminate";
+  }
+  EXPECT_EQ(events, (std::vector<std::string>{"A-B", "B-C"}));
+  ASSERT_EQ(times.size(), 2u);
+  EXPECT_NEAR(times[0], 2.0, 1e-6);
+  EXPECT_NEAR(times[1], 4.0, 1e-6);
+  EXPECT_NEAR(w.motion("A").linear_velocity.norm(), 0.0, 1e-12);
+  EXPECT_NEAR(w.motion("B").linear_velocity.norm(), 0.0, 1e-12);
+  EXPECT_NEAR(w.motion("C").linear_velocity.x(), 1.0, 1e-12);
+}
+
+}  // namespace
+}  // namespace vadop

@@ -1,0 +1,204 @@
+// The monitored bodies: their geometry (primitive shape or URDF collision elements), their
+// latest state (odometry, or twist + tf pose) and, each cycle, the rigid motion of every
+// collision element in the fixed frame. No ROS transport: the node feeds it messages and a tf
+// buffer; tests and the benchmark feed it directly.
+//
+// Elements. Each collision element is one entry of the vadop::World, with id "body" for a
+// primitive body and "body/link" for a URDF link ("body/link#k" for its k-th collision element,
+// k > 0).
+//
+// Motion of an element over a cycle at time `now`:
+//  - the body's latest state is transformed into the fixed frame (tf2, at the message stamp;
+//    the latest transform when there is none at that stamp) and its twist rotated into the
+//    fixed frame; the element then moves with constant linear and angular velocity from the
+//    state's stamp on, which extrapolates it to `now` and over the horizon;
+//  - a link rigid with its body (primitive body, URDF body without tf_prefix) gets the
+//    rigid-body velocity field: v + w x r, angular velocity w;
+//  - a link whose pose comes from tf also gets the velocity of its own motion relative to the
+//    body frame, estimated from its two latest distinct tf poses.
+//
+// Bad input never throws and never affects another body:
+//  - NaN/Inf anywhere in a message, a zero-norm quaternion or a value beyond 1e9: dropped,
+//    counted, a warning (throttled per body), the body marked in its status for a while;
+//  - a stamp not newer than the last accepted one (out of order, duplicate): ignored, counted;
+//  - no accepted message for stale_timeout (by receipt time): the body stands still at its
+//    last pose (zero velocity) and is flagged stale;
+//  - a transform missing: the body (or that link) is skipped this cycle; a warning (throttled)
+//    once it has been missing for kTfWarnAfter;
+//  - URDF that does not parse / a link that cannot be converted: an error naming the body (and
+//    link) in its status; the rest is monitored.
+#pragma once
+
+#include "vadop_ros/params.h"
+#include "vadop_ros/urdf_shapes.h"
+
+#include <vadop/motion.h>
+#include <vadop/shapes.h>
+
+#include <geometry_msgs/TwistStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <ros/time.h>
+
+#include <Eigen/Geometry>
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace vadop_ros {
+
+// tf as the registry sees it: a tf2_ros::Buffer in the node, a table in tests.
+class TransformSource {
+ public:
+  virtual ~TransformSource() = default;
+  // Pose of frame `source` in frame `target` at `time` (ros::Time(0): the latest available).
+  // Returns false and sets `error` when there is none.
+  virtual bool lookup(const std::string& target, const std::string& source, const ros::Time& time,
+                      Eigen::Isometry3d& pose, ros::Time& stamp, std::string& error) = 0;
+};
+
+// Reads a string parameter (a robot_description); false when it does not exist.
+using ParamReader = std::function<bool(const std::string& name, std::string& value)>;
+
+enum class InputResult { kAccepted, kInvalid, kOutOfOrder };
+
+enum class BodyState {
+  kWaiting,     // no message yet: not monitored
+  kOk,
+  kStale,       // no message for stale_timeout: standing still at its last pose
+  kTfMissing,   // a transform was missing this cycle: skipped (or some links skipped)
+  kNoGeometry,  // nothing to monitor (URDF missing or every collision element failed)
+  kStatic,      // a static obstacle
+};
+const char* toString(BodyState s);
+
+struct BodyStatus {
+  BodyState state = BodyState::kWaiting;
+  uint64_t accepted = 0;
+  uint64_t dropped_invalid = 0;     // NaN/Inf, zero quaternion, out of range
+  uint64_t dropped_out_of_order = 0;
+  std::string last_invalid;         // why the last invalid message was dropped
+  ros::Time last_invalid_receipt;   // zero if none
+  ros::Time last_receipt;           // of the last accepted message
+  std::string tf_error;             // this cycle's missing transform, if any
+  size_t links_skipped = 0;         // this cycle, tf links without a transform
+  std::vector<std::string> geometry_errors;  // URDF / link conversion errors
+};
+
+struct Element {
+  std::string id;     // World id
+  size_t body = 0;    // index into bodies()
+  std::string link;   // URDF link name; empty for a primitive body or obstacle
+  vadop::Shape shape; // unpadded
+  std::string mesh_uri;
+  Eigen::Vector3d mesh_scale = Eigen::Vector3d::Ones();
+  // Rigid elements: the element frame in the body frame (for a URDF link: the link pose with
+  // every joint at zero, times the collision origin). Elements from tf: the collision origin
+  // in the link frame.
+  Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
+  // Rigid URDF links: link pose in the root link frame times the collision origin; offset is
+  // this relative to the body's reference link (resolved when the body frame is known).
+  Eigen::Isometry3d root_offset = Eigen::Isometry3d::Identity();
+  std::string tf_frame;  // the link's tf frame when its pose comes from tf, else empty
+
+  // Output of update(): whether the element has a motion this cycle, and that motion (fixed
+  // frame; t_ref in the registry's seconds, see seconds()).
+  bool active = false;
+  vadop::Motion motion;
+
+  // Own motion estimate from tf (link pose in the body frame at two distinct stamps).
+  bool has_rel = false;
+  ros::Time rel_stamp;
+  Eigen::Isometry3d rel_pose = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d rel_v = Eigen::Vector3d::Zero();  // body frame, of the link origin
+  Eigen::Vector3d rel_w = Eigen::Vector3d::Zero();  // body frame
+};
+
+struct Body {
+  std::string name;
+  bool is_static = false;
+  BodyParams params;  // moving bodies
+  std::vector<size_t> elements;
+  // URDF: links joined by a joint (never self-collisions) and whether links move (tf).
+  std::vector<std::pair<std::string, std::string>> adjacent;
+  std::map<std::string, Eigen::Isometry3d> link_in_root;
+  std::string root_link;
+  std::string reference_for;  // body frame the rigid offsets were computed for
+
+  // Latest accepted state.
+  bool has_state = false;
+  ros::Time stamp;                 // of the state (message stamp; receipt time if zero)
+  std::string source_frame;        // odometry: header.frame_id (pose frame)
+  std::string child_frame;         // odometry: child_frame_id (twist frame)
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  // odometry: child in source frame
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();  // odometry: child frame; twist: twist_frame
+  Eigen::Vector3d w = Eigen::Vector3d::Zero();
+  std::string twist_frame;         // TwistStamped header.frame_id (empty: the body frame)
+
+  BodyStatus status;
+  // Per-kind warning throttle (wall clock seconds of the last warning).
+  double last_warn_invalid = -1e300, last_warn_tf = -1e300;
+  ros::Time tf_missing_since;  // zero while the transforms are there
+};
+
+class BodyRegistry {
+ public:
+  // Builds the bodies and obstacles of `params`. robot_description texts are read with
+  // `read_param` (parsed once per parameter name). Geometry errors do not throw: they are
+  // recorded in the body's status (see geometryErrors()).
+  BodyRegistry(const MonitorParams& params, const ParamReader& read_param, const MeshLoader& load_mesh);
+
+  const std::vector<Body>& bodies() const { return bodies_; }
+  const std::vector<Element>& elements() const { return elements_; }
+  // Index of the body (or obstacle) with this name, or -1.
+  int find(const std::string& name) const;
+  // Every geometry error, one line each, naming the body and link.
+  std::vector<std::string> geometryErrors() const;
+
+  // Message inputs for the moving body `body` (index into bodies()); `receipt` is the ROS time
+  // at which it arrived (it decides staleness; it replaces a zero stamp).
+  InputResult onOdometry(size_t body, const nav_msgs::Odometry& msg, const ros::Time& receipt);
+  InputResult onTwist(size_t body, const geometry_msgs::TwistStamped& msg, const ros::Time& receipt);
+
+  // Computes every element's motion at `now` (sets Element::active and motion, body states).
+  void update(const ros::Time& now, TransformSource& tf);
+
+  // Forgets every state (time jumped backwards, e.g. a bag restarted); keeps the geometry.
+  void reset();
+
+  // The library works in seconds since a base time, set by the first update (or reset).
+  double seconds(const ros::Time& t) const { return (t - base_).toSec(); }
+  const ros::Time& timeBase() const { return base_; }
+
+  double staleTimeout() const { return stale_timeout_; }
+  const std::string& fixedFrame() const { return fixed_frame_; }
+  // Seconds during which a dropped message keeps its body marked in the diagnostics.
+  static constexpr double kInvalidMarkSeconds = 5.0;
+  // Wall seconds between two warnings of one kind for one body.
+  static constexpr double kWarnPeriod = 5.0;
+  // A missing transform is only warned about once it has been missing this long (s, ROS
+  // time): tf takes a moment to fill at start-up. The status flags it at once.
+  static constexpr double kTfWarnAfter = 2.0;
+
+ private:
+  void addUrdfGeometry(size_t body_index, const std::string& description, const UrdfShapes& urdf,
+                       bool links_from_tf, const std::string& tf_prefix);
+  void rejectInput(Body& b, const std::string& why, const ros::Time& receipt);
+  bool acceptStamp(Body& b, ros::Time stamp, const ros::Time& receipt);
+  void resolveReference(Body& b, const std::string& body_frame);
+  bool bodyMotion(Body& b, const ros::Time& now, TransformSource& tf, Eigen::Isometry3d& pose,
+                  Eigen::Vector3d& v, Eigen::Vector3d& w, ros::Time& t_ref, std::string& frame);
+  void warnTf(Body& b, const std::string& error, const ros::Time& now);
+
+  std::string fixed_frame_;
+  double stale_timeout_ = 0.5;
+  std::vector<Body> bodies_;
+  std::vector<Element> elements_;
+  ros::Time base_;
+  bool has_base_ = false;
+};
+
+}  // namespace vadop_ros

@@ -1,0 +1,59 @@
+// rviz markers of one monitor cycle (~markers, visualization_msgs/MarkerArray).
+//
+// Swept volume representation: for every element of a moving body, its shape at the start
+// pose (now) and, fainter, at the end pose (now + horizon), joined by a line strip along the
+// path of its origin (sampled, so a turning body draws an arc). Static obstacles: the shape
+// only. Meshes are drawn as MESH_RESOURCE from their URI (without the padding); the other
+// shapes include the padding (boxes and cylinders as their padded bounding primitive).
+// Colour: by the body's soonest time to impact: red below 0.5 s, amber below the horizon,
+// grey when clear.
+// Impacts (namespace "impacts"): a sphere at the contact point, an arrow along the normal
+// (from a to b) and a text "a/link <-> b/link 0.83 s".
+// Namespaces: one per body (its name), plus "impacts". The array always starts with a
+// DELETEALL marker, so nothing from an earlier cycle lingers.
+#pragma once
+
+#include <vadop/ImpactArray.h>
+#include <vadop/motion.h>
+#include <vadop/shapes.h>
+
+#include <visualization_msgs/MarkerArray.h>
+
+#include <Eigen/Core>
+
+#include <array>
+
+#include <string>
+#include <vector>
+
+namespace vadop_ros {
+
+struct MarkerElement {
+  std::string body;
+  std::string link;
+  bool is_static = false;
+  vadop::Shape shape;  // padded, as in the world
+  vadop::Motion motion;
+  std::string mesh_uri;
+  Eigen::Vector3d mesh_scale = Eigen::Vector3d::Ones();
+  double soonest = 0.0;  // the body's soonest time to impact (s), +inf when clear
+};
+
+struct MarkerInput {
+  std::string frame;
+  ros::Time stamp;
+  double t0 = 0.0;       // the cycle time in the motions' time base
+  double horizon = 2.0;
+  std::vector<MarkerElement> elements;
+  const vadop::ImpactArray* impacts = nullptr;
+};
+
+// Time to impact below which a body is drawn red.
+constexpr double kRedSeconds = 0.5;
+
+visualization_msgs::MarkerArray buildMarkers(const MarkerInput& input);
+
+// The colour rule above (r, g, b, a = 1).
+std::array<float, 3> impactColour(double soonest, double horizon);
+
+}  // namespace vadop_ros

@@ -1,0 +1,42 @@
+// /diagnostics of vadop_monitor (diagnostic_updater tasks):
+//  - "cycle": cycle time (last, mean and max over the reporting window), share of the period,
+//    elements in the world, narrow-phase candidates, impacts; WARN when a cycle overran its
+//    period, ERROR when the last prediction failed;
+//  - "bodies": one key per body with its state ("ok", "stale: no message for 1.3 s",
+//    "transform missing: ...", "dropped 3 bad messages, last: NaN/Inf in ...", "geometry
+//    error: ..."), the level being the worst of them (stale, tf missing and bad messages: WARN;
+//    a geometry error: ERROR; waiting for the first message: OK).
+#pragma once
+
+#include "vadop_ros/monitor_core.h"
+
+#include <diagnostic_updater/DiagnosticStatusWrapper.h>
+
+namespace vadop_ros {
+
+// Accumulates cycle times between two diagnostics reports.
+class CycleTimeWindow {
+ public:
+  // Cycles longer than 1 / rate count as overruns.
+  void setRate(double rate) { rate_for_overrun_ = rate; }
+  void add(const CycleStats& s);
+  // Fills the "cycle" status and restarts the window.
+  void report(diagnostic_updater::DiagnosticStatusWrapper& stat, double rate);
+
+ private:
+  size_t count_ = 0;
+  double sum_ = 0.0, max_ = 0.0;
+  size_t overruns_ = 0;
+  double rate_for_overrun_ = 0.0;
+  CycleStats last_;
+  bool has_last_ = false;
+};
+
+// One line describing a body's state at `now` (ROS time).
+std::string describeBody(const Body& body, const ros::Time& now, double stale_timeout, unsigned char* level);
+
+// Fills the "bodies" status.
+void reportBodies(diagnostic_updater::DiagnosticStatusWrapper& stat, const BodyRegistry& registry,
+                  const ros::Time& now);
+
+}  // namespace vadop_ros

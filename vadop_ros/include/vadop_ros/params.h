@@ -1,0 +1,93 @@
+// The private parameters of vadop_monitor: parsed and validated once at start-up.
+// config/monitor.yaml documents every parameter with comments.
+//
+// Every error throws ParamError with a one-line message that names the parameter by its path
+// under the node's private namespace, for example
+//   ~bodies[2] ("robot_3").shape.radius: must be a number > 0, got -1
+// Unknown keys inside a body, an obstacle or a shape are errors (a typo would otherwise
+// silently mean a default); unknown top-level keys are reported by unknownTopLevelKeys() so
+// that the node can warn (other tools may keep their own parameters there).
+#pragma once
+
+#include <vadop/shapes.h>
+
+#include <Eigen/Geometry>
+#include <xmlrpcpp/XmlRpcValue.h>
+
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace ros {
+class NodeHandle;
+}
+
+namespace vadop_ros {
+
+class ParamError : public std::runtime_error {
+ public:
+  explicit ParamError(const std::string& what) : std::runtime_error(what) {}
+};
+
+enum class VelocitySource {
+  kOdometry,  // nav_msgs/Odometry: pose in header.frame_id, twist in child_frame_id (REP 105)
+  kTwist,     // geometry_msgs/TwistStamped; the pose comes from tf of `frame`
+};
+
+struct BodyParams {
+  std::string name;  // unique among bodies and static obstacles; no '/'
+  VelocitySource source = VelocitySource::kOdometry;
+  std::string topic;  // odom_topic or twist_topic
+  // The body's tf frame, the one its shape (or URDF reference link) is attached to.
+  // Required with twist_topic; with odom_topic empty means the odometry's child_frame_id.
+  std::string frame;
+  // Exactly one geometry source:
+  bool has_shape = false;
+  vadop::Shape shape;             // when has_shape: unpadded, built with vadop::make*
+  std::string robot_description;  // else: name of the parameter holding the URDF
+  // URDF only: when tf_prefix is given (even empty), every link's pose comes from tf, frame
+  // "<tf_prefix>/<link>" ("<link>" when empty); otherwise the links are rigid with the body.
+  bool links_from_tf = false;
+  std::string tf_prefix;
+};
+
+struct StaticObstacleParams {
+  std::string name;
+  bool has_shape = false;
+  vadop::Shape shape;
+  std::string robot_description;  // an environment URDF (links at zero joint positions)
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  // in the fixed frame
+};
+
+struct MonitorParams {
+  std::string fixed_frame = "odom";
+  double rate = 30.0;           // Hz, (0, 1000]
+  double horizon = 2.0;         // s, [0, 60]
+  double padding = 0.0;         // m, [0, 10]
+  double stale_timeout = 0.5;   // s, > 0
+  int axes = 32;                // VADOP pool size (vadop::VadopConfig default)
+  double phi_deg = 25.0;        // VADOP zone half-width (vadop::VadopConfig default)
+  bool self_collision = false;
+  std::vector<std::pair<std::string, std::string>> ignore_pairs;
+  std::vector<BodyParams> bodies;
+  std::vector<StaticObstacleParams> static_obstacles;
+  bool log_impacts = false;     // log every cycle's impacts as readable lines (ROS_INFO)
+  bool publish_markers = true;  // ~markers (built only while someone subscribes)
+};
+
+// Parses the private namespace as one XmlRpc struct (what ros::param::get("~") returns).
+// An invalid (absent) value means "no parameters": all defaults, no bodies.
+// Throws ParamError.
+MonitorParams parseParams(const XmlRpc::XmlRpcValue& root);
+
+// Top-level keys parseParams does not know (to warn about).
+std::vector<std::string> unknownTopLevelKeys(const XmlRpc::XmlRpcValue& root);
+
+// Reads the node's private namespace from the parameter server and parses it.
+MonitorParams loadParams(const ros::NodeHandle& private_nh);
+
+// Parses one shape spec ({type: ..., radius/size/length}); `path` prefixes the messages.
+vadop::Shape parseShape(const XmlRpc::XmlRpcValue& value, const std::string& path);
+
+}  // namespace vadop_ros

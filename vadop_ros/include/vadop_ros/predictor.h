@@ -1,0 +1,71 @@
+// The vadop::World of the monitor, kept incrementally: an element enters the world when it
+// first has a motion, is setMotion'ed only when its motion changed, and leaves while it has
+// none (skipped, e.g. a missing transform); the world is never rebuilt. predict() runs the
+// VADOP broad phase and the continuous narrow phase.
+//
+// Why a wrapper: the library's vadop::Impact (vadop/time_of_impact.h, included by world.h)
+// and the message vadop::Impact generated for this package (msg/Impact.msg, package vadop)
+// are two different types with the same name, so no translation unit may include both. Only
+// predictor.cpp includes world.h; this header exposes neither.
+#pragma once
+
+#include <vadop/motion.h>
+#include <vadop/shapes.h>
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace vadop_ros {
+
+struct PredictorConfig {
+  int axes = 32;         // VADOP pool size
+  double phi_deg = 25.0; // VADOP zone half-width
+};
+
+// One contact predicted by the world, between two elements (indices given to sync()).
+struct RawImpact {
+  size_t a = 0;  // element added to the world first
+  size_t b = 0;
+  double time = 0.0;  // in the motions' time base
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitX();  // unit, from a to b
+  bool initially_touching = false;
+  double closing_speed = 0.0;  // (v_a - v_b) . normal at the point, at `time`
+};
+
+class Predictor {
+ public:
+  // Throws vadop::InvalidArgument when the configuration is rejected.
+  explicit Predictor(const PredictorConfig& config);
+  ~Predictor();
+  Predictor(const Predictor&) = delete;
+  Predictor& operator=(const Predictor&) = delete;
+
+  // Element i: present (with this shape and motion) or absent this cycle. `shape` is used when
+  // the element enters the world. Returns false (and sets error) when the world rejected it.
+  bool set(size_t i, const std::string& id, const vadop::Shape& shape, const vadop::Motion& motion,
+           std::string& error);
+  void unset(size_t i);
+  // Every element leaves the world (padding changed: they come back with new shapes).
+  void clear();
+  bool contains(size_t i) const;
+  const vadop::Motion& motion(size_t i) const;  // as given to the world
+  const vadop::Shape& shape(size_t i) const;    // as given to the world (padded)
+
+  // Contacts over [t0, t0 + horizon], sorted by time. Throws vadop::InvalidArgument.
+  std::vector<RawImpact> predict(double t0, double horizon);
+
+  size_t size() const;
+  size_t lastCandidateCount() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace vadop_ros

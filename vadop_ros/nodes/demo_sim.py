@@ -1,0 +1,207 @@
+#!/usr/bin/python3
+"""Demo simulator for vadop_monitor: N agents (urdf/agent.urdf: a round base and a tilting
+mast) wandering a 12 m x 12 m room with a pillar, several of them on collision courses.
+
+Publishes, at ~rate Hz, for every agent i:
+  /agent_<i>/odom   nav_msgs/Odometry: pose of agent_<i>/base_link in odom, twist in the
+                    base frame (REP 105)
+  /tf               odom -> agent_<i>/base_link, agent_<i>/base_link -> agent_<i>/mast
+Agents bounce off the walls, the pillar and each other (so a predicted impact is usually
+followed by a bounce rather than an overlap).
+
+Private parameters: agents (20), rate (30 Hz), duration (0 = forever; else the node exits
+after that many seconds, which ends demo.launch), seed (1).
+"""
+import math
+import random
+
+import rospy
+import tf2_ros
+from geometry_msgs.msg import TransformStamped
+from nav_msgs.msg import Odometry
+
+ROOM_HALF = 6.0        # inner faces of the walls at +-6 m (config/demo.yaml)
+RADIUS = 0.3           # base radius (urdf/agent.urdf)
+PILLAR = (2.5, -2.5, 0.4)
+MAST_ORIGIN = (0.1, 0.0, 0.3)
+
+
+class Agent:
+    def __init__(self, x, y, yaw, speed, straight_for=0.0):
+        self.x, self.y, self.yaw, self.v = x, y, yaw, speed
+        self.wz = 0.0
+        self.straight_until = straight_for  # s: no wandering before (collision courses)
+        self.next_turn = straight_for
+        self.mast_phase = random.uniform(0.0, 2.0 * math.pi)
+        self.mast_rate = random.uniform(0.6, 1.2)
+
+    def vel(self):
+        return self.v * math.cos(self.yaw), self.v * math.sin(self.yaw)
+
+    def set_vel(self, vx, vy):
+        self.v = max(0.2, min(1.2, math.hypot(vx, vy)))
+        self.yaw = math.atan2(vy, vx)
+
+
+def quat_z(yaw):
+    return 0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0)
+
+
+def quat_y(angle):
+    return 0.0, math.sin(angle / 2.0), 0.0, math.cos(angle / 2.0)
+
+
+def make_agents(n):
+    agents = []
+    # Collision courses first: head-on pairs along x at several y, and one crossing pair.
+    courses = [
+        ((-4.0, 4.0, 0.0, 0.8), (4.0, 4.0, math.pi, 0.8)),
+        ((-4.5, 1.5, 0.0, 0.6), (3.5, 1.5, math.pi, 0.9)),
+        ((-1.0, -4.5, math.pi / 2, 0.7), (-1.0, 3.5, -math.pi / 2, 0.7)),
+        ((-5.0, -1.0, 0.0, 1.0), (0.0, -5.0, math.pi / 2, 0.8)),  # crossing at right angles
+    ]
+    for a, b in courses:
+        if len(agents) + 2 > n:
+            break
+        agents.append(Agent(a[0], a[1], a[2], a[3], straight_for=8.0))
+        agents.append(Agent(b[0], b[1], b[2], b[3], straight_for=8.0))
+    # The others at random free places.
+    tries = 0
+    while len(agents) < n and tries < 100000:
+        tries += 1
+        x = random.uniform(-ROOM_HALF + 0.6, ROOM_HALF - 0.6)
+        y = random.uniform(-ROOM_HALF + 0.6, ROOM_HALF - 0.6)
+        if math.hypot(x - PILLAR[0], y - PILLAR[1]) < PILLAR[2] + RADIUS + 0.3:
+            continue
+        if any(math.hypot(x - o.x, y - o.y) < 2 * RADIUS + 0.3 for o in agents):
+            continue
+        agents.append(Agent(x, y, random.uniform(-math.pi, math.pi), random.uniform(0.3, 1.0)))
+    return agents
+
+
+def step(agents, t, dt):
+    for a in agents:
+        if t >= a.next_turn:
+            a.wz = random.uniform(-0.6, 0.6)
+            a.next_turn = t + random.uniform(1.5, 4.0)
+        a.yaw += a.wz * dt
+        vx, vy = a.vel()
+        a.x += vx * dt
+        a.y += vy * dt
+        # Walls: reflect.
+        lim = ROOM_HALF - RADIUS
+        if abs(a.x) > lim:
+            a.x = math.copysign(lim, a.x)
+            a.set_vel(-vx, vy)
+        vx, vy = a.vel()
+        if abs(a.y) > lim:
+            a.y = math.copysign(lim, a.y)
+            a.set_vel(vx, -vy)
+        # Pillar: reflect about the normal.
+        dx, dy = a.x - PILLAR[0], a.y - PILLAR[1]
+        d = math.hypot(dx, dy)
+        if d < PILLAR[2] + RADIUS and d > 1e-9:
+            nx, ny = dx / d, dy / d
+            vx, vy = a.vel()
+            vn = vx * nx + vy * ny
+            if vn < 0:
+                a.set_vel(vx - 2 * vn * nx, vy - 2 * vn * ny)
+            a.x, a.y = PILLAR[0] + nx * (PILLAR[2] + RADIUS), PILLAR[1] + ny * (PILLAR[2] + RADIUS)
+    # Agents: elastic bounce (equal masses swap their normal velocities).
+    for i in range(len(agents)):
+        for j in range(i + 1, len(agents)):
+            a, b = agents[i], agents[j]
+            dx, dy = b.x - a.x, b.y - a.y
+            d = math.hypot(dx, dy)
+            if d >= 2 * RADIUS or d < 1e-9:
+                continue
+            nx, ny = dx / d, dy / d
+            (avx, avy), (bvx, bvy) = a.vel(), b.vel()
+            rel = (avx - bvx) * nx + (avy - bvy) * ny
+            if rel > 0:  # approaching
+                a.set_vel(avx - rel * nx, avy - rel * ny)
+                b.set_vel(bvx + rel * nx, bvy + rel * ny)
+                a.straight_until = b.straight_until = 0.0
+
+
+def main():
+    rospy.init_node("demo_sim")
+    n = int(rospy.get_param("~agents", 20))
+    rate_hz = float(rospy.get_param("~rate", 30.0))
+    duration = float(rospy.get_param("~duration", 0.0))
+    random.seed(int(rospy.get_param("~seed", 1)))
+    if n < 1:
+        rospy.logfatal("demo_sim: ~agents must be >= 1, got %d", n)
+        return
+    agents = make_agents(n)
+    if len(agents) < n:
+        rospy.logwarn("demo_sim: only %d agents fit in the room", len(agents))
+    pubs = [rospy.Publisher("/agent_%d/odom" % i, Odometry, queue_size=5) for i in range(len(agents))]
+    tfb = tf2_ros.TransformBroadcaster()
+    rospy.loginfo("demo_sim: %d agents in a %.0f m x %.0f m room, %.0f Hz%s", len(agents), 2 * ROOM_HALF,
+                  2 * ROOM_HALF, rate_hz, (", stopping after %.0f s" % duration) if duration > 0 else "")
+
+    rate = rospy.Rate(rate_hz)
+    start = None
+    last = None
+    while not rospy.is_shutdown():
+        now = rospy.Time.now()
+        if now.is_zero():  # use_sim_time without /clock yet
+            rospy.sleep(0.05)
+            continue
+        if start is None:
+            start = last = now
+        t = (now - start).to_sec()
+        if duration > 0 and t >= duration:
+            rospy.loginfo("demo_sim: %.0f s elapsed, stopping", duration)
+            break
+        dt = (now - last).to_sec()
+        last = now
+        if dt > 0:
+            step(agents, t, min(dt, 0.2))
+        transforms = []
+        for i, a in enumerate(agents):
+            frame = "agent_%d/base_link" % i
+            m = Odometry()
+            m.header.stamp = now
+            m.header.frame_id = "odom"
+            m.child_frame_id = frame
+            m.pose.pose.position.x, m.pose.pose.position.y = a.x, a.y
+            q = quat_z(a.yaw)
+            (m.pose.pose.orientation.x, m.pose.pose.orientation.y, m.pose.pose.orientation.z,
+             m.pose.pose.orientation.w) = q
+            m.twist.twist.linear.x = a.v
+            m.twist.twist.angular.z = a.wz
+            pubs[i].publish(m)
+
+            base = TransformStamped()
+            base.header.stamp = now
+            base.header.frame_id = "odom"
+            base.child_frame_id = frame
+            base.transform.translation.x, base.transform.translation.y = a.x, a.y
+            (base.transform.rotation.x, base.transform.rotation.y, base.transform.rotation.z,
+             base.transform.rotation.w) = q
+            transforms.append(base)
+
+            mast = TransformStamped()
+            mast.header.stamp = now
+            mast.header.frame_id = frame
+            mast.child_frame_id = "agent_%d/mast" % i
+            (mast.transform.translation.x, mast.transform.translation.y,
+             mast.transform.translation.z) = MAST_ORIGIN
+            tilt = 0.35 * math.sin(a.mast_rate * t + a.mast_phase)
+            (mast.transform.rotation.x, mast.transform.rotation.y, mast.transform.rotation.z,
+             mast.transform.rotation.w) = quat_y(tilt)
+            transforms.append(mast)
+        tfb.sendTransform(transforms)
+        try:
+            rate.sleep()
+        except rospy.ROSTimeMovedBackwardsException:
+            start = last = None
+
+
+if __name__ == "__main__":
+    try:
+        main()
+    except rospy.ROSInterruptException:
+        pass

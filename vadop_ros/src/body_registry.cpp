@@ -1,0 +1,522 @@
+#include "vadop_ros/body_registry.h"
+
+#include <vadop/error.h>
+
+#include <ros/console.h>
+#include <ros/time.h>
+
+#include <cmath>
+#include <map>
+#include <memory>
+#include <sstream>
+
+namespace vadop_ros {
+namespace {
+
+constexpr double kMaxMagnitude = 1e9;  // m, m/s, rad/s: anything beyond is treated as garbage
+
+double wallNow() { return ros::WallTime::now().toSec(); }
+
+// Checks one value; returns false (and sets `why`) on NaN/Inf or beyond kMaxMagnitude.
+bool checkValue(double v, const char* field, std::string& why) {
+  if (!std::isfinite(v)) {
+    why = std::string("NaN/Inf in ") + field;
+    return false;
+  }
+  if (std::fabs(v) > kMaxMagnitude) {
+    std::ostringstream os;
+    os << field << " = " << v << " is out of range (|value| > 1e9)";
+    why = os.str();
+    return false;
+  }
+  return true;
+}
+
+bool checkVector(const geometry_msgs::Vector3& v, const std::string& field, std::string& why) {
+  return checkValue(v.x, (field + ".x").c_str(), why) && checkValue(v.y, (field + ".y").c_str(), why) &&
+         checkValue(v.z, (field + ".z").c_str(), why);
+}
+
+bool checkPoint(const geometry_msgs::Point& v, const std::string& field, std::string& why) {
+  return checkValue(v.x, (field + ".x").c_str(), why) && checkValue(v.y, (field + ".y").c_str(), why) &&
+         checkValue(v.z, (field + ".z").c_str(), why);
+}
+
+bool checkQuaternion(const geometry_msgs::Quaternion& q, const std::string& field, std::string& why) {
+  if (!(std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z) && std::isfinite(q.w))) {
+    why = "NaN/Inf in " + field;
+    return false;
+  }
+  const double n = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+  if (!(n > 1e-9) || !std::isfinite(n)) {
+    why = "zero-norm quaternion in " + field;
+    return false;
+  }
+  return true;
+}
+
+Eigen::Vector3d toEigen(const geometry_msgs::Vector3& v) { return {v.x, v.y, v.z}; }
+
+std::string stripSlash(std::string s) {
+  while (!s.empty() && s.front() == '/') s.erase(0, 1);
+  return s;
+}
+
+// Rotation vector (axis * angle) of a rotation matrix, angle in [0, pi].
+Eigen::Vector3d rotationVector(const Eigen::Matrix3d& r) {
+  const Eigen::AngleAxisd aa(r);
+  return aa.axis() * aa.angle();
+}
+
+bool finiteMotionOver(const vadop::Motion& m, double t0, double t1) {
+  for (const double t : {t0, t1}) {
+    if (!m.positionAt(t).allFinite()) return false;
+    if (!(m.angular_velocity * (t - m.t_ref)).allFinite()) return false;
+    if (m.positionAt(t).cwiseAbs().maxCoeff() > 1e12) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+const char* toString(BodyState s) {
+  switch (s) {
+    case BodyState::kWaiting: return "waiting for the first message";
+    case BodyState::kOk: return "ok";
+    case BodyState::kStale: return "stale";
+    case BodyState::kTfMissing: return "transform missing";
+    case BodyState::kNoGeometry: return "no geometry";
+    case BodyState::kStatic: return "static";
+  }
+  return "unknown";
+}
+
+BodyRegistry::BodyRegistry(const MonitorParams& params, const ParamReader& read_param, const MeshLoader& load_mesh)
+    : fixed_frame_(params.fixed_frame), stale_timeout_(params.stale_timeout) {
+  // Parsed URDFs by parameter name (a fleet usually shares one description).
+  std::map<std::string, std::shared_ptr<UrdfShapes>> parsed;
+  std::map<std::string, std::string> parse_error;
+  auto getUrdf = [&](const std::string& param, std::string& error) -> std::shared_ptr<UrdfShapes> {
+    if (parsed.count(param)) return parsed[param];
+    if (parse_error.count(param)) {
+      error = parse_error[param];
+      return nullptr;
+    }
+    std::string text;
+    if (!read_param || !read_param(param, text)) {
+      error = "robot_description parameter \"" + param + "\" does not exist (or is not a string)";
+    } else {
+      try {
+        auto shapes = std::make_shared<UrdfShapes>(urdfToShapes(text, load_mesh));
+        parsed[param] = shapes;
+        return shapes;
+      } catch (const UrdfError& e) {
+        error = "robot_description \"" + param + "\": " + e.what();
+      }
+    }
+    parse_error[param] = error;
+    return nullptr;
+  };
+
+  for (const BodyParams& bp : params.bodies) {
+    Body b;
+    b.name = bp.name;
+    b.params = bp;
+    bodies_.push_back(std::move(b));
+    const size_t bi = bodies_.size() - 1;
+    if (bp.has_shape) {
+      Element e;
+      e.id = bp.name;
+      e.body = bi;
+      e.shape = bp.shape;
+      elements_.push_back(std::move(e));
+      bodies_[bi].elements.push_back(elements_.size() - 1);
+      continue;
+    }
+    std::string error;
+    const auto urdf = getUrdf(bp.robot_description, error);
+    if (!urdf) {
+      bodies_[bi].status.geometry_errors.push_back(error);
+      bodies_[bi].status.state = BodyState::kNoGeometry;
+      continue;
+    }
+    addUrdfGeometry(bi, bp.robot_description, *urdf, bp.links_from_tf, bp.tf_prefix);
+  }
+
+  for (const StaticObstacleParams& op : params.static_obstacles) {
+    Body b;
+    b.name = op.name;
+    b.is_static = true;
+    b.has_state = true;
+    b.pose = op.pose;
+    b.status.state = BodyState::kStatic;
+    bodies_.push_back(std::move(b));
+    const size_t bi = bodies_.size() - 1;
+    if (op.has_shape) {
+      Element e;
+      e.id = op.name;
+      e.body = bi;
+      e.shape = op.shape;
+      elements_.push_back(std::move(e));
+      bodies_[bi].elements.push_back(elements_.size() - 1);
+    } else {
+      std::string error;
+      const auto urdf = getUrdf(op.robot_description, error);
+      if (!urdf) {
+        bodies_[bi].status.geometry_errors.push_back(error);
+        bodies_[bi].status.state = BodyState::kNoGeometry;
+        continue;
+      }
+      addUrdfGeometry(bi, op.robot_description, *urdf, false, "");
+    }
+    // Static elements: fixed pose, zero velocity, always active.
+    for (const size_t ei : bodies_[bi].elements) {
+      Element& e = elements_[ei];
+      const Eigen::Isometry3d pose = op.pose * e.offset;
+      e.motion = vadop::makeMotion(pose.translation(), Eigen::Quaterniond(pose.linear()), Eigen::Vector3d::Zero(),
+                                   Eigen::Vector3d::Zero(), 0.0);
+      e.active = true;
+    }
+  }
+}
+
+void BodyRegistry::addUrdfGeometry(size_t bi, const std::string& description, const UrdfShapes& urdf,
+                                   bool links_from_tf, const std::string& tf_prefix) {
+  Body& b = bodies_[bi];
+  b.adjacent = urdf.adjacent;
+  b.link_in_root = urdf.link_in_root;
+  b.root_link = urdf.root_link;
+  for (const std::string& err : urdf.errors) {
+    b.status.geometry_errors.push_back("robot_description \"" + description + "\": " + err);
+  }
+  for (const LinkGeometry& g : urdf.geometries) {
+    Element e;
+    e.id = b.name + "/" + g.link + (g.index > 0 ? "#" + std::to_string(g.index) : "");
+    e.body = bi;
+    e.link = g.link;
+    e.shape = g.shape;
+    e.mesh_uri = g.mesh_uri;
+    e.mesh_scale = g.mesh_scale;
+    if (links_from_tf) {
+      e.offset = g.origin;
+      e.tf_frame = tf_prefix.empty() ? g.link : tf_prefix + "/" + g.link;
+    } else {
+      const auto it = urdf.link_in_root.find(g.link);
+      e.root_offset = (it != urdf.link_in_root.end() ? it->second : Eigen::Isometry3d::Identity()) * g.origin;
+      e.offset = e.root_offset;
+    }
+    elements_.push_back(std::move(e));
+    b.elements.push_back(elements_.size() - 1);
+  }
+  if (b.elements.empty()) {
+    b.status.geometry_errors.push_back("robot_description \"" + description + "\": no usable collision element");
+    b.status.state = BodyState::kNoGeometry;
+  }
+  // Rigid links: offsets relative to the root until the body frame is known.
+  b.reference_for.clear();
+}
+
+int BodyRegistry::find(const std::string& name) const {
+  for (size_t i = 0; i < bodies_.size(); ++i) {
+    if (bodies_[i].name == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+std::vector<std::string> BodyRegistry::geometryErrors() const {
+  std::vector<std::string> out;
+  for (const Body& b : bodies_) {
+    for (const std::string& e : b.status.geometry_errors) {
+      out.push_back(std::string(b.is_static ? "static obstacle" : "body") + " \"" + b.name + "\": " + e);
+    }
+  }
+  return out;
+}
+
+void BodyRegistry::rejectInput(Body& b, const std::string& why, const ros::Time& receipt) {
+  ++b.status.dropped_invalid;
+  b.status.last_invalid = why;
+  b.status.last_invalid_receipt = receipt;
+  const double now = wallNow();
+  if (now - b.last_warn_invalid >= kWarnPeriod) {
+    b.last_warn_invalid = now;
+    ROS_WARN_NAMED("vadop_monitor", "body \"%s\": message dropped: %s (%llu dropped so far; warnings for this body "
+                   "throttled to one per %.0f s)",
+                   b.name.c_str(), why.c_str(), static_cast<unsigned long long>(b.status.dropped_invalid), kWarnPeriod);
+  }
+}
+
+bool BodyRegistry::acceptStamp(Body& b, ros::Time stamp, const ros::Time& receipt) {
+  if (stamp.isZero()) stamp = receipt;
+  if (b.has_state && stamp <= b.stamp) {
+    ++b.status.dropped_out_of_order;
+    ROS_DEBUG_NAMED("vadop_monitor", "body \"%s\": message with stamp %.6f ignored (not newer than %.6f)",
+                    b.name.c_str(), stamp.toSec(), b.stamp.toSec());
+    return false;
+  }
+  b.stamp = stamp;
+  return true;
+}
+
+InputResult BodyRegistry::onOdometry(size_t bi, const nav_msgs::Odometry& msg, const ros::Time& receipt) {
+  Body& b = bodies_.at(bi);
+  std::string why;
+  const auto& p = msg.pose.pose;
+  const auto& t = msg.twist.twist;
+  if (!checkPoint(p.position, "pose.pose.position", why) ||
+      !checkQuaternion(p.orientation, "pose.pose.orientation", why) ||
+      !checkVector(t.linear, "twist.twist.linear", why) || !checkVector(t.angular, "twist.twist.angular", why)) {
+    rejectInput(b, why, receipt);
+    return InputResult::kInvalid;
+  }
+  if (!acceptStamp(b, msg.header.stamp, receipt)) return InputResult::kOutOfOrder;
+  b.has_state = true;
+  b.source_frame = stripSlash(msg.header.frame_id);
+  if (b.source_frame.empty()) b.source_frame = fixed_frame_;
+  b.child_frame = stripSlash(msg.child_frame_id);
+  b.pose = Eigen::Isometry3d::Identity();
+  b.pose.translation() = Eigen::Vector3d(p.position.x, p.position.y, p.position.z);
+  b.pose.linear() = Eigen::Quaterniond(p.orientation.w, p.orientation.x, p.orientation.y, p.orientation.z)
+                        .normalized()
+                        .toRotationMatrix();
+  b.v = toEigen(t.linear);
+  b.w = toEigen(t.angular);
+  b.status.last_receipt = receipt;
+  ++b.status.accepted;
+  return InputResult::kAccepted;
+}
+
+InputResult BodyRegistry::onTwist(size_t bi, const geometry_msgs::TwistStamped& msg, const ros::Time& receipt) {
+  Body& b = bodies_.at(bi);
+  std::string why;
+  if (!checkVector(msg.twist.linear, "twist.linear", why) || !checkVector(msg.twist.angular, "twist.angular", why)) {
+    rejectInput(b, why, receipt);
+    return InputResult::kInvalid;
+  }
+  if (!acceptStamp(b, msg.header.stamp, receipt)) return InputResult::kOutOfOrder;
+  b.has_state = true;
+  b.twist_frame = stripSlash(msg.header.frame_id);
+  b.v = toEigen(msg.twist.linear);
+  b.w = toEigen(msg.twist.angular);
+  b.status.last_receipt = receipt;
+  ++b.status.accepted;
+  return InputResult::kAccepted;
+}
+
+void BodyRegistry::warnTf(Body& b, const std::string& error, const ros::Time& ros_now) {
+  b.status.tf_error = error;
+  if (b.tf_missing_since.isZero()) b.tf_missing_since = ros_now;
+  if ((ros_now - b.tf_missing_since).toSec() < kTfWarnAfter) return;
+  const double now = wallNow();
+  if (now - b.last_warn_tf >= kWarnPeriod) {
+    b.last_warn_tf = now;
+    ROS_WARN_NAMED("vadop_monitor", "body \"%s\" skipped this cycle: %s (warnings for this body throttled to one "
+                   "per %.0f s)",
+                   b.name.c_str(), error.c_str(), kWarnPeriod);
+  }
+}
+
+void BodyRegistry::resolveReference(Body& b, const std::string& body_frame) {
+  if (b.reference_for == body_frame || b.params.has_shape || b.params.links_from_tf) return;
+  b.reference_for = body_frame;
+  // The reference link: the body frame without the tf prefix (or its last path component)
+  // when it names a URDF link, else the root link.
+  std::string ref = body_frame;
+  if (!b.link_in_root.count(ref)) {
+    const size_t slash = ref.find_last_of('/');
+    if (slash != std::string::npos) ref = ref.substr(slash + 1);
+  }
+  Eigen::Isometry3d root_in_ref = Eigen::Isometry3d::Identity();
+  const auto it = b.link_in_root.find(ref);
+  if (it != b.link_in_root.end()) root_in_ref = it->second.inverse();
+  for (const size_t ei : b.elements) {
+    Element& e = elements_[ei];
+    e.offset = root_in_ref * e.root_offset;
+  }
+}
+
+bool BodyRegistry::bodyMotion(Body& b, const ros::Time& now, TransformSource& tf, Eigen::Isometry3d& pose,
+                              Eigen::Vector3d& v, Eigen::Vector3d& w, ros::Time& t_ref, std::string& frame) {
+  std::string error;
+  ros::Time stamp;
+  if (b.params.source == VelocitySource::kOdometry) {
+    Eigen::Isometry3d fixed_src = Eigen::Isometry3d::Identity();
+    if (b.source_frame != fixed_frame_) {
+      if (!tf.lookup(fixed_frame_, b.source_frame, b.stamp, fixed_src, stamp, error) &&
+          !tf.lookup(fixed_frame_, b.source_frame, ros::Time(0), fixed_src, stamp, error)) {
+        warnTf(b, error, now);
+        return false;
+      }
+    }
+    const Eigen::Isometry3d fixed_child = fixed_src * b.pose;
+    const Eigen::Matrix3d& r = fixed_child.linear();
+    v = r * b.v;
+    w = r * b.w;
+    pose = fixed_child;
+    frame = b.child_frame;
+    if (!b.params.frame.empty() && b.params.frame != b.child_frame && !b.child_frame.empty()) {
+      // The body frame is another frame rigid with the child frame.
+      Eigen::Isometry3d child_body;
+      if (!tf.lookup(b.child_frame, b.params.frame, ros::Time(0), child_body, stamp, error)) {
+        warnTf(b, error, now);
+        return false;
+      }
+      pose = fixed_child * child_body;
+      v += w.cross(pose.translation() - fixed_child.translation());
+      frame = b.params.frame;
+    } else if (!b.params.frame.empty()) {
+      frame = b.params.frame;
+    }
+    t_ref = b.stamp;
+  } else {
+    frame = b.params.frame;
+    if (!tf.lookup(fixed_frame_, frame, ros::Time(0), pose, stamp, error)) {
+      warnTf(b, error, now);
+      return false;
+    }
+    Eigen::Matrix3d r = pose.linear();
+    if (!b.twist_frame.empty() && b.twist_frame != frame) {
+      Eigen::Isometry3d fixed_twist;
+      ros::Time s2;
+      if (!tf.lookup(fixed_frame_, b.twist_frame, ros::Time(0), fixed_twist, s2, error)) {
+        warnTf(b, error, now);
+        return false;
+      }
+      r = fixed_twist.linear();
+    }
+    v = r * b.v;
+    w = r * b.w;
+    t_ref = stamp.isZero() ? now : stamp;
+  }
+  return true;
+}
+
+void BodyRegistry::update(const ros::Time& now, TransformSource& tf) {
+  if (!has_base_) {
+    base_ = now;
+    has_base_ = true;
+  }
+  for (Body& b : bodies_) {
+    if (b.is_static) continue;
+    for (const size_t ei : b.elements) elements_[ei].active = false;
+    b.status.tf_error.clear();
+    b.status.links_skipped = 0;
+    if (b.elements.empty()) {
+      b.status.state = BodyState::kNoGeometry;
+      continue;
+    }
+    if (!b.has_state) {
+      b.status.state = BodyState::kWaiting;
+      continue;
+    }
+    Eigen::Isometry3d fb;
+    Eigen::Vector3d v, w;
+    ros::Time t_ref;
+    std::string body_frame;
+    if (!bodyMotion(b, now, tf, fb, v, w, t_ref, body_frame)) {
+      b.status.state = BodyState::kTfMissing;
+      continue;
+    }
+    const bool stale = (now - b.status.last_receipt).toSec() > stale_timeout_;
+    if (stale) {
+      v.setZero();
+      w.setZero();
+    }
+    resolveReference(b, body_frame);
+    const double tr = seconds(t_ref);
+    const double t_now = seconds(now);
+    const Eigen::Matrix3d& rb = fb.linear();
+    for (const size_t ei : b.elements) {
+      Element& e = elements_[ei];
+      Eigen::Isometry3d pe;
+      Eigen::Vector3d ve, we;
+      if (e.tf_frame.empty()) {
+        pe = fb * e.offset;
+        ve = v + w.cross(pe.translation() - fb.translation());
+        we = w;
+      } else {
+        Eigen::Isometry3d body_link;
+        ros::Time ls;
+        std::string error;
+        if (body_frame.empty()) {
+          error = "the odometry has no child_frame_id and the body no frame parameter: link poses cannot be "
+                  "looked up";
+          warnTf(b, error, now);
+          ++b.status.links_skipped;
+          continue;
+        }
+        if (!tf.lookup(body_frame, e.tf_frame, ros::Time(0), body_link, ls, error)) {
+          warnTf(b, "link \"" + e.link + "\": " + error, now);
+          ++b.status.links_skipped;
+          continue;
+        }
+        // Own motion relative to the body, from the last two distinct tf stamps.
+        if (e.has_rel && ls > e.rel_stamp) {
+          const double dt = (ls - e.rel_stamp).toSec();
+          e.rel_v = (body_link.translation() - e.rel_pose.translation()) / dt;
+          e.rel_w = rotationVector(body_link.linear() * e.rel_pose.linear().transpose()) / dt;
+          if (!e.rel_v.allFinite() || !e.rel_w.allFinite() || dt > 1.0) {
+            e.rel_v.setZero();
+            e.rel_w.setZero();
+          }
+        }
+        if (!e.has_rel || ls > e.rel_stamp) {
+          e.has_rel = true;
+          e.rel_stamp = ls;
+          e.rel_pose = body_link;
+        }
+        const Eigen::Isometry3d le = body_link * e.offset;  // element in the body frame
+        pe = fb * le;
+        const Eigen::Vector3d r_world = rb * le.translation();
+        Eigen::Vector3d own_v = Eigen::Vector3d::Zero(), own_w = Eigen::Vector3d::Zero();
+        if (!stale) {
+          own_v = rb * (e.rel_v + e.rel_w.cross(le.translation() - body_link.translation()));
+          own_w = rb * e.rel_w;
+        }
+        ve = v + w.cross(r_world) + own_v;
+        we = w + own_w;
+      }
+      try {
+        vadop::Motion m = vadop::makeMotion(pe.translation(), Eigen::Quaterniond(pe.linear()), ve, we, tr);
+        if (!finiteMotionOver(m, t_now, t_now + 120.0)) {
+          rejectInput(b, "pose or velocity out of range after transformation", now);
+          continue;
+        }
+        e.motion = m;
+        e.active = true;
+      } catch (const vadop::InvalidArgument& ex) {
+        rejectInput(b, std::string("invalid motion: ") + ex.what(), now);
+      }
+    }
+    if (b.status.links_skipped > 0) {
+      b.status.state = BodyState::kTfMissing;
+    } else {
+      b.tf_missing_since = ros::Time();
+      b.status.state = stale ? BodyState::kStale : BodyState::kOk;
+    }
+  }
+}
+
+void BodyRegistry::reset() {
+  has_base_ = false;
+  for (Body& b : bodies_) {
+    if (b.is_static) continue;
+    b.has_state = false;
+    b.stamp = ros::Time();
+    b.status.state = b.elements.empty() ? BodyState::kNoGeometry : BodyState::kWaiting;
+    b.status.last_receipt = ros::Time();
+    b.status.last_invalid_receipt = ros::Time();
+    b.tf_missing_since = ros::Time();
+    for (const size_t ei : b.elements) {
+      Element& e = elements_[ei];
+      e.active = false;
+      if (!e.tf_frame.empty()) {
+        e.has_rel = false;
+        e.rel_v.setZero();
+        e.rel_w.setZero();
+      }
+    }
+  }
+}
+
+}  // namespace vadop_ros

@@ -1,0 +1,210 @@
+#include "vadop_ros/markers.h"
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+namespace vadop_ros {
+namespace {
+
+using visualization_msgs::Marker;
+
+void setPose(Marker& m, const Eigen::Isometry3d& pose) {
+  const Eigen::Quaterniond q(pose.linear());
+  m.pose.position.x = pose.translation().x();
+  m.pose.position.y = pose.translation().y();
+  m.pose.position.z = pose.translation().z();
+  m.pose.orientation.x = q.x();
+  m.pose.orientation.y = q.y();
+  m.pose.orientation.z = q.z();
+  m.pose.orientation.w = q.w();
+}
+
+void setColour(Marker& m, const std::array<float, 3>& c, float a) {
+  m.color.r = c[0];
+  m.color.g = c[1];
+  m.color.b = c[2];
+  m.color.a = a;
+}
+
+// Appends the markers drawing `e`'s shape at `pose`.
+void addShape(visualization_msgs::MarkerArray& out, Marker base, const MarkerElement& e,
+              const Eigen::Isometry3d& pose) {
+  const vadop::Shape& s = e.shape;
+  const double m = s.margin;
+  setPose(base, pose);
+  switch (s.type) {
+    case vadop::ShapeType::kSphere:
+      base.type = Marker::SPHERE;
+      base.scale.x = base.scale.y = base.scale.z = 2.0 * (s.radius + m);
+      out.markers.push_back(base);
+      return;
+    case vadop::ShapeType::kBox:
+      base.type = Marker::CUBE;
+      base.scale.x = 2.0 * (s.half_extents.x() + m);
+      base.scale.y = 2.0 * (s.half_extents.y() + m);
+      base.scale.z = 2.0 * (s.half_extents.z() + m);
+      out.markers.push_back(base);
+      return;
+    case vadop::ShapeType::kCylinder:
+      base.type = Marker::CYLINDER;
+      base.scale.x = base.scale.y = 2.0 * (s.radius + m);
+      base.scale.z = 2.0 * (s.half_length + m);
+      out.markers.push_back(base);
+      return;
+    case vadop::ShapeType::kCapsule: {
+      const double r = s.radius + m;
+      base.type = Marker::CYLINDER;
+      base.scale.x = base.scale.y = 2.0 * r;
+      base.scale.z = std::max(2.0 * s.half_length, 1e-4);
+      out.markers.push_back(base);
+      for (const double z : {-s.half_length, s.half_length}) {
+        Marker cap = base;
+        cap.id = base.id + 1 + (z > 0 ? 1 : 0);
+        cap.type = Marker::SPHERE;
+        cap.scale.x = cap.scale.y = cap.scale.z = 2.0 * r;
+        setPose(cap, pose * Eigen::Translation3d(0.0, 0.0, z));
+        out.markers.push_back(cap);
+      }
+      return;
+    }
+    case vadop::ShapeType::kMesh:
+      if (!e.mesh_uri.empty()) {
+        base.type = Marker::MESH_RESOURCE;
+        base.mesh_resource = e.mesh_uri;
+        base.scale.x = e.mesh_scale.x();
+        base.scale.y = e.mesh_scale.y();
+        base.scale.z = e.mesh_scale.z();
+        out.markers.push_back(base);
+        return;
+      }
+      break;
+    case vadop::ShapeType::kConvex:
+      break;
+  }
+  // No primitive to draw: the bounding sphere.
+  base.type = Marker::SPHERE;
+  base.scale.x = base.scale.y = base.scale.z = 2.0 * s.bounding_radius;
+  out.markers.push_back(base);
+}
+
+geometry_msgs::Point point(const Eigen::Vector3d& p) {
+  geometry_msgs::Point out;
+  out.x = p.x();
+  out.y = p.y();
+  out.z = p.z();
+  return out;
+}
+
+std::string label(const std::string& body, const std::string& link) {
+  return link.empty() ? body : body + "/" + link;
+}
+
+}  // namespace
+
+std::array<float, 3> impactColour(double soonest, double horizon) {
+  if (soonest < kRedSeconds) return {0.9f, 0.1f, 0.1f};
+  if (soonest <= horizon && std::isfinite(soonest)) return {1.0f, 0.65f, 0.0f};
+  return {0.6f, 0.6f, 0.6f};
+}
+
+visualization_msgs::MarkerArray buildMarkers(const MarkerInput& in) {
+  visualization_msgs::MarkerArray out;
+  Marker clear;
+  clear.header.frame_id = in.frame;
+  clear.header.stamp = in.stamp;
+  clear.action = Marker::DELETEALL;
+  out.markers.push_back(clear);
+
+  std::map<std::string, int> next_id;  // per namespace
+  const double t1 = in.t0 + in.horizon;
+  for (const MarkerElement& e : in.elements) {
+    const auto colour = impactColour(e.soonest, in.horizon);
+    Marker base;
+    base.header.frame_id = in.frame;
+    base.header.stamp = in.stamp;
+    base.ns = e.body;
+    base.action = Marker::ADD;
+    base.frame_locked = false;
+    int& id = next_id[e.body];
+
+    Marker start = base;
+    start.id = id;
+    id += 3;  // capsules use id + 1 and id + 2
+    setColour(start, colour, e.is_static ? 0.9f : 0.8f);
+    addShape(out, start, e, e.motion.poseAt(in.t0));
+    if (e.is_static) continue;
+
+    const bool moves = e.motion.linear_velocity.squaredNorm() > 0.0 || e.motion.isRotating();
+    if (!moves || in.horizon <= 0.0) continue;
+    Marker end = base;
+    end.id = id;
+    id += 3;
+    setColour(end, colour, 0.25f);
+    addShape(out, end, e, e.motion.poseAt(t1));
+
+    Marker path = base;
+    path.id = id++;
+    path.type = Marker::LINE_STRIP;
+    path.scale.x = 0.03;
+    setColour(path, colour, 0.9f);
+    path.pose.orientation.w = 1.0;
+    constexpr int kSamples = 12;
+    for (int k = 0; k <= kSamples; ++k) {
+      const double t = in.t0 + in.horizon * k / kSamples;
+      path.points.push_back(point(e.motion.positionAt(t)));
+    }
+    out.markers.push_back(path);
+  }
+
+  if (in.impacts) {
+    int id = 0;
+    for (const vadop::Impact& imp : in.impacts->impacts) {
+      const auto colour = impactColour(imp.time_to_impact, in.horizon);
+      Marker base;
+      base.header.frame_id = in.frame;
+      base.header.stamp = in.stamp;
+      base.ns = "impacts";
+      base.action = Marker::ADD;
+      base.pose.orientation.w = 1.0;
+
+      Marker dot = base;
+      dot.id = id++;
+      dot.type = Marker::SPHERE;
+      dot.pose.position = imp.point;
+      dot.scale.x = dot.scale.y = dot.scale.z = 0.12;
+      setColour(dot, colour, 1.0f);
+      out.markers.push_back(dot);
+
+      Marker arrow = base;
+      arrow.id = id++;
+      arrow.type = Marker::ARROW;
+      arrow.points.push_back(imp.point);
+      geometry_msgs::Point tip = imp.point;
+      tip.x += 0.4 * imp.normal.x;
+      tip.y += 0.4 * imp.normal.y;
+      tip.z += 0.4 * imp.normal.z;
+      arrow.points.push_back(tip);
+      arrow.scale.x = 0.03;  // shaft diameter
+      arrow.scale.y = 0.07;  // head diameter
+      arrow.scale.z = 0.1;   // head length
+      setColour(arrow, colour, 1.0f);
+      out.markers.push_back(arrow);
+
+      Marker text = base;
+      text.id = id++;
+      text.type = Marker::TEXT_VIEW_FACING;
+      text.pose.position = imp.point;
+      text.pose.position.z += 0.35;
+      text.scale.z = 0.18;
+      char secs[32];
+      std::snprintf(secs, sizeof secs, "%.2f s", imp.time_to_impact);
+      text.text = label(imp.body_a, imp.link_a) + " <-> " + label(imp.body_b, imp.link_b) + " " + secs;
+      setColour(text, {1.0f, 1.0f, 1.0f}, 1.0f);
+      out.markers.push_back(text);
+    }
+  }
+  return out;
+}
+
+}  // namespace vadop_ros

@@ -1,0 +1,207 @@
+#include "vadop_ros/monitor_core.h"
+
+#include <vadop/error.h>
+
+#include <ros/console.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+namespace vadop_ros {
+namespace {
+
+PredictorConfig predictorConfig(const MonitorParams& p) {
+  PredictorConfig c;
+  c.axes = p.axes;
+  c.phi_deg = p.phi_deg;
+  return c;
+}
+
+double secondsSince(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+Predictor makePredictor(const MonitorParams& p) {
+  try {
+    return Predictor(predictorConfig(p));
+  } catch (const vadop::InvalidArgument& e) {
+    throw ParamError(std::string("~axes / ~phi_deg: rejected by the VADOP broad phase: ") + e.what());
+  }
+}
+
+}  // namespace
+
+MonitorCore::MonitorCore(const MonitorParams& params, const ParamReader& read_param, const MeshLoader& load_mesh)
+    : params_(params),
+      registry_(params, read_param, load_mesh),
+      filter_(params.ignore_pairs),
+      predictor_(makePredictor(params)) {
+  soonest_.assign(registry_.bodies().size(), std::numeric_limits<double>::infinity());
+  impacts_.header.frame_id = params_.fixed_frame;
+}
+
+void MonitorCore::setPadding(double padding) {
+  if (padding == params_.padding) return;
+  params_.padding = padding;
+  // Shapes change: every element leaves the world and comes back, padded anew, at the next
+  // cycle (World has no setShape).
+  predictor_.clear();
+}
+
+void MonitorCore::reset() {
+  registry_.reset();
+  const auto& elements = registry_.elements();
+  for (size_t i = 0; i < elements.size(); ++i) {
+    if (!registry_.bodies()[elements[i].body].is_static) predictor_.unset(i);
+  }
+  impacts_.impacts.clear();
+  std::fill(soonest_.begin(), soonest_.end(), std::numeric_limits<double>::infinity());
+}
+
+void MonitorCore::syncWorld() {
+  const auto& elements = registry_.elements();
+  size_t moving = 0;
+  std::string error;
+  for (size_t i = 0; i < elements.size(); ++i) {
+    const Element& e = elements[i];
+    if (!e.active) {
+      predictor_.unset(i);
+      continue;
+    }
+    if (!registry_.bodies()[e.body].is_static) ++moving;
+    const bool ok = (!predictor_.contains(i) && params_.padding > 0.0)
+                        ? predictor_.set(i, e.id, vadop::inflate(e.shape, params_.padding), e.motion, error)
+                        : predictor_.set(i, e.id, e.shape, e.motion, error);
+    if (!ok) {
+      predictor_.unset(i);
+      ROS_WARN_THROTTLE_NAMED(5.0, "vadop_monitor", "element \"%s\" left out of the prediction: %s", e.id.c_str(),
+                              error.c_str());
+    }
+  }
+  stats_.moving_elements = moving;
+  stats_.elements_in_world = predictor_.size();
+}
+
+bool MonitorCore::pairIgnored(size_t ea, size_t eb) const {
+  const auto& elements = registry_.elements();
+  const auto& bodies = registry_.bodies();
+  const Element& a = elements[ea];
+  const Element& b = elements[eb];
+  const Body& ba = bodies[a.body];
+  const Body& bb = bodies[b.body];
+  if (ba.is_static && bb.is_static) return true;
+  if (a.body == b.body) {
+    // Links rigid with each other never move relative to each other; links joined by a
+    // joint touch by construction.
+    if (!params_.self_collision || a.tf_frame.empty() || b.tf_frame.empty()) return true;
+    if (a.link == b.link) return true;
+    for (const auto& pc : ba.adjacent) {
+      if ((pc.first == a.link && pc.second == b.link) || (pc.first == b.link && pc.second == a.link)) return true;
+    }
+  }
+  if (!filter_.empty() && filter_.ignored({ba.name, a.link}, {bb.name, b.link})) return true;
+  return false;
+}
+
+const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSource& tf) {
+  const auto start = std::chrono::steady_clock::now();
+  stats_ = CycleStats();
+  stats_.stamp = now;
+  registry_.update(now, tf);
+  syncWorld();
+
+  impacts_.header.stamp = now;
+  impacts_.header.frame_id = params_.fixed_frame;
+  impacts_.impacts.clear();
+  std::fill(soonest_.begin(), soonest_.end(), std::numeric_limits<double>::infinity());
+  t0_ = registry_.seconds(now);
+
+  std::vector<RawImpact> raw;
+  const auto predict_start = std::chrono::steady_clock::now();
+  try {
+    raw = predictor_.predict(t0_, params_.horizon);
+  } catch (const vadop::InvalidArgument& e) {
+    stats_.error = e.what();
+    ROS_ERROR_THROTTLE_NAMED(5.0, "vadop_monitor", "prediction failed this cycle: %s", e.what());
+  }
+  stats_.predict_seconds = secondsSince(predict_start);
+  stats_.candidates = predictor_.lastCandidateCount();
+  stats_.raw_impacts = raw.size();
+
+  const auto& elements = registry_.elements();
+  const auto& bodies = registry_.bodies();
+  impacts_.impacts.reserve(raw.size());
+  for (const RawImpact& hit : raw) {
+    if (pairIgnored(hit.a, hit.b)) continue;
+    const Element& ea = elements[hit.a];
+    const Element& eb = elements[hit.b];
+    vadop::Impact msg;
+    msg.body_a = bodies[ea.body].name;
+    msg.link_a = ea.link;
+    msg.body_b = bodies[eb.body].name;
+    msg.link_b = eb.link;
+    msg.time_to_impact = std::max(0.0, hit.time - t0_);
+    msg.time_of_impact = now + ros::Duration(msg.time_to_impact);
+    msg.point.x = hit.point.x();
+    msg.point.y = hit.point.y();
+    msg.point.z = hit.point.z();
+    msg.normal.x = hit.normal.x();
+    msg.normal.y = hit.normal.y();
+    msg.normal.z = hit.normal.z();
+    msg.closing_speed = hit.closing_speed;
+    msg.in_contact = hit.initially_touching;
+    soonest_[ea.body] = std::min(soonest_[ea.body], msg.time_to_impact);
+    soonest_[eb.body] = std::min(soonest_[eb.body], msg.time_to_impact);
+    impacts_.impacts.push_back(std::move(msg));
+  }
+  // The world sorts by time; the clamp to 0 keeps that order.
+  stats_.impacts = impacts_.impacts.size();
+  stats_.cycle_seconds = secondsSince(start);
+  return impacts_;
+}
+
+visualization_msgs::MarkerArray MonitorCore::markers() const {
+  MarkerInput in;
+  in.frame = params_.fixed_frame;
+  in.stamp = impacts_.header.stamp;
+  in.t0 = t0_;
+  in.horizon = params_.horizon;
+  in.impacts = &impacts_;
+  const auto& elements = registry_.elements();
+  const auto& bodies = registry_.bodies();
+  in.elements.reserve(elements.size());
+  for (size_t i = 0; i < elements.size(); ++i) {
+    if (!predictor_.contains(i)) continue;
+    const Element& e = elements[i];
+    MarkerElement m;
+    m.body = bodies[e.body].name;
+    m.link = e.link;
+    m.is_static = bodies[e.body].is_static;
+    m.shape = predictor_.shape(i);  // padded, as given to the world
+    m.motion = predictor_.motion(i);
+    m.mesh_uri = e.mesh_uri;
+    m.mesh_scale = e.mesh_scale;
+    m.soonest = soonest_[e.body];
+    in.elements.push_back(std::move(m));
+  }
+  return buildMarkers(in);
+}
+
+std::string MonitorCore::describe(const vadop::Impact& i) {
+  auto label = [](const std::string& body, const std::string& link) {
+    return link.empty() ? body : body + "/" + link;
+  };
+  char buf[256];
+  if (i.in_contact) {
+    std::snprintf(buf, sizeof buf, " in contact now at (%.2f, %.2f, %.2f)", i.point.x, i.point.y, i.point.z);
+  } else {
+    std::snprintf(buf, sizeof buf, " in %.2f s at (%.2f, %.2f, %.2f), closing at %.2f m/s", i.time_to_impact,
+                  i.point.x, i.point.y, i.point.z, i.closing_speed);
+  }
+  return label(i.body_a, i.link_a) + " <-> " + label(i.body_b, i.link_b) + buf;
+}
+
+}  // namespace vadop_ros

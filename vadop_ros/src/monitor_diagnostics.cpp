@@ -1,0 +1,125 @@
+#include "vadop_ros/monitor_diagnostics.h"
+
+#include <diagnostic_msgs/DiagnosticStatus.h>
+
+#include <algorithm>
+#include <cstdio>
+
+namespace vadop_ros {
+namespace {
+
+using diagnostic_msgs::DiagnosticStatus;
+
+std::string fmt(const char* f, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
+
+}  // namespace
+
+void CycleTimeWindow::add(const CycleStats& s) {
+  ++count_;
+  sum_ += s.cycle_seconds;
+  max_ = std::max(max_, s.cycle_seconds);
+  if (rate_for_overrun_ > 0.0 && s.cycle_seconds > 1.0 / rate_for_overrun_) ++overruns_;
+  last_ = s;
+  has_last_ = true;
+}
+
+void CycleTimeWindow::report(diagnostic_updater::DiagnosticStatusWrapper& stat, double rate) {
+  if (!has_last_) {
+    stat.summary(DiagnosticStatus::OK, "no cycle yet");
+    return;
+  }
+  const double period = 1.0 / rate;
+  const double mean = count_ ? sum_ / count_ : 0.0;
+  if (!last_.error.empty()) {
+    stat.summary(DiagnosticStatus::ERROR, "prediction failed: " + last_.error);
+  } else if (overruns_ > 0) {
+    stat.summaryf(DiagnosticStatus::WARN, "%zu of %zu cycles overran the period (%.1f ms)", overruns_, count_,
+                  period * 1e3);
+  } else {
+    stat.summaryf(DiagnosticStatus::OK, "cycle %.2f ms mean (%.0f%% of the period), %zu impacts", mean * 1e3,
+                  100.0 * mean / period, last_.impacts);
+  }
+  stat.add("cycle time last (ms)", fmt("%.3f", last_.cycle_seconds * 1e3));
+  stat.add("cycle time mean (ms)", fmt("%.3f", mean * 1e3));
+  stat.add("cycle time max (ms)", fmt("%.3f", max_ * 1e3));
+  stat.add("predict time last (ms)", fmt("%.3f", last_.predict_seconds * 1e3));
+  stat.add("period (ms)", fmt("%.3f", period * 1e3));
+  stat.add("share of the period (mean)", fmt("%.3f", mean / period));
+  stat.add("cycles in window", count_);
+  stat.add("overruns in window", overruns_);
+  stat.add("elements in world", last_.elements_in_world);
+  stat.add("moving elements", last_.moving_elements);
+  stat.add("narrow-phase candidates", last_.candidates);
+  stat.add("impacts (before filtering)", last_.raw_impacts);
+  stat.add("impacts", last_.impacts);
+  count_ = 0;
+  sum_ = max_ = 0.0;
+  overruns_ = 0;
+}
+
+std::string describeBody(const Body& b, const ros::Time& now, double stale_timeout, unsigned char* level) {
+  unsigned char lvl = DiagnosticStatus::OK;
+  std::string text;
+  const BodyStatus& s = b.status;
+  switch (s.state) {
+    case BodyState::kWaiting: text = "waiting for the first message"; break;
+    case BodyState::kOk: text = "ok"; break;
+    case BodyState::kStatic: text = "static obstacle"; break;
+    case BodyState::kStale:
+      lvl = DiagnosticStatus::WARN;
+      text = "stale: no message for " + fmt("%.2f", (now - s.last_receipt).toSec()) + " s (timeout " +
+             fmt("%.2f", stale_timeout) + " s): standing still at its last pose";
+      break;
+    case BodyState::kTfMissing:
+      lvl = DiagnosticStatus::WARN;
+      text = (s.links_skipped ? std::to_string(s.links_skipped) + " link(s) skipped: " : std::string("skipped: ")) +
+             "transform missing: " + s.tf_error;
+      break;
+    case BodyState::kNoGeometry:
+      lvl = DiagnosticStatus::ERROR;
+      text = "not monitored: no geometry";
+      break;
+  }
+  if (!s.last_invalid_receipt.isZero() && (now - s.last_invalid_receipt).toSec() < BodyRegistry::kInvalidMarkSeconds) {
+    lvl = std::max<unsigned char>(lvl, DiagnosticStatus::WARN);
+    text += "; bad input: " + std::to_string(s.dropped_invalid) + " message(s) dropped, last: " + s.last_invalid;
+  }
+  if (!s.geometry_errors.empty()) {
+    lvl = DiagnosticStatus::ERROR;
+    text += "; geometry error: " + s.geometry_errors.front();
+    if (s.geometry_errors.size() > 1) text += " (+" + std::to_string(s.geometry_errors.size() - 1) + " more)";
+  }
+  if (s.dropped_out_of_order > 0) text += "; " + std::to_string(s.dropped_out_of_order) + " out-of-order/duplicate ignored";
+  if (level) *level = lvl;
+  return text;
+}
+
+void reportBodies(diagnostic_updater::DiagnosticStatusWrapper& stat, const BodyRegistry& registry,
+                  const ros::Time& now) {
+  unsigned char worst = DiagnosticStatus::OK;
+  size_t counts[6] = {0, 0, 0, 0, 0, 0};
+  size_t bad_input = 0;
+  for (const Body& b : registry.bodies()) {
+    unsigned char lvl = 0;
+    stat.add(b.name, describeBody(b, now, registry.staleTimeout(), &lvl));
+    worst = std::max(worst, lvl);
+    ++counts[static_cast<int>(b.status.state)];
+    if (!b.status.last_invalid_receipt.isZero() &&
+        (now - b.status.last_invalid_receipt).toSec() < BodyRegistry::kInvalidMarkSeconds) {
+      ++bad_input;
+    }
+  }
+  char buf[256];
+  std::snprintf(buf, sizeof buf, "%zu ok, %zu static, %zu waiting, %zu stale, %zu tf missing, %zu no geometry, %zu bad input",
+                counts[static_cast<int>(BodyState::kOk)], counts[static_cast<int>(BodyState::kStatic)],
+                counts[static_cast<int>(BodyState::kWaiting)], counts[static_cast<int>(BodyState::kStale)],
+                counts[static_cast<int>(BodyState::kTfMissing)], counts[static_cast<int>(BodyState::kNoGeometry)],
+                bad_input);
+  stat.summary(worst, buf);
+}
+
+}  // namespace vadop_ros

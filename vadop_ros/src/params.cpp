@@ -1,0 +1,376 @@
+#include "vadop_ros/params.h"
+
+#include <vadop/error.h>
+#include <vadop/vadop.h>
+
+#include <ros/node_handle.h>
+
+#include <cmath>
+#include <set>
+#include <sstream>
+
+namespace vadop_ros {
+namespace {
+
+using XmlRpc::XmlRpcValue;
+
+std::string num(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+const char* typeName(const XmlRpcValue& v) {
+  switch (v.getType()) {
+    case XmlRpcValue::TypeBoolean: return "a boolean";
+    case XmlRpcValue::TypeInt: return "an integer";
+    case XmlRpcValue::TypeDouble: return "a number";
+    case XmlRpcValue::TypeString: return "a string";
+    case XmlRpcValue::TypeDateTime: return "a date";
+    case XmlRpcValue::TypeBase64: return "binary data";
+    case XmlRpcValue::TypeArray: return "a list";
+    case XmlRpcValue::TypeStruct: return "a dictionary";
+    default: return "nothing";
+  }
+}
+
+[[noreturn]] void fail(const std::string& path, const std::string& what) {
+  throw ParamError(path + ": " + what);
+}
+
+
+double toDouble(const XmlRpcValue& v, const std::string& path) {
+  if (v.getType() == XmlRpcValue::TypeDouble) {
+    const double d = static_cast<double>(const_cast<XmlRpcValue&>(v));
+    if (!std::isfinite(d)) fail(path, "must be a finite number, got " + num(d));
+    return d;
+  }
+  if (v.getType() == XmlRpcValue::TypeInt) return static_cast<int>(const_cast<XmlRpcValue&>(v));
+  fail(path, std::string("must be a number, got ") + typeName(v));
+}
+
+std::string toString(const XmlRpcValue& v, const std::string& path) {
+  if (v.getType() != XmlRpcValue::TypeString) fail(path, std::string("must be a string, got ") + typeName(v));
+  return static_cast<std::string>(const_cast<XmlRpcValue&>(v));
+}
+
+bool toBool(const XmlRpcValue& v, const std::string& path) {
+  if (v.getType() != XmlRpcValue::TypeBoolean) fail(path, std::string("must be true or false, got ") + typeName(v));
+  return static_cast<bool>(const_cast<XmlRpcValue&>(v));
+}
+
+int toInt(const XmlRpcValue& v, const std::string& path) {
+  if (v.getType() != XmlRpcValue::TypeInt) fail(path, std::string("must be an integer, got ") + typeName(v));
+  return static_cast<int>(const_cast<XmlRpcValue&>(v));
+}
+
+const XmlRpcValue* member(const XmlRpcValue& s, const std::string& key) {
+  if (!s.hasMember(key)) return nullptr;
+  return &s[key];
+}
+
+void requireStruct(const XmlRpcValue& v, const std::string& path) {
+  if (v.getType() != XmlRpcValue::TypeStruct) fail(path, std::string("must be a dictionary, got ") + typeName(v));
+}
+
+void requireArray(const XmlRpcValue& v, const std::string& path) {
+  if (v.getType() != XmlRpcValue::TypeArray) fail(path, std::string("must be a list, got ") + typeName(v));
+}
+
+void rejectUnknown(const XmlRpcValue& s, const std::set<std::string>& known, const std::string& path) {
+  for (auto it = s.begin(); it != s.end(); ++it) {
+    if (!known.count(it->first)) {
+      std::string list;
+      for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
+      fail(path + "." + it->first, "unknown key (expected one of: " + list + ")");
+    }
+  }
+}
+
+std::vector<double> numberList(const XmlRpcValue& v, size_t n, const std::string& path) {
+  if (v.getType() != XmlRpcValue::TypeArray || static_cast<size_t>(v.size()) != n) {
+    fail(path, "must be a list of " + std::to_string(n) + " numbers");
+  }
+  std::vector<double> out;
+  for (int i = 0; i < v.size(); ++i) out.push_back(toDouble(v[i], path + "[" + std::to_string(i) + "]"));
+  return out;
+}
+
+double positive(const XmlRpcValue& v, const std::string& path) {
+  const double d = toDouble(v, path);
+  if (!(d > 0.0)) fail(path, "must be a number > 0, got " + num(d));
+  return d;
+}
+
+double ranged(const XmlRpcValue* v, double def, double lo, double hi, bool lo_open, const std::string& path) {
+  if (!v) return def;
+  const double d = toDouble(*v, path);
+  if ((lo_open ? !(d > lo) : !(d >= lo)) || !(d <= hi)) {
+    fail(path, std::string("must be in ") + (lo_open ? "(" : "[") + num(lo) + ", " + num(hi) + "], got " + num(d));
+  }
+  return d;
+}
+
+// {position: [x,y,z], orientation: [x,y,z,w]} or {position: [...], rpy: [r,p,y]}.
+Eigen::Isometry3d parsePose(const XmlRpcValue& v, const std::string& path) {
+  requireStruct(v, path);
+  rejectUnknown(v, {"position", "orientation", "rpy"}, path);
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  if (const XmlRpcValue* p = member(v, "position")) {
+    const auto xyz = numberList(*p, 3, path + ".position");
+    pose.translation() = Eigen::Vector3d(xyz[0], xyz[1], xyz[2]);
+  }
+  const XmlRpcValue* q = member(v, "orientation");
+  const XmlRpcValue* rpy = member(v, "rpy");
+  if (q && rpy) fail(path, "give orientation or rpy, not both");
+  if (q) {
+    const auto c = numberList(*q, 4, path + ".orientation");
+    Eigen::Quaterniond quat(c[3], c[0], c[1], c[2]);
+    if (!(quat.norm() > 1e-9)) fail(path + ".orientation", "must not be a zero quaternion");
+    pose.linear() = quat.normalized().toRotationMatrix();
+  } else if (rpy) {
+    const auto a = numberList(*rpy, 3, path + ".rpy");
+    pose.linear() = (Eigen::AngleAxisd(a[2], Eigen::Vector3d::UnitZ()) *
+                     Eigen::AngleAxisd(a[1], Eigen::Vector3d::UnitY()) *
+                     Eigen::AngleAxisd(a[0], Eigen::Vector3d::UnitX())).toRotationMatrix();
+  }
+  return pose;
+}
+
+void checkName(const std::string& name, const std::string& path, std::set<std::string>& used) {
+  if (name.empty()) fail(path, "must not be empty");
+  if (name.find('/') != std::string::npos) fail(path, "must not contain '/', got \"" + name + "\"");
+  if (!used.insert(name).second) fail(path, "duplicate body name \"" + name + "\"");
+}
+
+std::string substitute(std::string s, int index) {
+  const std::string key = "{i}";
+  for (size_t pos = s.find(key); pos != std::string::npos; pos = s.find(key, pos)) {
+    const std::string idx = std::to_string(index);
+    s.replace(pos, key.size(), idx);
+    pos += idx.size();
+  }
+  return s;
+}
+
+std::string entryPath(const std::string& list, int i, const XmlRpcValue& entry) {
+  std::string p = "~" + list + "[" + std::to_string(i) + "]";
+  if (entry.getType() == XmlRpcValue::TypeStruct && entry.hasMember("name") &&
+      entry["name"].getType() == XmlRpcValue::TypeString) {
+    p += " (\"" + static_cast<std::string>(entry["name"]) + "\")";
+  }
+  return p;
+}
+
+void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::string>& names) {
+  requireArray(list, "~bodies");
+  for (int i = 0; i < list.size(); ++i) {
+    const XmlRpcValue& e = list[i];
+    const std::string path = entryPath("bodies", i, e);
+    requireStruct(e, path);
+    rejectUnknown(e, {"name", "odom_topic", "twist_topic", "frame", "shape", "robot_description", "tf_prefix", "count"},
+                  path);
+    BodyParams b;
+    const XmlRpcValue* name = member(e, "name");
+    if (!name) fail(path + ".name", "is required");
+    b.name = toString(*name, path + ".name");
+
+    const XmlRpcValue* odom = member(e, "odom_topic");
+    const XmlRpcValue* twist = member(e, "twist_topic");
+    if (odom && twist) fail(path, "give one velocity source: odom_topic or twist_topic, not both");
+    if (!odom && !twist) fail(path + ".odom_topic", "is required (or twist_topic): the body's velocity source");
+    b.source = odom ? VelocitySource::kOdometry : VelocitySource::kTwist;
+    b.topic = toString(odom ? *odom : *twist, path + (odom ? ".odom_topic" : ".twist_topic"));
+    if (b.topic.empty()) fail(path + (odom ? ".odom_topic" : ".twist_topic"), "must not be empty");
+    if (const XmlRpcValue* f = member(e, "frame")) b.frame = toString(*f, path + ".frame");
+    if (b.source == VelocitySource::kTwist && b.frame.empty()) {
+      fail(path + ".frame", "is required with twist_topic (the tf frame that gives the body's pose)");
+    }
+
+    const XmlRpcValue* shape = member(e, "shape");
+    const XmlRpcValue* urdf = member(e, "robot_description");
+    if (shape && urdf) fail(path, "give one geometry source: shape or robot_description, not both");
+    if (!shape && !urdf) fail(path + ".shape", "is required (or robot_description): the body's geometry");
+    if (shape) {
+      b.has_shape = true;
+      b.shape = parseShape(*shape, path + ".shape");
+    } else {
+      b.robot_description = toString(*urdf, path + ".robot_description");
+      if (b.robot_description.empty()) fail(path + ".robot_description", "must not be empty");
+    }
+    if (const XmlRpcValue* p = member(e, "tf_prefix")) {
+      if (shape) fail(path + ".tf_prefix", "applies to robot_description bodies only");
+      b.tf_prefix = toString(*p, path + ".tf_prefix");
+      b.links_from_tf = true;
+      while (!b.tf_prefix.empty() && b.tf_prefix.back() == '/') b.tf_prefix.pop_back();
+      if (!b.tf_prefix.empty() && b.tf_prefix.front() == '/') b.tf_prefix.erase(0, 1);
+    }
+
+    int count = 0;  // 0: a single body, no template
+    if (const XmlRpcValue* c = member(e, "count")) {
+      count = toInt(*c, path + ".count");
+      if (count < 1 || count > 1000000) fail(path + ".count", "must be in [1, 1000000], got " + std::to_string(count));
+      if (b.name.find("{i}") == std::string::npos) {
+        fail(path + ".name", "must contain {i} when count is given (each copy needs its own name)");
+      }
+    }
+    if (count == 0) {
+      checkName(b.name, path + ".name", names);
+      out.bodies.push_back(b);
+      continue;
+    }
+    for (int k = 0; k < count; ++k) {
+      BodyParams copy = b;
+      copy.name = substitute(b.name, k);
+      copy.topic = substitute(b.topic, k);
+      copy.frame = substitute(b.frame, k);
+      copy.robot_description = substitute(b.robot_description, k);
+      copy.tf_prefix = substitute(b.tf_prefix, k);
+      checkName(copy.name, path + ".name (copy " + std::to_string(k) + ")", names);
+      out.bodies.push_back(std::move(copy));
+    }
+  }
+}
+
+void parseObstacles(const XmlRpcValue& list, MonitorParams& out, std::set<std::string>& names) {
+  requireArray(list, "~static_obstacles");
+  for (int i = 0; i < list.size(); ++i) {
+    const XmlRpcValue& e = list[i];
+    const std::string path = entryPath("static_obstacles", i, e);
+    requireStruct(e, path);
+    rejectUnknown(e, {"name", "shape", "robot_description", "pose"}, path);
+    StaticObstacleParams o;
+    const XmlRpcValue* name = member(e, "name");
+    if (!name) fail(path + ".name", "is required");
+    o.name = toString(*name, path + ".name");
+    checkName(o.name, path + ".name", names);
+    const XmlRpcValue* shape = member(e, "shape");
+    const XmlRpcValue* urdf = member(e, "robot_description");
+    if (shape && urdf) fail(path, "give one geometry source: shape or robot_description, not both");
+    if (!shape && !urdf) fail(path + ".shape", "is required (or robot_description)");
+    if (shape) {
+      o.has_shape = true;
+      o.shape = parseShape(*shape, path + ".shape");
+    } else {
+      o.robot_description = toString(*urdf, path + ".robot_description");
+      if (o.robot_description.empty()) fail(path + ".robot_description", "must not be empty");
+    }
+    if (const XmlRpcValue* p = member(e, "pose")) o.pose = parsePose(*p, path + ".pose");
+    out.static_obstacles.push_back(std::move(o));
+  }
+}
+
+const std::set<std::string>& topLevelKeys() {
+  static const std::set<std::string> keys = {
+      "fixed_frame", "rate", "horizon", "padding", "stale_timeout", "axes", "phi_deg",
+      "self_collision", "ignore_pairs", "bodies", "static_obstacles", "log_impacts",
+      "publish_markers",
+      // set by diagnostic_updater and dynamic_reconfigure themselves
+      "diagnostic_period"};
+  return keys;
+}
+
+}  // namespace
+
+vadop::Shape parseShape(const XmlRpcValue& v, const std::string& path) {
+  requireStruct(v, path);
+  const XmlRpcValue* type = member(v, "type");
+  if (!type) fail(path + ".type", "is required (sphere, box, cylinder or capsule)");
+  const std::string t = toString(*type, path + ".type");
+  auto need = [&](const char* key) -> const XmlRpcValue& {
+    const XmlRpcValue* m = member(v, key);
+    if (!m) fail(path + "." + key, "is required for a " + t);
+    return *m;
+  };
+  try {
+    if (t == "sphere") {
+      rejectUnknown(v, {"type", "radius"}, path);
+      return vadop::makeSphere(positive(need("radius"), path + ".radius"));
+    }
+    if (t == "box") {
+      rejectUnknown(v, {"type", "size"}, path);
+      const auto s = numberList(need("size"), 3, path + ".size");
+      for (int k = 0; k < 3; ++k) {
+        if (!(s[k] > 0.0)) fail(path + ".size[" + std::to_string(k) + "]", "must be > 0, got " + num(s[k]));
+      }
+      return vadop::makeBox(Eigen::Vector3d(s[0], s[1], s[2]));
+    }
+    if (t == "cylinder" || t == "capsule") {
+      rejectUnknown(v, {"type", "radius", "length"}, path);
+      const double r = positive(need("radius"), path + ".radius");
+      const double l = toDouble(need("length"), path + ".length");
+      if (t == "cylinder") {
+        if (!(l > 0.0)) fail(path + ".length", "must be a number > 0, got " + num(l));
+        return vadop::makeCylinder(r, l);
+      }
+      if (!(l >= 0.0)) fail(path + ".length", "must be a number >= 0, got " + num(l));
+      return vadop::makeCapsule(r, l);
+    }
+  } catch (const vadop::InvalidArgument& e) {
+    fail(path, e.what());
+  }
+  fail(path + ".type", "must be sphere, box, cylinder or capsule, got \"" + t + "\"");
+}
+
+MonitorParams parseParams(const XmlRpcValue& root) {
+  MonitorParams p;
+  if (root.getType() == XmlRpcValue::TypeInvalid) return p;
+  requireStruct(root, "~");
+  if (const XmlRpcValue* v = member(root, "fixed_frame")) {
+    p.fixed_frame = toString(*v, "~fixed_frame");
+    if (p.fixed_frame.empty()) fail("~fixed_frame", "must not be empty");
+    if (p.fixed_frame.front() == '/') p.fixed_frame.erase(0, 1);  // tf2 frames have no leading '/'
+  }
+  p.rate = ranged(member(root, "rate"), p.rate, 0.0, 1000.0, true, "~rate");
+  p.horizon = ranged(member(root, "horizon"), p.horizon, 0.0, 60.0, false, "~horizon");
+  p.padding = ranged(member(root, "padding"), p.padding, 0.0, 10.0, false, "~padding");
+  p.stale_timeout = ranged(member(root, "stale_timeout"), p.stale_timeout, 0.0, 1e6, true, "~stale_timeout");
+  const vadop::VadopConfig vadop_defaults;
+  p.axes = vadop_defaults.axes;
+  p.phi_deg = vadop_defaults.phi_deg;
+  if (const XmlRpcValue* v = member(root, "axes")) p.axes = toInt(*v, "~axes");
+  if (const XmlRpcValue* v = member(root, "phi_deg")) p.phi_deg = toDouble(*v, "~phi_deg");
+  // The library validates the pair (pool size, phi >= covering radius) when the world is
+  // built; the monitor builds it with these values and reports its message under ~axes/~phi_deg.
+  if (p.axes < 3 || p.axes > 4096) fail("~axes", "must be an integer in [3, 4096], got " + std::to_string(p.axes));
+  if (!(p.phi_deg >= 0.0 && p.phi_deg < 90.0)) fail("~phi_deg", "must be in [0, 90), got " + num(p.phi_deg));
+  if (const XmlRpcValue* v = member(root, "self_collision")) p.self_collision = toBool(*v, "~self_collision");
+  if (const XmlRpcValue* v = member(root, "log_impacts")) p.log_impacts = toBool(*v, "~log_impacts");
+  if (const XmlRpcValue* v = member(root, "publish_markers")) p.publish_markers = toBool(*v, "~publish_markers");
+
+  if (const XmlRpcValue* v = member(root, "ignore_pairs")) {
+    requireArray(*v, "~ignore_pairs");
+    for (int i = 0; i < v->size(); ++i) {
+      const std::string path = "~ignore_pairs[" + std::to_string(i) + "]";
+      const XmlRpcValue& pair = (*v)[i];
+      if (pair.getType() != XmlRpcValue::TypeArray || pair.size() != 2) {
+        fail(path, "must be a list of two patterns [\"body/link\", \"body/link\"] (* matches anything)");
+      }
+      const std::string a = toString(pair[0], path + "[0]");
+      const std::string b = toString(pair[1], path + "[1]");
+      if (a.empty() || b.empty()) fail(path, "patterns must not be empty");
+      p.ignore_pairs.emplace_back(a, b);
+    }
+  }
+  std::set<std::string> names;
+  if (const XmlRpcValue* v = member(root, "bodies")) parseBodies(*v, p, names);
+  if (const XmlRpcValue* v = member(root, "static_obstacles")) parseObstacles(*v, p, names);
+  return p;
+}
+
+std::vector<std::string> unknownTopLevelKeys(const XmlRpcValue& root) {
+  std::vector<std::string> out;
+  if (root.getType() != XmlRpcValue::TypeStruct) return out;
+  for (auto it = root.begin(); it != root.end(); ++it) {
+    if (!topLevelKeys().count(it->first)) out.push_back(it->first);
+  }
+  return out;
+}
+
+MonitorParams loadParams(const ros::NodeHandle& private_nh) {
+  XmlRpcValue root;
+  if (!private_nh.getParam(private_nh.getNamespace(), root)) return parseParams(XmlRpcValue());
+  return parseParams(root);
+}
+
+}  // namespace vadop_ros

@@ -1,0 +1,111 @@
+#include "vadop_ros/predictor.h"
+
+#include <vadop/error.h>
+#include <vadop/world.h>
+
+#include <unordered_map>
+
+namespace vadop_ros {
+namespace {
+
+bool sameMotion(const vadop::Motion& a, const vadop::Motion& b) {
+  return a.t_ref == b.t_ref && a.position == b.position && a.orientation.coeffs() == b.orientation.coeffs() &&
+         a.linear_velocity == b.linear_velocity && a.angular_velocity == b.angular_velocity;
+}
+
+// Velocity of the material point x of a body moving with m, at time t.
+Eigen::Vector3d pointVelocity(const vadop::Motion& m, const Eigen::Vector3d& x, double t) {
+  return m.linear_velocity + m.angular_velocity.cross(x - m.positionAt(t));
+}
+
+vadop::WorldConfig worldConfig(const PredictorConfig& c) {
+  vadop::WorldConfig w;
+  w.broad_phase = vadop::BroadPhaseKind::kVadop;
+  w.vadop.axes = c.axes;
+  w.vadop.phi_deg = c.phi_deg;
+  return w;
+}
+
+}  // namespace
+
+struct Predictor::Impl {
+  explicit Impl(const PredictorConfig& c) : world(worldConfig(c)) {}
+  struct Slot {
+    bool in = false;
+    std::string id;
+    uint64_t key = 0;
+    vadop::Motion motion;
+  };
+  vadop::World world;
+  std::vector<Slot> slots;
+  std::unordered_map<uint64_t, size_t> by_key;
+};
+
+Predictor::Predictor(const PredictorConfig& config) : impl_(std::make_unique<Impl>(config)) {}
+Predictor::~Predictor() = default;
+
+bool Predictor::set(size_t i, const std::string& id, const vadop::Shape& shape, const vadop::Motion& motion,
+                    std::string& error) {
+  if (i >= impl_->slots.size()) impl_->slots.resize(i + 1);
+  Impl::Slot& s = impl_->slots[i];
+  try {
+    if (!s.in) {
+      impl_->world.add(id, shape, motion);
+      s.in = true;
+      s.id = id;
+      s.key = impl_->world.key(id);
+      s.motion = motion;
+      impl_->by_key[s.key] = i;
+    } else if (!sameMotion(s.motion, motion)) {
+      impl_->world.setMotion(s.id, motion);
+      s.motion = motion;
+    }
+    return true;
+  } catch (const vadop::InvalidArgument& e) {
+    error = e.what();
+    return false;
+  }
+}
+
+void Predictor::unset(size_t i) {
+  if (i >= impl_->slots.size() || !impl_->slots[i].in) return;
+  Impl::Slot& s = impl_->slots[i];
+  impl_->world.remove(s.id);
+  impl_->by_key.erase(s.key);
+  s.in = false;
+}
+
+void Predictor::clear() {
+  for (size_t i = 0; i < impl_->slots.size(); ++i) unset(i);
+}
+
+bool Predictor::contains(size_t i) const { return i < impl_->slots.size() && impl_->slots[i].in; }
+const vadop::Motion& Predictor::motion(size_t i) const { return impl_->slots.at(i).motion; }
+const vadop::Shape& Predictor::shape(size_t i) const { return impl_->world.shape(impl_->slots.at(i).id); }
+size_t Predictor::size() const { return impl_->world.size(); }
+size_t Predictor::lastCandidateCount() const { return impl_->world.lastCandidateCount(); }
+
+std::vector<RawImpact> Predictor::predict(double t0, double horizon) {
+  const std::vector<vadop::WorldImpact> hits = impl_->world.predict(t0, horizon);
+  std::vector<RawImpact> out;
+  out.reserve(hits.size());
+  for (const vadop::WorldImpact& w : hits) {
+    const auto ia = impl_->by_key.find(w.a_key);
+    const auto ib = impl_->by_key.find(w.b_key);
+    if (ia == impl_->by_key.end() || ib == impl_->by_key.end()) continue;
+    RawImpact r;
+    r.a = ia->second;
+    r.b = ib->second;
+    r.time = w.impact.time;
+    r.point = w.impact.point;
+    r.normal = w.impact.normal;
+    r.initially_touching = w.impact.initially_touching;
+    const vadop::Motion& ma = impl_->slots[r.a].motion;
+    const vadop::Motion& mb = impl_->slots[r.b].motion;
+    r.closing_speed = (pointVelocity(ma, r.point, r.time) - pointVelocity(mb, r.point, r.time)).dot(r.normal);
+    out.push_back(r);
+  }
+  return out;
+}
+
+}  // namespace vadop_ros

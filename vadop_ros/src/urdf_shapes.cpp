@@ -1,0 +1,215 @@
+#include "vadop_ros/urdf_shapes.h"
+
+#include <vadop/error.h>
+
+#include <assimp/Importer.hpp>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+#include <console_bridge/console.h>
+#include <resource_retriever/retriever.h>
+#include <urdf_parser/urdf_parser.h>
+
+#include <cmath>
+#include <map>
+#include <mutex>
+#include <sstream>
+#include <tuple>
+
+namespace vadop_ros {
+namespace {
+
+// Collects urdfdom's error messages (it reports why a URDF does not parse through
+// console_bridge only) while a parse runs.
+class CaptureErrors : public console_bridge::OutputHandler {
+ public:
+  CaptureErrors() { console_bridge::useOutputHandler(this); }
+  ~CaptureErrors() override { console_bridge::restorePreviousOutputHandler(); }
+  void log(const std::string& text, console_bridge::LogLevel level, const char*, int) override {
+    if (level >= console_bridge::CONSOLE_BRIDGE_LOG_ERROR) {
+      if (!text_.empty()) text_ += "; ";
+      text_ += text;
+    }
+  }
+  const std::string& text() const { return text_; }
+
+ private:
+  std::string text_;
+};
+
+Eigen::Isometry3d toEigen(const urdf::Pose& p) {
+  Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
+  Eigen::Quaterniond q(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z);
+  if (q.norm() < 1e-9) q = Eigen::Quaterniond::Identity();
+  out.linear() = q.normalized().toRotationMatrix();
+  out.translation() = Eigen::Vector3d(p.position.x, p.position.y, p.position.z);
+  return out;
+}
+
+bool finitePose(const Eigen::Isometry3d& p) { return p.matrix().allFinite(); }
+
+std::string extensionOf(const std::string& uri) {
+  const size_t dot = uri.find_last_of('.');
+  const size_t slash = uri.find_last_of('/');
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
+  return uri.substr(dot + 1);
+}
+
+MeshData loadMesh(const std::string& uri, const Eigen::Vector3d& scale) {
+  resource_retriever::Retriever retriever;
+  resource_retriever::MemoryResource res;
+  try {
+    res = retriever.get(uri);
+  } catch (const resource_retriever::Exception& e) {
+    throw std::runtime_error("cannot retrieve mesh \"" + uri + "\": " + e.what());
+  }
+  if (res.size == 0) throw std::runtime_error("mesh \"" + uri + "\" is empty");
+  Assimp::Importer importer;
+  const aiScene* scene = importer.ReadFileFromMemory(
+      res.data.get(), res.size,
+      aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices |
+          aiProcess_SortByPType,
+      extensionOf(uri).c_str());
+  if (!scene) {
+    throw std::runtime_error("cannot read mesh \"" + uri + "\": " + importer.GetErrorString());
+  }
+  MeshData out;
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+    const aiMesh* mesh = scene->mMeshes[m];
+    const int base = static_cast<int>(out.vertices.size());
+    for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
+      const aiVector3D& p = mesh->mVertices[v];
+      out.vertices.emplace_back(p.x * scale.x(), p.y * scale.y(), p.z * scale.z());
+    }
+    for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
+      const aiFace& face = mesh->mFaces[f];
+      if (face.mNumIndices != 3) continue;  // points and lines carry no volume
+      out.triangles.push_back({base + static_cast<int>(face.mIndices[0]), base + static_cast<int>(face.mIndices[1]),
+                               base + static_cast<int>(face.mIndices[2])});
+    }
+  }
+  if (out.triangles.empty()) throw std::runtime_error("mesh \"" + uri + "\" has no triangles");
+  return out;
+}
+
+}  // namespace
+
+MeshLoader makeDefaultMeshLoader() {
+  struct Cache {
+    std::mutex mutex;
+    std::map<std::tuple<std::string, double, double, double>, MeshData> meshes;
+  };
+  auto cache = std::make_shared<Cache>();
+  return [cache](const std::string& uri, const Eigen::Vector3d& scale) {
+    const auto key = std::make_tuple(uri, scale.x(), scale.y(), scale.z());
+    {
+      std::lock_guard<std::mutex> lock(cache->mutex);
+      const auto it = cache->meshes.find(key);
+      if (it != cache->meshes.end()) return it->second;
+    }
+    MeshData data = loadMesh(uri, scale);
+    std::lock_guard<std::mutex> lock(cache->mutex);
+    cache->meshes.emplace(key, data);
+    return data;
+  };
+}
+
+UrdfShapes urdfToShapes(const std::string& urdf_xml, const MeshLoader& load_mesh) {
+  urdf::ModelInterfaceSharedPtr model;
+  std::string why;
+  {
+    CaptureErrors capture;
+    model = urdf::parseURDF(urdf_xml);
+    why = capture.text();
+  }
+  if (!model) throw UrdfError("the URDF does not parse" + (why.empty() ? std::string() : ": " + why));
+  const urdf::LinkConstSharedPtr root = model->getRoot();
+  if (!root) throw UrdfError("the URDF has no root link");
+
+  UrdfShapes out;
+  out.robot_name = model->getName();
+  out.root_link = root->name;
+
+  // Link poses in the root frame, joints at zero, breadth first from the root.
+  out.link_in_root[root->name] = Eigen::Isometry3d::Identity();
+  std::vector<std::pair<urdf::LinkConstSharedPtr, bool>> todo = {{root, false}};
+  for (size_t i = 0; i < todo.size(); ++i) {
+    const urdf::LinkConstSharedPtr link = todo[i].first;
+    const bool movable = todo[i].second;
+    if (movable) out.movable_links.push_back(link->name);
+    const Eigen::Isometry3d& parent_pose = out.link_in_root[link->name];
+    for (const urdf::JointSharedPtr& joint : link->child_joints) {
+      const urdf::LinkConstSharedPtr child = model->getLink(joint->child_link_name);
+      if (!child) continue;
+      const Eigen::Isometry3d origin = toEigen(joint->parent_to_joint_origin_transform);
+      out.link_in_root[child->name] = parent_pose * origin;
+      out.adjacent.emplace_back(link->name, child->name);
+      todo.emplace_back(child, movable || joint->type != urdf::Joint::FIXED);
+    }
+  }
+
+  for (size_t li = 0; li < todo.size(); ++li) {
+    const urdf::LinkConstSharedPtr& link = todo[li].first;
+    std::vector<urdf::CollisionSharedPtr> collisions = link->collision_array;
+    if (collisions.empty() && link->collision) collisions.push_back(link->collision);
+    for (size_t k = 0; k < collisions.size(); ++k) {
+      const urdf::CollisionSharedPtr& c = collisions[k];
+      const std::string where = "link \"" + link->name + "\" collision " + std::to_string(k);
+      if (!c || !c->geometry) {
+        out.errors.push_back(where + ": no geometry");
+        continue;
+      }
+      LinkGeometry g;
+      g.link = link->name;
+      g.index = static_cast<int>(k);
+      g.origin = toEigen(c->origin);
+      if (!finitePose(g.origin)) {
+        out.errors.push_back(where + ": the origin is not finite");
+        continue;
+      }
+      try {
+        switch (c->geometry->type) {
+          case urdf::Geometry::SPHERE: {
+            const auto& s = static_cast<const urdf::Sphere&>(*c->geometry);
+            g.shape = vadop::makeSphere(s.radius);
+            break;
+          }
+          case urdf::Geometry::BOX: {
+            const auto& b = static_cast<const urdf::Box&>(*c->geometry);
+            g.shape = vadop::makeBox(Eigen::Vector3d(b.dim.x, b.dim.y, b.dim.z));
+            break;
+          }
+          case urdf::Geometry::CYLINDER: {
+            const auto& cy = static_cast<const urdf::Cylinder&>(*c->geometry);
+            g.shape = vadop::makeCylinder(cy.radius, cy.length);
+            break;
+          }
+          case urdf::Geometry::MESH: {
+            const auto& m = static_cast<const urdf::Mesh&>(*c->geometry);
+            g.mesh_uri = m.filename;
+            g.mesh_scale = Eigen::Vector3d(m.scale.x, m.scale.y, m.scale.z);
+            if (!g.mesh_scale.allFinite() || !(g.mesh_scale.minCoeff() > 0.0)) {
+              out.errors.push_back(where + ": mesh \"" + m.filename + "\": the scale must be finite and > 0");
+              continue;
+            }
+            MeshData data = load_mesh(m.filename, g.mesh_scale);
+            g.shape = vadop::makeMesh(std::move(data.vertices), std::move(data.triangles));
+            break;
+          }
+          default:
+            out.errors.push_back(where + ": unsupported geometry type");
+            continue;
+        }
+      } catch (const vadop::InvalidArgument& e) {
+        out.errors.push_back(where + ": invalid geometry: " + e.what());
+        continue;
+      } catch (const std::exception& e) {
+        out.errors.push_back(where + ": " + e.what());
+        continue;
+      }
+      out.geometries.push_back(std::move(g));
+    }
+  }
+  return out;
+}
+
+}  // namespace vadop_ros

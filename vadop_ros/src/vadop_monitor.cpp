@@ -1,0 +1,189 @@
+// vadop_monitor: predicts collisions between the configured bodies over a time horizon and
+// publishes them (~impacts), with rviz markers (~markers) and /diagnostics.
+// Parameters: config/monitor.yaml; behaviour: README.md ("The ROS monitor node").
+#include "vadop_ros/monitor_core.h"
+#include "vadop_ros/monitor_diagnostics.h"
+#include "vadop_ros/params.h"
+
+#include <vadop/ImpactArray.h>
+#include <vadop/MonitorConfig.h>
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <dynamic_reconfigure/server.h>
+#include <geometry_msgs/TwistStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <ros/ros.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <cstdio>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace vadop_ros {
+namespace {
+
+// tf2 as the registry's TransformSource.
+class Tf2Source : public TransformSource {
+ public:
+  explicit Tf2Source(tf2_ros::Buffer& buffer) : buffer_(buffer) {}
+  bool lookup(const std::string& target, const std::string& source, const ros::Time& time, Eigen::Isometry3d& pose,
+              ros::Time& stamp, std::string& error) override {
+    try {
+      const geometry_msgs::TransformStamped t = buffer_.lookupTransform(target, source, time);
+      pose = tf2::transformToEigen(t);
+      stamp = t.header.stamp;
+      return true;
+    } catch (const tf2::TransformException& e) {
+      error = e.what();
+      return false;
+    }
+  }
+
+ private:
+  tf2_ros::Buffer& buffer_;
+};
+
+class MonitorNode {
+ public:
+  MonitorNode(ros::NodeHandle nh, ros::NodeHandle pnh, const MonitorParams& params)
+      : nh_(nh), pnh_(pnh), tf_buffer_(ros::Duration(30.0)), tf_listener_(tf_buffer_, nh_), tf_source_(tf_buffer_) {
+    core_ = std::make_unique<MonitorCore>(params, [this](const std::string& name, std::string& value) {
+      return nh_.getParam(name, value);
+    });
+    for (const std::string& e : core_->registry().geometryErrors()) {
+      ROS_ERROR("vadop_monitor: %s (the rest is monitored)", e.c_str());
+    }
+
+    impacts_pub_ = pnh_.advertise<vadop::ImpactArray>("impacts", 10);
+    markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("markers", 2);
+
+    const auto& bodies = core_->registry().bodies();
+    for (size_t i = 0; i < bodies.size(); ++i) {
+      const Body& b = bodies[i];
+      if (b.is_static) continue;
+      const auto hints = ros::TransportHints().tcpNoDelay();
+      if (b.params.source == VelocitySource::kOdometry) {
+        subs_.push_back(nh_.subscribe<nav_msgs::Odometry>(
+            b.params.topic, 20, [this, i](const nav_msgs::OdometryConstPtr& msg) { onOdometry(i, *msg); },
+            ros::VoidConstPtr(), hints));
+      } else {
+        subs_.push_back(nh_.subscribe<geometry_msgs::TwistStamped>(
+            b.params.topic, 20, [this, i](const geometry_msgs::TwistStampedConstPtr& msg) { onTwist(i, *msg); },
+            ros::VoidConstPtr(), hints));
+      }
+    }
+
+    updater_.setHardwareID("vadop_monitor");
+    updater_.add("cycle", [this](diagnostic_updater::DiagnosticStatusWrapper& s) {
+      window_.report(s, core_->params().rate);
+    });
+    updater_.add("bodies", [this](diagnostic_updater::DiagnosticStatusWrapper& s) {
+      reportBodies(s, core_->registry(), ros::Time::now());
+    });
+
+    rate_ = params.rate;
+    window_.setRate(rate_);
+    reconfigure_ = std::make_unique<dynamic_reconfigure::Server<vadop::MonitorConfig>>(reconfigure_mutex_, pnh_);
+    vadop::MonitorConfig initial;
+    initial.horizon = params.horizon;
+    initial.rate = params.rate;
+    initial.padding = params.padding;
+    reconfigure_->updateConfig(initial);
+    reconfigure_->setCallback(
+        [this](vadop::MonitorConfig& c, uint32_t) { onReconfigure(c); });
+
+    timer_ = nh_.createTimer(ros::Duration(1.0 / rate_), [this](const ros::TimerEvent&) { onTimer(); });
+    size_t moving = 0;
+    for (const Body& b : bodies) moving += b.is_static ? 0 : 1;
+    ROS_INFO("vadop_monitor: %zu moving bodies, %zu static obstacles, %zu collision elements; fixed frame \"%s\", "
+             "%.1f Hz, horizon %.2f s, padding %.3f m",
+             moving, bodies.size() - moving, core_->registry().elements().size(), params.fixed_frame.c_str(), rate_,
+             params.horizon, params.padding);
+  }
+
+ private:
+  void onOdometry(size_t i, const nav_msgs::Odometry& msg) { core_->registry().onOdometry(i, msg, ros::Time::now()); }
+  void onTwist(size_t i, const geometry_msgs::TwistStamped& msg) {
+    core_->registry().onTwist(i, msg, ros::Time::now());
+  }
+
+  void onReconfigure(const vadop::MonitorConfig& c) {
+    core_->setHorizon(c.horizon);
+    core_->setPadding(c.padding);
+    if (c.rate != rate_) {
+      rate_ = c.rate;
+      window_.setRate(rate_);
+      if (timer_.isValid()) timer_.setPeriod(ros::Duration(1.0 / rate_));
+    }
+    ROS_INFO("vadop_monitor: horizon %.2f s, rate %.1f Hz, padding %.3f m", c.horizon, c.rate, c.padding);
+  }
+
+  void onTimer() {
+    const ros::Time now = ros::Time::now();
+    if (now.isZero()) return;  // use_sim_time and no /clock yet
+    if (!last_now_.isZero() && now < last_now_) {
+      ROS_WARN("vadop_monitor: time jumped back by %.3f s (bag restarted?): forgetting every state",
+               (last_now_ - now).toSec());
+      core_->reset();
+      tf_buffer_.clear();
+    }
+    last_now_ = now;
+    const vadop::ImpactArray& impacts = core_->cycle(now, tf_source_);
+    window_.add(core_->lastStats());
+    impacts_pub_.publish(impacts);
+    if (core_->params().publish_markers && markers_pub_.getNumSubscribers() > 0) {
+      markers_pub_.publish(core_->markers());
+    }
+    if (core_->params().log_impacts && !impacts.impacts.empty()) {
+      std::string text;
+      for (const vadop::Impact& i : impacts.impacts) text += "\n  " + MonitorCore::describe(i);
+      ROS_INFO_THROTTLE(1.0, "vadop_monitor: %zu predicted impact(s):%s", impacts.impacts.size(), text.c_str());
+    }
+    updater_.update();
+  }
+
+  ros::NodeHandle nh_, pnh_;
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  Tf2Source tf_source_;
+  std::unique_ptr<MonitorCore> core_;
+  ros::Publisher impacts_pub_, markers_pub_;
+  std::vector<ros::Subscriber> subs_;
+  diagnostic_updater::Updater updater_;
+  CycleTimeWindow window_;
+  boost::recursive_mutex reconfigure_mutex_;
+  std::unique_ptr<dynamic_reconfigure::Server<vadop::MonitorConfig>> reconfigure_;
+  ros::Timer timer_;
+  double rate_ = 30.0;
+  ros::Time last_now_;
+};
+
+}  // namespace
+}  // namespace vadop_ros
+
+int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // log lines appear at once, also when piped
+  ros::init(argc, argv, "vadop_monitor");
+  ros::NodeHandle nh;
+  ros::NodeHandle pnh("~");
+  vadop_ros::MonitorParams params;
+  try {
+    XmlRpc::XmlRpcValue root;
+    if (!pnh.getParam(pnh.getNamespace(), root)) root = XmlRpc::XmlRpcValue();
+    params = vadop_ros::parseParams(root);
+    for (const std::string& key : vadop_ros::unknownTopLevelKeys(root)) {
+      ROS_WARN("vadop_monitor: unknown parameter ~%s ignored", key.c_str());
+    }
+    vadop_ros::MonitorNode node(nh, pnh, params);
+    ros::spin();
+  } catch (const vadop_ros::ParamError& e) {
+    ROS_FATAL("vadop_monitor: bad parameter %s", e.what());
+    return 1;
+  }
+  return 0;
+}
