@@ -190,7 +190,8 @@ double support(const Shape& s, const Eigen::Vector3d& d) {
     case ShapeType::kBox: h = s.half_extents.dot(d.cwiseAbs()); break;
     case ShapeType::kCapsule: h = s.half_length * std::abs(d.z()) + s.radius * d.norm(); break;
     case ShapeType::kCylinder:
-      h = s.half_length * std::abs(d.z()) + s.radius * std::hypot(d.x(), d.y());
+      // sqrt, not hypot: the magnitudes here cannot overflow, and hypot is several times slower.
+      h = s.half_length * std::abs(d.z()) + s.radius * std::sqrt(d.x() * d.x() + d.y() * d.y());
       break;
     case ShapeType::kConvex:
     case ShapeType::kMesh: {

@@ -64,16 +64,29 @@ std::vector<uint32_t> selectAxes(const Motion& motion, double bounding_radius, d
   }
   const Eigen::Vector3d u =
       slow ? Eigen::Vector3d(config.slow_direction.normalized()) : Eigen::Vector3d(motion.linear_velocity / speed);
-  // The tiny slack keeps an axis that lies exactly on the zone's rim (|u.a| == sin(rho)) in,
+  // The tiny slack keeps an axis that lies exactly on the zone's rim (|u.a| == sin(phi)) in,
   // whatever the rounding: the sharing guarantee needs the closed zone.
+  const double hysteresis = config.hysteresis_deg * kDeg;
   const double in_zone = std::sin(phi_rad) + 1e-12;
-  const double keep_zone = std::sin(std::min(phi_rad + config.hysteresis_deg * kDeg, kPi / 2)) + 1e-12;
-  size_t p = 0;
+  const double keep_zone = std::sin(std::min(phi_rad + hysteresis, kPi / 2)) + 1e-12;
+  // Keep the previous set while it still holds the whole zone and nothing far outside it: a
+  // steadily turning body then changes lists only every hysteresis / 2 of turn, not each time
+  // an axis crosses the rim.
+  if (!previous.empty()) {
+    bool keep = true;
+    size_t p = 0;
+    for (int k = 0; k < m && keep; ++k) {
+      const double c = std::abs(u.dot(pool.axis(k)));
+      while (p < previous.size() && previous[p] < static_cast<uint32_t>(k)) ++p;
+      const bool used = p < previous.size() && previous[p] == static_cast<uint32_t>(k);
+      keep = used ? c <= keep_zone : c > in_zone;
+    }
+    if (keep) return previous;
+  }
+  // A fresh set: the zone widened by half the hysteresis, so the body can turn either way.
+  const double fresh_zone = std::sin(std::min(phi_rad + 0.5 * hysteresis, kPi / 2)) + 1e-12;
   for (int k = 0; k < m; ++k) {
-    const double c = std::abs(u.dot(pool.axis(k)));
-    while (p < previous.size() && previous[p] < static_cast<uint32_t>(k)) ++p;
-    const bool was_used = p < previous.size() && previous[p] == static_cast<uint32_t>(k);
-    if (c <= in_zone || (was_used && c <= keep_zone)) out.push_back(static_cast<uint32_t>(k));
+    if (std::abs(u.dot(pool.axis(k))) <= fresh_zone) out.push_back(static_cast<uint32_t>(k));
   }
   return out;
 }

@@ -346,7 +346,7 @@ TEST(BroadPhase, VelocityAlignmentKeepsProjectionsStill) {
   const auto second = bp.volume(id);
   ASSERT_EQ(first.size(), second.size());
   ASSERT_GT(first.size(), 0u);
-  const double bound = 30.0 * dt * std::sin(bp.phi() + 2.0 * kPi / 180.0) + 1e-9;
+  const double bound = 30.0 * dt * std::sin(bp.phi() + c.hysteresis_deg * kPi / 180.0) + 1e-9;
   for (size_t k = 0; k < first.size(); ++k) {
     EXPECT_LE(std::abs(second[k].interval.lo - first[k].interval.lo), bound);
     // And the interval is tight: sphere diameter plus the small projected sweep.

@@ -108,16 +108,38 @@ TEST(AxisSelection, ZoneHysteresisAndSlowRules) {
   const Eigen::Vector3d u = fast.linear_velocity.normalized();
   for (int k = 0; k < pool.size(); ++k) {
     const bool used = std::binary_search(axes.begin(), axes.end(), static_cast<uint32_t>(k));
-    EXPECT_EQ(used, std::abs(u.dot(pool.axis(k))) <= std::sin(phi) + 1e-12) << k;
+    // A fresh set: the zone widened by half the hysteresis.
+    EXPECT_EQ(used, std::abs(u.dot(pool.axis(k))) <= std::sin(phi + 0.5 * c.hysteresis_deg * kPi / 180) + 1e-12) << k;
   }
-  // A slight turn keeps the previous axes that are still within phi + hysteresis.
+  // A slight turn keeps the set as it is.
   const Motion turned = linear(Eigen::Vector3d::Zero(), Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitZ()) * fast.linear_velocity);
-  const auto kept = selectAxes(turned, 0.5, 1.0 / 30, pool, c, phi, axes);
-  for (uint32_t k : axes) EXPECT_TRUE(std::binary_search(kept.begin(), kept.end(), k)) << k;
+  EXPECT_EQ(selectAxes(turned, 0.5, 1.0 / 30, pool, c, phi, axes), axes);
+  // A large turn gives a fresh set that again holds the whole zone.
+  const Motion across = linear(Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 0, 1));
+  const auto fresh = selectAxes(across, 0.5, 1.0 / 30, pool, c, phi, axes);
+  EXPECT_NE(fresh, axes);
+  for (int k = 0; k < pool.size(); ++k) {
+    if (std::abs(pool.axis(k).z()) <= std::sin(phi)) {
+      EXPECT_TRUE(std::binary_search(fresh.begin(), fresh.end(), static_cast<uint32_t>(k))) << k;
+    }
+  }
+  // Turning steadily by a degree a step, the set changes far less often than once a step.
+  std::vector<uint32_t> current = axes;
+  int changes = 0;
+  for (int step = 1; step <= 90; ++step) {
+    const Motion m = linear(Eigen::Vector3d::Zero(), Eigen::AngleAxisd(step * kPi / 180, Eigen::Vector3d::UnitZ()) *
+                                                         fast.linear_velocity);
+    auto next = selectAxes(m, 0.5, 1.0 / 30, pool, c, phi, current);
+    if (next != current) ++changes;
+    current = next;
+  }
+  EXPECT_LE(changes, 90 / 4);
   // Slow bodies: the fixed zone orthogonal to z, or every axis.
   const Motion still = linear(Eigen::Vector3d::Zero(), Eigen::Vector3d(1e-4, 0, 0));
   const auto zone = selectAxes(still, 0.5, 1.0 / 30, pool, c, phi);
-  for (uint32_t k : zone) EXPECT_LE(std::abs(pool.axis(static_cast<int>(k)).z()), std::sin(phi) + 1e-12);
+  for (uint32_t k : zone) {
+    EXPECT_LE(std::abs(pool.axis(static_cast<int>(k)).z()), std::sin(phi + 0.5 * c.hysteresis_deg * kPi / 180) + 1e-12);
+  }
   c.slow_rule = SlowAxisRule::kAllAxes;
   EXPECT_EQ(selectAxes(still, 0.5, 1.0 / 30, pool, c, phi).size(), 32u);
 }

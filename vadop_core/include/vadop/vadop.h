@@ -38,9 +38,12 @@ struct VadopConfig {
   double slow_fraction = 0.05;
   SlowAxisRule slow_rule = SlowAxisRule::kFixedZone;
   Eigen::Vector3d slow_direction = Eigen::Vector3d::UnitZ();
-  // An axis already in use is kept while within phi + hysteresis of orthogonality, so a
-  // slowly turning body does not flip boundary axes in and out every frame.
-  double hysteresis_deg = 2.0;
+  // A body's axes are chosen with phi + hysteresis / 2 and kept while they still hold the
+  // whole phi zone and lie within phi + hysteresis: a turning body changes lists only every
+  // hysteresis / 2 of turn (each change re-queries its pairs), at the price of a few more axes.
+  // Measured: 20 degrees takes the 1,000-body monitor cycle (turning robots) from 13.6 to
+  // 10.9 ms; bodies whose direction jumps (bounces) pay for the wider fresh zone instead.
+  double hysteresis_deg = 20.0;
 };
 
 // Validates the configuration against the pool. Throws vadop::InvalidArgument when a field is
@@ -48,10 +51,11 @@ struct VadopConfig {
 // would have to pair them blindly). Returns phi in radians (rho when phi_deg == 0).
 double validateVadopConfig(const VadopConfig& config, const AxisPool& pool);
 
-// Axis selection: the pool axes a with |u . a| <= sin(phi) for the body's direction u
-// (its velocity, or slow_direction when slow), plus the axes of `previous` still within
-// phi + hysteresis. Sorted ascending. Every set returned contains the full zone of some u,
-// hence (rho <= phi) any two bodies share an axis close to u1 x u2.
+// Axis selection for the body's direction u (its velocity, or slow_direction when slow):
+// `previous` itself while it contains every pool axis a with |u . a| <= sin(phi) and none
+// beyond phi + hysteresis; else the axes within phi + hysteresis / 2. Sorted ascending.
+// Every set returned contains the full phi zone of u, hence (rho <= phi) any two bodies
+// share an axis close to u1 x u2.
 std::vector<uint32_t> selectAxes(const Motion& motion, double bounding_radius, double frame_length,
                                  const AxisPool& pool, const VadopConfig& config, double phi_rad,
                                  const std::vector<uint32_t>& previous = {});
