@@ -293,7 +293,6 @@ ContinuousWorld::ContinuousWorld(const Scene& scene, const std::vector<vadop::Mo
     : scene_(scene),
       n_(static_cast<uint32_t>(scene.params.n)),
       dt_(1.0 / scene.params.fps),
-      r_(scene.params.radius),
       wall_(scene.half - scene.params.radius),
       narrow_shape_(std::make_shared<const vadop::Shape>(vadop::makeSphere(scene.params.radius))),
       broad_shape_(std::make_shared<const vadop::Shape>(
@@ -384,7 +383,6 @@ void ContinuousWorld::requery(uint32_t i, double tc, double t1, std::vector<uint
 
 void ContinuousWorld::runFrame(int f, FrameStats& st, std::vector<LoggedImpact>* log) {
   st = FrameStats{};
-  stats_ = &st;
   const double cpu0 = threadCpuSeconds();
   const double t0 = f * dt_, t1 = (f + 1) * dt_;
   frame_t1_ = t1;
@@ -481,7 +479,6 @@ void ContinuousWorld::runFrame(int f, FrameStats& st, std::vector<LoggedImpact>*
   st.test_s += test_in_loop;
   st.response_s = seconds(c2, c3) - test_in_loop;
   st.cpu_s = threadCpuSeconds() - cpu0;
-  stats_ = nullptr;
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -161,7 +161,7 @@ class ContinuousWorld {
 
   Scene scene_;
   uint32_t n_;
-  double dt_, r_, wall_;  // wall_ = half - radius: the range of the centres
+  double dt_, wall_;  // wall_ = half - radius: the range of the centres
   std::shared_ptr<const vadop::Shape> narrow_shape_, broad_shape_;
   vadop::PreparedShape narrow_prepared_;  // the narrow phase's prepared sphere (as World does)
   std::unique_ptr<vadop::BroadPhase> bp_;
@@ -173,7 +173,6 @@ class ContinuousWorld {
   std::vector<Box> boxes_;
   std::vector<uint32_t> scratch_;
   double frame_t1_ = 0;
-  FrameStats* stats_ = nullptr;
 };
 
 // Pseudo-dynamic detection (freeSOLID style): bodies jump from frame pose to frame pose; at
