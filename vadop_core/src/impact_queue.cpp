@@ -12,13 +12,6 @@
 namespace vadop {
 namespace {
 
-std::string str(double v) {
-  std::ostringstream os;
-  os.precision(17);
-  os << v;
-  return os.str();
-}
-
 uint64_t mix(uint64_t x) {  // splitmix64 finaliser
   x ^= x >> 30;
   x *= 0xbf58476d1ce4e5b9ULL;
@@ -37,7 +30,7 @@ size_t ImpactQueue::PairHash::operator()(const PairKey& k) const {
 void ImpactQueue::push(uint64_t a, uint64_t b, const Impact& impact) {
   if (a == b) throw InvalidArgument("ImpactQueue::push: a pair needs two bodies, got " + std::to_string(a) + " twice");
   if (!std::isfinite(impact.time)) {
-    throw InvalidArgument("ImpactQueue::push: impact time is not finite: " + str(impact.time));
+    throw InvalidArgument("ImpactQueue::push: impact time is not finite: " + formatNumber(impact.time));
   }
   if (!impact.point.allFinite()) throw InvalidArgument("ImpactQueue::push: impact point is not finite");
   if (!impact.normal.allFinite()) throw InvalidArgument("ImpactQueue::push: impact normal is not finite");

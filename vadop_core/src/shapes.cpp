@@ -8,16 +8,9 @@
 namespace vadop {
 namespace {
 
-std::string str(double v) {
-  std::ostringstream os;
-  os.precision(17);
-  os << v;
-  return os.str();
-}
-
 void requirePositive(double value, const char* field) {
   if (!std::isfinite(value) || value <= 0.0) {
-    throw InvalidArgument(std::string(field) + " must be finite and > 0, got " + str(value));
+    throw InvalidArgument(std::string(field) + " must be finite and > 0, got " + formatNumber(value));
   }
 }
 
@@ -86,7 +79,7 @@ Shape makeCapsule(double radius, double length) {
   requirePositive(radius, "capsule radius");
   // A capsule of zero segment length is a sphere: allowed, but never negative.
   if (!std::isfinite(length) || length < 0.0) {
-    throw InvalidArgument("capsule length must be finite and >= 0, got " + str(length));
+    throw InvalidArgument("capsule length must be finite and >= 0, got " + formatNumber(length));
   }
   Shape s;
   s.type = ShapeType::kCapsule;
@@ -140,7 +133,7 @@ Shape makeMesh(std::vector<Eigen::Vector3d> vertices, std::vector<std::array<int
 
 Shape inflate(const Shape& shape, double padding) {
   if (!std::isfinite(padding) || padding < 0.0) {
-    throw InvalidArgument("padding must be finite and >= 0, got " + str(padding));
+    throw InvalidArgument("padding must be finite and >= 0, got " + formatNumber(padding));
   }
   Shape s = shape;
   s.margin += padding;
@@ -171,7 +164,7 @@ void validateShape(const Shape& s, const std::string& what) {
       case ShapeType::kMesh: requireFinitePoints(s.points, "mesh vertices"); break;
     }
     if (!std::isfinite(s.margin) || s.margin < 0.0) {
-      throw InvalidArgument("margin must be finite and >= 0, got " + str(s.margin));
+      throw InvalidArgument("margin must be finite and >= 0, got " + formatNumber(s.margin));
     }
     Shape copy = s;
     finish(copy);

@@ -22,21 +22,14 @@
 namespace vadop {
 namespace {
 
-std::string str(double v) {
-  std::ostringstream os;
-  os.precision(17);
-  os << v;
-  return os.str();
-}
-
 void validateCommon(const Motion& ma, const Motion& mb, double t0, double t1, const ToiOptions& o) {
   validateMotion(ma, "timeOfImpact: motion a");
   validateMotion(mb, "timeOfImpact: motion b");
-  if (!std::isfinite(t0)) throw InvalidArgument("timeOfImpact: t0 is not finite: " + str(t0));
-  if (!std::isfinite(t1)) throw InvalidArgument("timeOfImpact: t1 is not finite: " + str(t1));
-  if (t1 < t0) throw InvalidArgument("timeOfImpact: t1 < t0 (" + str(t1) + " < " + str(t0) + ")");
+  if (!std::isfinite(t0)) throw InvalidArgument("timeOfImpact: t0 is not finite: " + formatNumber(t0));
+  if (!std::isfinite(t1)) throw InvalidArgument("timeOfImpact: t1 is not finite: " + formatNumber(t1));
+  if (t1 < t0) throw InvalidArgument("timeOfImpact: t1 < t0 (" + formatNumber(t1) + " < " + formatNumber(t0) + ")");
   if (!(std::isfinite(o.tolerance) && o.tolerance > 0.0)) {
-    throw InvalidArgument("timeOfImpact: tolerance must be finite and > 0, got " + str(o.tolerance));
+    throw InvalidArgument("timeOfImpact: tolerance must be finite and > 0, got " + formatNumber(o.tolerance));
   }
   if (o.max_iterations <= 0) {
     throw InvalidArgument("timeOfImpact: max_iterations must be > 0, got " + std::to_string(o.max_iterations));

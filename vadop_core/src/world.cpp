@@ -12,13 +12,6 @@
 namespace vadop {
 namespace {
 
-std::string str(double v) {
-  std::ostringstream os;
-  os.precision(17);
-  os << v;
-  return os.str();
-}
-
 // The id in double quotes, with quotes, backslashes and control characters escaped, so that a
 // message always stays on one line.
 std::string quoted(const std::string& id) {
@@ -69,7 +62,7 @@ BroadPhaseKind parseBroadPhaseKind(const std::string& name) {
 World::World(const WorldConfig& config) : config_(config) {
   const ToiOptions& o = config.toi;
   if (!(std::isfinite(o.tolerance) && o.tolerance > 0.0)) {
-    throw InvalidArgument("World: toi.tolerance must be finite and > 0, got " + str(o.tolerance));
+    throw InvalidArgument("World: toi.tolerance must be finite and > 0, got " + formatNumber(o.tolerance));
   }
   if (o.max_iterations <= 0) {
     throw InvalidArgument("World: toi.max_iterations must be > 0, got " + std::to_string(o.max_iterations));
@@ -171,9 +164,9 @@ std::vector<WorldImpact> World::predict(double t0, double horizon, const std::ve
 }
 
 std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector<char>* mask) {
-  if (!std::isfinite(t0)) throw InvalidArgument("predict: t0 must be finite, got " + str(t0));
+  if (!std::isfinite(t0)) throw InvalidArgument("predict: t0 must be finite, got " + formatNumber(t0));
   if (!std::isfinite(horizon) || horizon < 0.0) {
-    throw InvalidArgument("predict: horizon must be finite and >= 0, got " + str(horizon));
+    throw InvalidArgument("predict: horizon must be finite and >= 0, got " + formatNumber(horizon));
   }
   const double t1 = t0 + horizon;
   if (!std::isfinite(t1)) throw InvalidArgument("predict: t0 + horizon is not finite");
@@ -184,7 +177,7 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
       const double dt = t - m.t_ref;
       if (!std::isfinite(m.positionAt(t).squaredNorm()) ||
           !std::isfinite((m.angular_velocity * dt).squaredNorm())) {
-        throw InvalidArgument("predict: body " + quoted(kv.first) + ": its pose at t = " + str(t) +
+        throw InvalidArgument("predict: body " + quoted(kv.first) + ": its pose at t = " + formatNumber(t) +
                               " is out of the finite range (position or rotation angle too large)");
       }
     }

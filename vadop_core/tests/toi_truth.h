@@ -531,9 +531,11 @@ class Truth {
     r.n = c.n;
     r.pa = c.pa + A.rounding * c.n;
     r.pb = c.pb - B.rounding * c.n;
-    // Precision record (below 1e-8 the direction, hence the lower bound, is inherently
-    // ill-conditioned; the time search only needs the sign there).
-    if (!c.overlap && c.hi > 1e-8 && c.hi - c.lo > worst_bracket_) {
+    // Precision record, where decisions at the tolerance are made (gap above 2e-7 m). Below
+    // that the separating direction, hence the lower bound, is ill-conditioned (its error is
+    // the point's error over the gap); there the bracket only blurs contact versus a graze
+    // closer than ~1e-7 m, far inside the tolerance/2 within which a hit is required anyway.
+    if (!c.overlap && c.hi > 2e-7 && c.hi - c.lo > worst_bracket_) {
       worst_bracket_ = c.hi - c.lo;
       worst_at_ = e.t;
       worst_hi_ = c.hi;

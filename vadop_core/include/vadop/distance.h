@@ -48,8 +48,8 @@ struct DistanceOptions {
 };
 
 struct DistanceResult {
-  // Gap between the padded shapes. Separated: |point_b - point_a| (an upper bound of the true
-  // gap, within the tolerance of it). Cores overlapping: an estimate of minus the penetration
+  // Gap between the padded shapes. Separated: |point_b - point_a| up to rounding (an upper
+  // bound of the true gap, within the tolerance of it). Cores overlapping: an estimate of minus the penetration
   // depth (a lower bound of the signed distance along `normal`).
   double distance = 0.0;
   // Certified: the true signed gap is >= lower_bound (the separation of the shapes along a
@@ -79,10 +79,12 @@ namespace detail {
 //  - touching: the gap at t is <= touch_gap (closest holds the contact);
 //  - otherwise `step` in [0, horizon] is certified: gap(t') > advance_gap for every
 //    t' in [t, t + step); clear = true when that holds up to t + horizon (inclusive).
-// The certificate: for a separating direction n at t (per triangle pair for meshes), the
-// separation along n is bounded below for all later times by a concave function (exact for
-// translation, second-order for rotation with a Taylor remainder bound) and by a linear one
-// (|w x n| times the lever arm); step is where the better bound reaches advance_gap.
+// The certificate: for a separating direction n at t (per triangle pair for meshes, after a
+// bounding-ball screen), the separation along n -- n fixed in the world, or turning with a,
+// or with b -- is bounded below for all later times by concave functions of the elapsed
+// time (exact for translation; first order exact and a Taylor remainder bound for rotation)
+// and by a linear one (|w x n| times the lever arm); step is where the best bound reaches
+// advance_gap. See separationStep in distance.cpp for the formulas.
 struct AdvanceStep {
   bool touching = false;
   bool clear = false;

@@ -3,6 +3,7 @@
 // thrown InvalidArgument always leaves the object exactly as it was (strong guarantee).
 #pragma once
 
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -14,5 +15,14 @@ class InvalidArgument : public std::invalid_argument {
  public:
   explicit InvalidArgument(const std::string& what) : std::invalid_argument(what) {}
 };
+
+// A number as the messages print it: all 17 significant digits, so that the offending value can
+// be reproduced exactly from the message.
+inline std::string formatNumber(double value) {
+  std::ostringstream os;
+  os.precision(17);
+  os << value;
+  return os.str();
+}
 
 }  // namespace vadop
