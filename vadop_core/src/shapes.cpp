@@ -161,7 +161,20 @@ void validateShape(const Shape& s, const std::string& what) {
         requirePositive(s.half_length, "cylinder half_length");
         break;
       case ShapeType::kConvex: requireFinitePoints(s.points, "convex points"); break;
-      case ShapeType::kMesh: requireFinitePoints(s.points, "mesh vertices"); break;
+      case ShapeType::kMesh: {
+        requireFinitePoints(s.points, "mesh vertices");
+        if (s.triangles.empty()) throw InvalidArgument("mesh triangles must not be empty");
+        const int n = static_cast<int>(s.points.size());
+        for (size_t t = 0; t < s.triangles.size(); ++t) {
+          for (int c = 0; c < 3; ++c) {
+            if (s.triangles[t][c] < 0 || s.triangles[t][c] >= n) {
+              throw InvalidArgument("mesh triangles[" + std::to_string(t) + "][" + std::to_string(c) +
+                                    "] is out of range [0, " + std::to_string(n) + ")");
+            }
+          }
+        }
+        break;
+      }
     }
     if (!std::isfinite(s.margin) || s.margin < 0.0) {
       throw InvalidArgument("margin must be finite and >= 0, got " + formatNumber(s.margin));
