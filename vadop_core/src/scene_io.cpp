@@ -392,8 +392,16 @@ Scene parseScene(const std::string& json_text) {
 Scene readSceneFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InvalidArgument("cannot open scene file " + quoted(path) + ": " + std::strerror(errno));
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw InvalidArgument("cannot read scene file " + quoted(path));
+  std::string text;
+  errno = 0;
+  try {
+    text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  } catch (const std::ios_base::failure&) {  // libstdc++ throws here for a directory
+    in.setstate(std::ios::badbit);
+  }
+  if (in.bad()) {
+    throw InvalidArgument("cannot read scene file " + quoted(path) + (errno ? std::string(": ") + std::strerror(errno) : ""));
+  }
   return parseScene(text);
 }
 

@@ -224,6 +224,7 @@ TEST(VadopPredict, BadInputExitsWithStatus2AndPrintsNothing) {
       {"malformed", "-", R"({"horizon": 1, "bodies": [)", {"malformed JSON"}},
       {"empty input", "", "", {"malformed JSON"}},
       {"missing file", shellQuote(dir.file("x") + ".does-not-exist"), "", {"does-not-exist"}},
+      {"a directory", "/tmp", "", {"/tmp", "cannot read"}},
       {"unknown option", "--fast", "", {"--fast"}},
       {"axes 1", "--axes 1", "", {"--axes"}},
       {"axes not a number", "--axes many", "", {"--axes"}},
