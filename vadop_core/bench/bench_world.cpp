@@ -2,6 +2,7 @@
 
 #include "bench_adapters.h"
 #include "vadop/sweep_prune.h"
+#include "vadop/vadop_grid.h"
 
 #include <algorithm>
 #include <chrono>
@@ -136,6 +137,7 @@ double threadCpuSeconds() {
 
 double broadPhaseUpdateSeconds(const vadop::BroadPhase& bp) {
   if (const auto* sp = dynamic_cast<const vadop::SweepPruneBroadPhase*>(&bp)) return sp->stats().update_seconds;
+  if (const auto* vg = dynamic_cast<const vadop::VadopGridBroadPhase*>(&bp)) return vg->stats().update_seconds;
   if (const auto* tb = dynamic_cast<const TimedBroadPhase*>(&bp)) return tb->lastUpdateSeconds();
   return 0.0;
 }

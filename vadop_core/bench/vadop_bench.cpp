@@ -23,6 +23,7 @@
 
 #include "vadop/error.h"
 #include "vadop/sweep_prune.h"
+#include "vadop/vadop_grid.h"
 
 #include <nlohmann/json.hpp>
 
@@ -64,12 +65,12 @@ constexpr int kMinFrames = 3;  // --max-seconds never stops a run before this ma
                                // (nor the reference run, which the others are compared with)
 
 const std::vector<std::string> kAllMethods = {
-    "vadop", "kdop", "sap", "fcl_refit", "fcl_rebuild", "bullet", "brute", "grid", "fcl_discrete_refit",
+    "vadop", "vadop_sap", "kdop", "sap", "fcl_refit", "fcl_rebuild", "bullet", "brute", "grid", "fcl_discrete_refit",
     "fcl_discrete_rebuild"};
 // grid is not a peer: it is the exact reference for n > 5000, run at n <= 5000 too so that it is
 // checked against brute force.
 const char* kDefaultMethods =
-    "vadop,kdop,sap,fcl_refit,fcl_rebuild,bullet,brute,grid,fcl_discrete_refit,fcl_discrete_rebuild";
+    "vadop,vadop_sap,kdop,sap,fcl_refit,fcl_rebuild,bullet,brute,grid,fcl_discrete_refit,fcl_discrete_rebuild";
 
 bool isDiscrete(const std::string& m) { return m.rfind("fcl_discrete", 0) == 0; }
 
@@ -100,7 +101,7 @@ struct Options {
                "  methods: %s (default: %s)\n"
                "  phi: VADOP zone half-width in degrees (0 = the pool's covering radius)\n"
                "exit status: 0 ok, 1 a continuous method missed an impact or a run failed, 2 bad input\n",
-               msg.c_str(), "vadop,kdop,sap,fcl_refit,fcl_rebuild,bullet,brute,grid,fcl_discrete_refit,fcl_discrete_rebuild",
+               msg.c_str(), "vadop,vadop_sap,kdop,sap,fcl_refit,fcl_rebuild,bullet,brute,grid,fcl_discrete_refit,fcl_discrete_rebuild",
                kDefaultMethods);
   std::exit(2);
 }
@@ -269,11 +270,12 @@ struct RunSpec {
 };
 
 std::unique_ptr<vadop::BroadPhase> makeBroadPhase(const RunSpec& s) {
-  if (s.method == "vadop") {
+  if (s.method == "vadop" || s.method == "vadop_sap") {
     vadop::VadopConfig c;
     c.axes = s.m;
     c.phi_deg = s.phi;
-    return std::make_unique<vadop::SweepPruneBroadPhase>(c);
+    if (s.method == "vadop_sap") return std::make_unique<vadop::SweepPruneBroadPhase>(c);
+    return std::make_unique<vadop::VadopGridBroadPhase>(c);
   }
   if (s.method == "kdop") return vadop::SweepPruneBroadPhase::makeEveryAxis(s.m);
   if (s.method == "sap") return vadop::SweepPruneBroadPhase::makeEveryAxis(3);
@@ -434,6 +436,9 @@ Json runMethod(const Options& o, const Scene& scene, const RunSpec& spec, ChildR
   std::unique_ptr<vadop::BroadPhase> bp = makeBroadPhase(spec);
   if (const auto* sp = dynamic_cast<const vadop::SweepPruneBroadPhase*>(bp.get()); sp && sp->velocityAligned()) {
     j["phi"] = round3(sp->phi() * 180.0 / M_PI);
+  }
+  if (const auto* vg = dynamic_cast<const vadop::VadopGridBroadPhase*>(bp.get())) {
+    j["phi"] = round3(vg->phi() * 180.0 / M_PI);
   }
   const bool discrete = isDiscrete(spec.method);
   const bool is_sweep_prune = dynamic_cast<const vadop::SweepPruneBroadPhase*>(bp.get()) != nullptr;
@@ -710,7 +715,7 @@ int main(int argc, char** argv) {
   // Validate every configuration before running anything (bad input: exit 2).
   std::vector<RunSpec> specs;
   for (const auto& method : o.methods) {
-    if (method == "vadop") {
+    if (method == "vadop" || method == "vadop_sap") {
       for (int m : o.m)
         for (double phi : o.phi) specs.push_back(RunSpec{method, m, phi});
     } else if (method == "kdop") {
@@ -781,7 +786,7 @@ int main(int argc, char** argv) {
       auto label = [&](const RunSpec& s, const char* suffix) {
         std::ostringstream os;
         os << "[" << ++run_index << "/" << total_runs << "] " << s.method;
-        if (s.method == "vadop" || s.method == "kdop") os << " m=" << s.m;
+        if (s.method == "vadop" || s.method == "vadop_sap" || s.method == "kdop") os << " m=" << s.m;
         os << suffix << " n=" << n << " speed=" << speed;
         return os.str();
       };

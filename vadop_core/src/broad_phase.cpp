@@ -56,7 +56,7 @@ void BroadPhase::remove(BodyId id) {
 
 void BroadPhase::setMotion(BodyId id, const Motion& motion) {
   requireKnown(id, "setMotion");
-  validateMotion(motion, "setMotion: body " + std::to_string(id));
+  if (!isValidMotion(motion)) validateMotion(motion, "setMotion: body " + std::to_string(id));
   bodies_[id].motion = motion;
   onSetMotion(id);
 }

@@ -51,6 +51,11 @@ Motion makeMotion(const Eigen::Vector3d& position, const Eigen::Quaterniond& ori
   return m;
 }
 
+bool isValidMotion(const Motion& m) {
+  return m.position.allFinite() && m.linear_velocity.allFinite() && m.angular_velocity.allFinite() &&
+         m.orientation.coeffs().allFinite() && std::abs(m.orientation.norm() - 1.0) <= 1e-6 && std::isfinite(m.t_ref);
+}
+
 void validateMotion(const Motion& m, const std::string& what) {
   requireFinite(m.position, what, "position");
   requireFinite(m.linear_velocity, what, "linear_velocity");

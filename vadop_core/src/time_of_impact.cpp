@@ -23,8 +23,8 @@ namespace vadop {
 namespace {
 
 void validateCommon(const Motion& ma, const Motion& mb, double t0, double t1, const ToiOptions& o) {
-  validateMotion(ma, "timeOfImpact: motion a");
-  validateMotion(mb, "timeOfImpact: motion b");
+  if (!isValidMotion(ma)) validateMotion(ma, "timeOfImpact: motion a");
+  if (!isValidMotion(mb)) validateMotion(mb, "timeOfImpact: motion b");
   if (!std::isfinite(t0)) throw InvalidArgument("timeOfImpact: t0 is not finite: " + formatNumber(t0));
   if (!std::isfinite(t1)) throw InvalidArgument("timeOfImpact: t1 is not finite: " + formatNumber(t1));
   if (t1 < t0) throw InvalidArgument("timeOfImpact: t1 < t0 (" + formatNumber(t1) + " < " + formatNumber(t0) + ")");

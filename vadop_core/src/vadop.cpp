@@ -111,9 +111,17 @@ SweptBody::SweptBody(const Shape& shape, const Motion& motion, double t0, double
 }
 
 Interval SweptBody::project(const Eigen::Vector3d& a) const {
-  const Eigen::Vector3d a_body = rotation_mid_t_ * a;
-  const double up = support(*shape_, a_body);
-  const double down = support(*shape_, -a_body);
+  double up, down;
+  if (shape_->type == ShapeType::kSphere) {
+    // Orientation does not matter and |a| = 1 (to rounding, which the widening below covers).
+    up = down = shape_->radius + shape_->margin;
+  } else {
+    const Eigen::Vector3d a_body = rotation_mid_t_ * a;
+    up = support(*shape_, a_body);
+    // The primitives are centred (symmetric under x -> -x): one support query gives both ends.
+    const bool symmetric = shape_->type != ShapeType::kConvex && shape_->type != ShapeType::kMesh;
+    down = symmetric ? up : support(*shape_, -a_body);
+  }
   const double c0 = a.dot(p0_);
   const double c1 = a.dot(p1_);
   // Only the component of a point orthogonal to the spin axis moves, and only the part of the

@@ -2,6 +2,7 @@
 
 #include "vadop/error.h"
 #include "vadop/sweep_prune.h"
+#include "vadop/vadop_grid.h"
 
 #include <algorithm>
 #include <cmath>
@@ -34,7 +35,8 @@ std::string quoted(const std::string& id) {
 
 std::unique_ptr<BroadPhase> makeBroadPhase(const WorldConfig& c) {
   switch (c.broad_phase) {
-    case BroadPhaseKind::kVadop: return std::make_unique<SweepPruneBroadPhase>(c.vadop);  // validates
+    case BroadPhaseKind::kVadop: return std::make_unique<VadopGridBroadPhase>(c.vadop);  // validates
+    case BroadPhaseKind::kVadopSap: return std::make_unique<SweepPruneBroadPhase>(c.vadop);
     case BroadPhaseKind::kSap: return SweepPruneBroadPhase::makeEveryAxis(3);
     case BroadPhaseKind::kBrute: return std::make_unique<BruteForceBroadPhase>();
   }
@@ -46,6 +48,7 @@ std::unique_ptr<BroadPhase> makeBroadPhase(const WorldConfig& c) {
 const char* toString(BroadPhaseKind kind) {
   switch (kind) {
     case BroadPhaseKind::kVadop: return "vadop";
+    case BroadPhaseKind::kVadopSap: return "vadop_sap";
     case BroadPhaseKind::kSap: return "sap";
     case BroadPhaseKind::kBrute: return "brute";
   }
@@ -54,9 +57,10 @@ const char* toString(BroadPhaseKind kind) {
 
 BroadPhaseKind parseBroadPhaseKind(const std::string& name) {
   if (name == "vadop") return BroadPhaseKind::kVadop;
+  if (name == "vadop_sap") return BroadPhaseKind::kVadopSap;
   if (name == "sap") return BroadPhaseKind::kSap;
   if (name == "brute") return BroadPhaseKind::kBrute;
-  throw InvalidArgument("unknown broad phase " + quoted(name) + " (expected vadop, sap or brute)");
+  throw InvalidArgument("unknown broad phase " + quoted(name) + " (expected vadop, vadop_sap, sap or brute)");
 }
 
 World::World(const WorldConfig& config) : config_(config) {

@@ -1,8 +1,9 @@
-// Property tests of the sweep-and-prune broad phases (VADOP, k-DOP, AABB) against
+// Property tests of the broad phases (VADOP on a grid, VADOP / k-DOP / AABB sweep and prune) against
 // independent references, over random scenes with velocity changes, adds and removes:
 //  1. the candidate set equals, pair for pair, the set a brute-force double loop computes
 //     from the same per-body intervals (overlap on every shared axis; no shared axis ->
-//     candidate), and no two bodies ever share no axis (the rho <= phi guarantee);
+//     candidate), and no two bodies ever share no axis (the rho <= phi guarantee); the grid
+//     engine's volume includes its swept AABB as three axes every body has;
 //  2. each interval bounds the body's projection at densely sampled times (so a pair whose
 //     swept volumes intersect overlaps on every axis and is a candidate);
 //  3. end to end, with spheres (whose swept volumes are exactly capsules): every pair whose
@@ -11,6 +12,7 @@
 #include "vadop/broad_phase.h"
 #include "vadop/error.h"
 #include "vadop/sweep_prune.h"
+#include "vadop/vadop_grid.h"
 
 #include <gtest/gtest.h>
 
@@ -105,7 +107,8 @@ class RandomScene {
 };
 
 // Reference 1: the candidate set from the same intervals, by a double loop.
-std::vector<Pair> oracle(const SweepPruneBroadPhase& bp, const std::vector<BodyId>& ids, size_t* unshared) {
+template <class BP>
+std::vector<Pair> oracle(const BP& bp, const std::vector<BodyId>& ids, size_t* unshared) {
   std::map<BodyId, std::vector<SweepPruneBroadPhase::AxisSpan>> vol;
   for (BodyId id : ids) vol[id] = bp.volume(id);
   std::vector<Pair> out;
@@ -137,11 +140,15 @@ std::vector<Pair> oracle(const SweepPruneBroadPhase& bp, const std::vector<BodyI
 }
 
 // Reference 2: intervals bound the projection of the shape at sampled times.
-void checkIntervalsBound(const SweepPruneBroadPhase& bp, BodyId id, double t0, double t1) {
+Eigen::Vector3d axisOf(const SweepPruneBroadPhase& bp, uint32_t axis) { return bp.pool().axis(static_cast<int>(axis)); }
+Eigen::Vector3d axisOf(const VadopGridBroadPhase& bp, uint32_t axis) { return bp.axisDirection(axis); }
+
+template <class BP>
+void checkIntervalsBound(const BP& bp, BodyId id, double t0, double t1) {
   const Shape& s = bp.shape(id);
   const Motion& m = bp.motion(id);
   for (const auto& span : bp.volume(id)) {
-    const Eigen::Vector3d a = bp.pool().axis(static_cast<int>(span.axis));
+    const Eigen::Vector3d a = axisOf(bp, span.axis);
     for (int k = 0; k <= 16; ++k) {
       const double t = t0 + (t1 - t0) * k / 16.0;
       const Eigen::Matrix3d R = m.orientationAt(t).toRotationMatrix();
@@ -156,7 +163,8 @@ void checkIntervalsBound(const SweepPruneBroadPhase& bp, BodyId id, double t0, d
 
 // The zone rule: a velocity-aligned body's axes include every axis within phi of
 // orthogonality to its direction of motion (or of the slow direction).
-void checkZone(const SweepPruneBroadPhase& bp, BodyId id, double frame) {
+template <class BP>
+void checkZone(const BP& bp, BodyId id, double frame) {
   const Motion& m = bp.motion(id);
   const double speed = m.linear_velocity.norm();
   const bool slow = !(speed * frame >= 0.05 * bp.shape(id).bounding_radius) || speed == 0.0;
@@ -171,7 +179,8 @@ void checkZone(const SweepPruneBroadPhase& bp, BodyId id, double frame) {
 
 struct RunConfig {
   std::string label;
-  std::function<std::unique_ptr<SweepPruneBroadPhase>()> make;
+  std::function<std::unique_ptr<SweepPruneBroadPhase>()> make;  // one of the two
+  std::function<std::unique_ptr<VadopGridBroadPhase>()> make_grid;
   SceneParams scene;
 };
 
@@ -179,9 +188,9 @@ struct RunTotals {
   size_t frames = 0, pairs = 0, reinserted = 0;
 };
 
-RunTotals runScenario(const RunConfig& rc, uint64_t seed, int frames, bool check_bounds) {
+template <class BP>
+RunTotals runScenario(const RunConfig& rc, std::unique_ptr<BP> bp, uint64_t seed, int frames, bool check_bounds) {
   RandomScene scene(seed, rc.scene);
-  auto bp = rc.make();
   BruteForceBroadPhase brute;  // mirrors the same calls: same ids
   std::vector<BodyId> ids;
   const double dt = 1.0 / 30.0;
@@ -297,15 +306,32 @@ std::vector<RunConfig> configs() {
   SceneParams crowded;
   crowded.n = 120;
   crowded.box = 4.0;
-  out.push_back({"vadop m=3", vadop(3, 0, SlowAxisRule::kFixedZone), mixed});
-  out.push_back({"vadop m=7", vadop(7, 0, SlowAxisRule::kFixedZone), mixed});
-  out.push_back({"vadop m=20 all-axes slow", vadop(20, 0, SlowAxisRule::kAllAxes), mixed});
-  out.push_back({"vadop m=64", vadop(64, 0, SlowAxisRule::kFixedZone), crowded});
-  out.push_back({"vadop m=64 phi=30", vadop(64, 30, SlowAxisRule::kFixedZone), mixed});
-  out.push_back({"vadop m=200 spheres", vadop(200, 0, SlowAxisRule::kFixedZone), spheres});
-  out.push_back({"vadop m=1000", vadop(1000, 0, SlowAxisRule::kAllAxes), mixed});
-  out.push_back({"sap xyz", [] { return SweepPruneBroadPhase::makeEveryAxis(3); }, mixed});
-  out.push_back({"kdop m=13 spheres", [] { return SweepPruneBroadPhase::makeEveryAxis(13); }, spheres});
+  auto grid = [](int m, double phi_deg, SlowAxisRule rule, double cell) {
+    return [=] {
+      VadopConfig c;
+      c.axes = m;
+      c.phi_deg = phi_deg;
+      c.slow_rule = rule;
+      return std::make_unique<VadopGridBroadPhase>(c, cell);
+    };
+  };
+  const auto none = nullptr;
+  out.push_back({"vadop m=3", vadop(3, 0, SlowAxisRule::kFixedZone), none, mixed});
+  out.push_back({"vadop m=7", vadop(7, 0, SlowAxisRule::kFixedZone), none, mixed});
+  out.push_back({"vadop m=20 all-axes slow", vadop(20, 0, SlowAxisRule::kAllAxes), none, mixed});
+  out.push_back({"vadop m=64", vadop(64, 0, SlowAxisRule::kFixedZone), none, crowded});
+  out.push_back({"vadop m=64 phi=30", vadop(64, 30, SlowAxisRule::kFixedZone), none, mixed});
+  out.push_back({"vadop m=200 spheres", vadop(200, 0, SlowAxisRule::kFixedZone), none, spheres});
+  out.push_back({"vadop m=1000", vadop(1000, 0, SlowAxisRule::kAllAxes), none, mixed});
+  out.push_back({"sap xyz", [] { return SweepPruneBroadPhase::makeEveryAxis(3); }, none, mixed});
+  out.push_back({"kdop m=13 spheres", [] { return SweepPruneBroadPhase::makeEveryAxis(13); }, none, spheres});
+  // The grid engine: automatic cells; cells so small that most bodies are too large for the
+  // grid (tested against everyone); one cell holding everything; pools of several sizes.
+  out.push_back({"grid m=32", nullptr, grid(32, 25, SlowAxisRule::kFixedZone, 0.0), mixed});
+  out.push_back({"grid m=7 crowded", nullptr, grid(7, 0, SlowAxisRule::kFixedZone, 0.0), crowded});
+  out.push_back({"grid m=100 spheres", nullptr, grid(100, 0, SlowAxisRule::kAllAxes, 0.0), spheres});
+  out.push_back({"grid m=16 tiny cells", nullptr, grid(16, 25, SlowAxisRule::kFixedZone, 0.05), mixed});
+  out.push_back({"grid m=32 one cell", nullptr, grid(32, 25, SlowAxisRule::kFixedZone, 1000.0), mixed});
   return out;
 }
 
@@ -320,7 +346,10 @@ TEST(BroadPhaseProperty, CandidatesEqualOracleAndAreComplete) {
     int done = 0;
     for (uint64_t seed = 1; done < per_config; ++seed) {
       const int len = std::min(100, per_config - done);
-      const RunTotals r = runScenario(cs[c], seed * 7919 + c, len, /*check_bounds=*/seed % 3 == 1);
+      const uint64_t s = seed * 7919 + c;
+      const bool bounds = seed % 3 == 1;
+      const RunTotals r = cs[c].make ? runScenario(cs[c], cs[c].make(), s, len, bounds)
+                                     : runScenario(cs[c], cs[c].make_grid(), s, len, bounds);
       if (::testing::Test::HasFailure()) return;
       frames += r.frames;
       done += len;
@@ -463,6 +492,105 @@ TEST(BroadPhase, IdsAreReusedSmallestFirst) {
   bp.update(0, 0.1);
   // All six spheres sit at the origin: every pair is a candidate.
   EXPECT_EQ(bp.pairs().size(), 15u);
+}
+
+}  // namespace
+}  // namespace vadop
+
+namespace vadop {
+namespace {
+
+Motion linear(const Eigen::Vector3d& p, const Eigen::Vector3d& v) {
+  return makeMotion(p, Eigen::Quaterniond::Identity(), v, Eigen::Vector3d::Zero());
+}
+
+TEST(VadopGrid, SeparatedPairIsPrunedAndTouchingPairIsKept) {
+  VadopGridBroadPhase bp(VadopConfig{});
+  // Head-on: gap 2 m, closing at 60 m/s over 1/30 s: they meet within the frame.
+  const BodyId a = bp.add(makeSphere(0.5), linear({-1.5, 0, 0}, {30, 0, 0}));
+  const BodyId b = bp.add(makeSphere(0.5), linear({1.5, 0, 0}, {-30, 0, 0}));
+  const BodyId c = bp.add(makeSphere(0.5), linear({100, 0, 0}, {0, 0, 0}));
+  bp.update(0, 1.0 / 30.0);
+  EXPECT_EQ(bp.pairs(), (std::vector<Pair>{makePair(a, b)}));
+  // Exactly touching at rest counts (closed intervals), also across a cell boundary.
+  bp.setMotion(a, linear({99, 0, 0}, {0, 0, 0}));
+  bp.update(1.0 / 30.0, 2.0 / 30.0);
+  EXPECT_TRUE(std::binary_search(bp.pairs().begin(), bp.pairs().end(), makePair(a, c)));
+  // Parallel and 1.01 m apart sideways: the boxes overlap along the motion, the volumes do not.
+  VadopGridBroadPhase side(VadopConfig{});
+  side.add(makeSphere(0.5), linear({0, 0, 0}, {30, 0, 0}));
+  side.add(makeSphere(0.5), linear({0, 1.01, 0}, {30, 0, 0}));
+  side.update(0, 1.0 / 30.0);
+  EXPECT_TRUE(side.pairs().empty());
+}
+
+TEST(VadopGrid, LargeBodiesAndFarCoordinatesAreStillExact) {
+  // A 1 km wall among 1 m cells is too large for the grid: it must still meet its neighbours;
+  // bodies 1e12 m out force coarser cells, so that cell coordinates cannot overflow.
+  VadopGridBroadPhase bp(VadopConfig{}, 1.0);
+  const BodyId wall = bp.add(makeBox(Eigen::Vector3d(1000, 0.1, 10)), linear({0, 0, 0}, {0, 0, 0}));
+  const BodyId near = bp.add(makeSphere(0.3), linear({400, 0.3, 0}, {0, 0, 0}));
+  const BodyId far = bp.add(makeSphere(0.3), linear({400, 5, 0}, {0, 0, 0}));
+  bp.update(0, 0.1);
+  EXPECT_EQ(bp.pairs(), (std::vector<Pair>{makePair(wall, near)}));
+  EXPECT_EQ(bp.stats().large_bodies, 1u);
+  const BodyId x1 = bp.add(makeSphere(1), linear({1e12, 0, 0}, {0, 0, 0}));
+  const BodyId x2 = bp.add(makeSphere(1), linear({1e12 + 1.5, 0, 0}, {0, 0, 0}));
+  const BodyId x3 = bp.add(makeSphere(1), linear({-1e12, 0, 0}, {0, 0, 0}));
+  bp.update(0.1, 0.2);
+  EXPECT_EQ(bp.pairs(), (std::vector<Pair>{makePair(wall, near), makePair(x1, x2)}));
+  EXPECT_GT(bp.stats().cell_size, 1.0);
+  (void)far;
+  (void)x3;
+}
+
+TEST(VadopGrid, BadInputThrowsAndChangesNothing) {
+  VadopGridBroadPhase bp(VadopConfig{});
+  const BodyId a = bp.add(makeSphere(1), linear({0, 0, 0}, {1, 0, 0}));
+  const BodyId b = bp.add(makeBox(Eigen::Vector3d(1, 1, 1)), linear({1.5, 0, 0}, {1, 0, 0}));
+  bp.update(0, 0.1);
+  const auto before = bp.pairs();
+  ASSERT_EQ(before.size(), 1u);
+  Motion nan = linear({0, 0, 0}, {1, 0, 0});
+  nan.position.y() = std::nan("");
+  EXPECT_THROW(bp.add(makeSphere(1), nan), InvalidArgument);
+  EXPECT_THROW(bp.setMotion(a, nan), InvalidArgument);
+  EXPECT_THROW(bp.remove(77), InvalidArgument);
+  EXPECT_THROW(bp.volume(77), InvalidArgument);
+  EXPECT_THROW(bp.update(1.0, 0.5), InvalidArgument);
+  EXPECT_THROW(bp.axisDirection(32 + 3), InvalidArgument);
+  EXPECT_EQ(bp.size(), 2u);
+  bp.update(0, 0.1);
+  EXPECT_EQ(bp.pairs(), before);
+  (void)b;
+
+  VadopConfig c;
+  c.axes = 64;
+  c.phi_deg = 1.0;  // below the covering radius
+  EXPECT_THROW(VadopGridBroadPhase{c}, InvalidArgument);
+  EXPECT_THROW(VadopGridBroadPhase(VadopConfig{}, -1.0), InvalidArgument);
+  try {
+    VadopGridBroadPhase bad(VadopConfig{}, std::nan(""));
+    FAIL() << "NaN cell size accepted";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("cell_size"), std::string::npos) << e.what();
+  }
+}
+
+TEST(VadopGrid, IdsAreReusedAndRemovedBodiesVanish) {
+  VadopGridBroadPhase bp(VadopConfig{});
+  const Motion still = linear({0, 0, 0}, {0, 0, 0});
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(bp.add(makeSphere(1), still), static_cast<BodyId>(i));
+  bp.update(0, 0.1);
+  EXPECT_EQ(bp.pairs().size(), 10u);
+  bp.remove(3);
+  bp.remove(1);
+  EXPECT_TRUE(bp.volume(0).size() > 3u);
+  EXPECT_EQ(bp.add(makeSphere(1), still), 1u);
+  EXPECT_TRUE(bp.volume(1).empty());  // added since the last update
+  bp.update(0.1, 0.2);
+  EXPECT_EQ(bp.pairs().size(), 6u);  // 4 bodies at the origin
+  for (const Pair& p : bp.pairs()) EXPECT_TRUE(p.a != 3 && p.b != 3);
 }
 
 }  // namespace

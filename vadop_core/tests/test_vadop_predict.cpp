@@ -1,6 +1,6 @@
 // vadop_predict, the command-line tool, run as a process (VADOP_PREDICT_BIN):
 //  - a small analytic scene whose output lines are computed by hand;
-//  - --broadphase vadop|sap|brute print byte-identical output on random 1,000-body scenes
+//  - --broadphase vadop|vadop_sap|sap|brute print byte-identical output on random 1,000-body scenes
 //    (and the same as the World API);
 //  - bad input or options: exit status 2, a one-line message naming body and field on stderr,
 //    nothing on stdout; --help: usage, exit 0.
@@ -156,6 +156,7 @@ TEST(VadopPredict, BroadPhasesPrintByteIdenticalOutputOnRandomScenes) {
     const std::string scene = dir.file("scene" + std::to_string(seed) + ".json", text);
     const ToolRun vadop = run(shellQuote(scene) + " --broadphase vadop");
     const ToolRun sap = run("--broadphase sap " + shellQuote(scene));
+    const ToolRun vadop_sap = run("--broadphase vadop_sap " + shellQuote(scene));
     const ToolRun brute = run("--broadphase=brute " + shellQuote(scene));
     const ToolRun tuned = run(shellQuote(scene) + " --axes 64 --phi 0");
     for (const ToolRun* r : {&vadop, &sap, &brute, &tuned}) {
@@ -165,6 +166,7 @@ TEST(VadopPredict, BroadPhasesPrintByteIdenticalOutputOnRandomScenes) {
     const size_t n = lines(vadop.out).size();
     EXPECT_GT(n, 200u) << "seed " << seed << ": too few contacts for a meaningful comparison";
     EXPECT_EQ(vadop.out, sap.out) << "seed " << seed;
+    EXPECT_EQ(vadop.out, vadop_sap.out) << "seed " << seed;
     EXPECT_EQ(vadop.out, brute.out) << "seed " << seed;
     EXPECT_EQ(vadop.out, tuned.out) << "seed " << seed;
     // And the library, through the World API.
@@ -188,7 +190,7 @@ TEST(VadopPredict, BroadPhasesPrintByteIdenticalOutputOnRandomScenes) {
       last_t = t;
       last_pair = {ia, ib};
     }
-    std::printf("seed %llu: 1000 bodies, %zu impact lines, identical for vadop, sap, brute, vadop --axes 64 --phi 0\n",
+    std::printf("seed %llu: 1000 bodies, %zu impact lines, identical for vadop, vadop_sap, sap, brute, vadop --axes 64 --phi 0\n",
                 static_cast<unsigned long long>(100 + seed), n);
     total += n;
   }

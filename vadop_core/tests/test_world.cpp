@@ -1,7 +1,7 @@
 // World: the pipeline (broad phase + narrow phase) behind vadop_predict.
 //  - analytic scenes (head-on spheres, touching at t0, a = the body added first);
 //  - add/remove/setMotion errors name the body and leave the world unchanged;
-//  - the broad phases vadop, sap and brute give identical results on random 1,000-body scenes;
+//  - the broad phases vadop, vadop_sap, sap and brute give identical results on random 1,000-body scenes;
 //  - the incremental broad phase, fed many predicts with setMotion/add/remove in between,
 //    agrees with a world built from scratch each time;
 //  - the ImpactQueue response loop on a Newton's cradle.
@@ -197,10 +197,11 @@ TEST(World, BadInputNamesTheBodyAndLeavesTheWorldUnchanged) {
 
 TEST(World, BroadPhaseKindNames) {
   EXPECT_EQ(parseBroadPhaseKind("vadop"), BroadPhaseKind::kVadop);
+  EXPECT_EQ(parseBroadPhaseKind("vadop_sap"), BroadPhaseKind::kVadopSap);
   EXPECT_EQ(parseBroadPhaseKind("sap"), BroadPhaseKind::kSap);
   EXPECT_EQ(parseBroadPhaseKind("brute"), BroadPhaseKind::kBrute);
   EXPECT_THROW(parseBroadPhaseKind("kdop"), InvalidArgument);
-  for (auto k : {BroadPhaseKind::kVadop, BroadPhaseKind::kSap, BroadPhaseKind::kBrute}) {
+  for (auto k : {BroadPhaseKind::kVadop, BroadPhaseKind::kVadopSap, BroadPhaseKind::kSap, BroadPhaseKind::kBrute}) {
     EXPECT_EQ(parseBroadPhaseKind(toString(k)), k);
   }
 }
@@ -220,18 +221,20 @@ TEST(World, BroadPhasesGiveIdenticalResultsOnRandomScenes) {
   for (uint64_t seed = 1; seed <= 3; ++seed) {
     const Scene scene = parseScene(testing_scene::randomSceneJson(seed));
     ASSERT_EQ(scene.bodies.size(), 1000u);
-    size_t cand_vadop = 0, cand_sap = 0, cand_brute = 0;
+    size_t cand_vadop = 0, cand_vadop_sap = 0, cand_sap = 0, cand_brute = 0;
     const std::string vadop = predictLines(scene, BroadPhaseKind::kVadop, &cand_vadop);
+    const std::string vadop_sap = predictLines(scene, BroadPhaseKind::kVadopSap, &cand_vadop_sap);
     const std::string sap = predictLines(scene, BroadPhaseKind::kSap, &cand_sap);
     const std::string brute = predictLines(scene, BroadPhaseKind::kBrute, &cand_brute);
     const size_t lines = static_cast<size_t>(std::count(vadop.begin(), vadop.end(), '\n'));
     EXPECT_GT(lines, 200u) << "seed " << seed << ": too few contacts to compare";
+    EXPECT_EQ(vadop, vadop_sap) << "seed " << seed;
     EXPECT_EQ(vadop, sap) << "seed " << seed;
     EXPECT_EQ(vadop, brute) << "seed " << seed;
     // The broad phases differ (else the comparison would be vacuous).
     EXPECT_TRUE(cand_vadop != cand_sap || cand_sap != cand_brute);
-    std::printf("seed %llu: 1000 bodies, %zu impacts; candidates vadop %zu, sap %zu, brute %zu\n",
-                static_cast<unsigned long long>(seed), lines, cand_vadop, cand_sap, cand_brute);
+    std::printf("seed %llu: 1000 bodies, %zu impacts; candidates vadop %zu, vadop_sap %zu, sap %zu, brute %zu\n",
+                static_cast<unsigned long long>(seed), lines, cand_vadop, cand_vadop_sap, cand_sap, cand_brute);
     total_impacts += lines;
   }
   RecordProperty("impacts", static_cast<int>(total_impacts));

@@ -22,7 +22,7 @@
 namespace {
 
 const char* const kUsage =
-    "usage: vadop_predict [scene.json | -] [--broadphase vadop|sap|brute] [--axes M] [--phi DEG]\n"
+    "usage: vadop_predict [scene.json | -] [--broadphase vadop|vadop_sap|sap|brute] [--axes M] [--phi DEG]\n"
     "\n"
     "Predicts every contact between the bodies of a JSON scene within [0, horizon] and prints one\n"
     "JSON object per line, sorted by time then input order:\n"
@@ -30,7 +30,8 @@ const char* const kUsage =
     "(a = the body listed first, normal from a to b; a pair touching at t = 0 has time 0).\n"
     "\n"
     "  scene.json         the scene; '-' or none: standard input\n"
-    "  --broadphase NAME  vadop (default), sap (sweep and prune of AABBs) or brute (all pairs);\n"
+    "  --broadphase NAME  vadop (default: VADOP volumes on a grid), vadop_sap (VADOP with sweep\n"
+    "                     and prune per axis), sap (sweep and prune of AABBs) or brute (all pairs);\n"
     "                     the output does not depend on it\n"
     "  --axes M           VADOP axis pool size, an integer in [3, 4096] (default 32)\n"
     "  --phi DEG          VADOP zone half-width in degrees, in [0, 90], at least the pool's\n"

@@ -29,18 +29,19 @@
 namespace vadop {
 
 enum class BroadPhaseKind {
-  kVadop,  // VADOP: SweepPruneBroadPhase with WorldConfig::vadop
+  kVadop,     // VADOP volumes on a grid of swept AABBs (VadopGridBroadPhase), WorldConfig::vadop
+  kVadopSap,  // VADOP with sweep and prune on each pool axis (SweepPruneBroadPhase), as in the paper
   kSap,    // sweep and prune of swept AABBs on x, y, z
   kBrute,  // every pair, by swept bounding spheres: ground truth for small scenes
 };
 
 const char* toString(BroadPhaseKind kind);
-// "vadop", "sap" or "brute"; throws vadop::InvalidArgument otherwise.
+// "vadop", "vadop_sap", "sap" or "brute"; throws vadop::InvalidArgument otherwise.
 BroadPhaseKind parseBroadPhaseKind(const std::string& name);
 
 struct WorldConfig {
   BroadPhaseKind broad_phase = BroadPhaseKind::kVadop;
-  VadopConfig vadop;  // axes, phi_deg, ...: used (and validated) by kVadop only
+  VadopConfig vadop;  // axes, phi_deg, ...: used (and validated) by kVadop and kVadopSap
   ToiOptions toi;
 };
 

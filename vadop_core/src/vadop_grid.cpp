@@ -1,0 +1,343 @@
+#include "vadop/vadop_grid.h"
+
+#include "vadop/error.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+// Why the candidate set is exactly {swept AABBs overlap and intervals overlap on every shared
+// pool axis}, each pair once:
+//  - Two bodies whose boxes overlap share the cell holding the lo corner of the boxes'
+//    intersection (both boxes contain that point), and the floor of a maximum is the maximum of
+//    the floors, so that cell is (max of the two lo-corner cells) per axis: a pair is tested in
+//    that cell only. Cells are found by exact integer coordinates (hash table with full keys),
+//    so two far cells never merge.
+//  - A body whose box spans more than kMaxCellsPerBody cells is not put in the grid but tested
+//    against every body: a few huge or very fast bodies cannot blow up the grid's memory.
+namespace vadop {
+namespace {
+
+constexpr size_t kMaxCellsPerBody = 256;
+constexpr uint32_t kEmpty = ~uint32_t{0};
+// Cell coordinates stay well inside int32.
+constexpr double kMaxCellCoordinate = 1 << 29;
+
+inline uint64_t mix(uint64_t k) {
+  k ^= k >> 33;
+  k *= 0xff51afd7ed558ccdull;
+  k ^= k >> 33;
+  return k;
+}
+
+}  // namespace
+
+VadopGridBroadPhase::VadopGridBroadPhase(const VadopConfig& config, double cell_size) : config_(config) {
+  if (config.axes < 3 || config.axes > AxisPool::kMaxAxes) {
+    throw InvalidArgument("axes must be in [3, " + std::to_string(AxisPool::kMaxAxes) + "], got " +
+                          std::to_string(config.axes));
+  }
+  if (!std::isfinite(cell_size) || cell_size < 0.0) {
+    throw InvalidArgument("cell_size must be finite and >= 0 (0 = automatic), got " + formatNumber(cell_size));
+  }
+  pool_ = std::make_unique<AxisPool>(config.axes);
+  phi_ = validateVadopConfig(config_, *pool_);
+  cell_size_ = cell_size;
+  words_ = (static_cast<size_t>(pool_->size()) + 63) / 64;
+}
+
+size_t VadopGridBroadPhase::memoryBytes() const {
+  size_t bytes = axes_.capacity() * sizeof(std::vector<uint32_t>) + dirty_flag_.capacity() +
+                 dirty_.capacity() * sizeof(BodyId);
+  for (const auto& a : axes_) bytes += a.capacity() * sizeof(uint32_t);
+  bytes += (slot_body_.capacity() + slot_of_.capacity() + offset_.capacity()) * sizeof(uint32_t) +
+           box_.capacity() * sizeof(double) + bits_.capacity() * sizeof(uint64_t) +
+           rank_.capacity() * sizeof(uint16_t) + intervals_.capacity() * sizeof(Interval) +
+           lo_cell_.capacity() * sizeof(int32_t);
+  bytes += table_key_.capacity() * sizeof(Cell) + table_cell_.capacity() * sizeof(uint32_t) +
+           cells_.capacity() * sizeof(Cell) +
+           (cell_start_.capacity() + cell_slots_.capacity() + entry_cell_.capacity() + entry_slot_.capacity() +
+            large_.capacity()) *
+               sizeof(uint32_t);
+  return bytes;
+}
+
+std::vector<VadopGridBroadPhase::AxisSpan> VadopGridBroadPhase::volume(BodyId id) const {
+  requireKnown(id, "volume");
+  std::vector<AxisSpan> out;
+  const uint32_t s = id < slot_of_.size() ? slot_of_[id] : kNoSlot;
+  if (s == kNoSlot) return out;
+  const uint32_t count = static_cast<uint32_t>(axes_[id].size());
+  for (uint32_t i = 0; i < count; ++i) out.push_back({axes_[id][i], intervals_[offset_[s] + i]});
+  const uint32_t m = static_cast<uint32_t>(pool_->size());
+  for (uint32_t k = 0; k < 3; ++k) out.push_back({m + k, Interval{box_[6 * s + k], box_[6 * s + 3 + k]}});
+  return out;
+}
+
+Eigen::Vector3d VadopGridBroadPhase::axisDirection(uint32_t axis) const {
+  const uint32_t m = static_cast<uint32_t>(pool_->size());
+  if (axis < m) return pool_->axis(static_cast<int>(axis));
+  if (axis < m + 3) return Eigen::Vector3d::Unit(static_cast<int>(axis - m));
+  throw InvalidArgument("axisDirection: axis " + std::to_string(axis) + " out of range [0, " +
+                        std::to_string(m + 3) + ")");
+}
+
+void VadopGridBroadPhase::onAdd(BodyId id) {
+  if (axes_.size() <= id) {
+    axes_.resize(id + 1);
+    dirty_flag_.resize(id + 1, 0);
+    slot_of_.resize(id + 1, kNoSlot);
+  }
+  axes_[id].clear();
+  slot_of_[id] = kNoSlot;
+  if (!dirty_flag_[id]) {
+    dirty_flag_[id] = 1;
+    dirty_.push_back(id);
+  }
+}
+
+void VadopGridBroadPhase::onSetMotion(BodyId id) {
+  if (!dirty_flag_[id]) {
+    dirty_flag_[id] = 1;
+    dirty_.push_back(id);
+  }
+}
+
+void VadopGridBroadPhase::onRemove(BodyId id) {
+  axes_[id].clear();
+  slot_of_[id] = kNoSlot;
+  // A stale entry in dirty_ is harmless: the body is re-selected when the id is reused.
+}
+
+uint32_t VadopGridBroadPhase::cellIndex(const Cell& c) {
+  const uint64_t h = mix((static_cast<uint64_t>(static_cast<uint32_t>(c.x)) * 0x9e3779b1u) ^
+                         (static_cast<uint64_t>(static_cast<uint32_t>(c.y)) << 21) ^
+                         (static_cast<uint64_t>(static_cast<uint32_t>(c.z)) << 42));
+  for (size_t i = h & table_mask_;; i = (i + 1) & table_mask_) {
+    const uint32_t cell = table_cell_[i];
+    if (cell == kEmpty) {
+      table_key_[i] = c;
+      table_cell_[i] = static_cast<uint32_t>(cells_.size());
+      cells_.push_back(c);
+      return table_cell_[i];
+    }
+    const Cell& k = table_key_[i];
+    if (k.x == c.x && k.y == c.y && k.z == c.z) return cell;
+  }
+}
+
+// Baseline x86-64 has no popcount instruction: GCC builds a second version for CPUs that do.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define VADOP_GRID_POPCNT_CLONES __attribute__((target_clones("popcnt", "default")))
+#else
+#define VADOP_GRID_POPCNT_CLONES
+#endif
+
+VADOP_GRID_POPCNT_CLONES
+bool VadopGridBroadPhase::overlapOnShared(uint32_t a, uint32_t b) {
+  ++stats_.overlap_tests;
+  const uint64_t* ba = &bits_[a * words_];
+  const uint64_t* bb = &bits_[b * words_];
+  const Interval* ia = &intervals_[offset_[a]];
+  const Interval* ib = &intervals_[offset_[b]];
+  const uint16_t* ra = &rank_[a * words_];
+  const uint16_t* rb = &rank_[b * words_];
+  for (size_t w = 0; w < words_; ++w) {
+    for (uint64_t common = ba[w] & bb[w]; common != 0; common &= common - 1) {
+      const uint64_t below = (common & (~common + 1)) - 1;  // bits under the lowest set bit
+      const Interval& x = ia[ra[w] + __builtin_popcountll(ba[w] & below)];
+      const Interval& y = ib[rb[w] + __builtin_popcountll(bb[w] & below)];
+      if (x.lo > y.hi || y.lo > x.hi) return false;
+    }
+  }
+  // No shared axis cannot happen with rho <= phi; if it did, the boxes alone decide.
+  return true;
+}
+
+void VadopGridBroadPhase::testPair(uint32_t a, uint32_t b, std::vector<Pair>& out) {
+  ++stats_.box_tests;
+  const double* x = &box_[6 * a];
+  const double* y = &box_[6 * b];
+  if (x[0] > y[3] || y[0] > x[3] || x[1] > y[4] || y[1] > x[4] || x[2] > y[5] || y[2] > x[5]) return;
+  if (overlapOnShared(a, b)) out.push_back(makePair(slot_body_[a], slot_body_[b]));
+}
+
+void VadopGridBroadPhase::buildGrid(double h) {
+  const size_t slots = slot_body_.size();
+  const double inv = 1.0 / h;
+  auto cellOf = [inv](double v) { return static_cast<int32_t>(std::floor(v * inv)); };
+  lo_cell_.resize(3 * slots);
+  entry_cell_.clear();
+  entry_slot_.clear();
+  large_.clear();
+  cells_.clear();
+  // Size the table for the incidences first: one pass over the cell ranges.
+  size_t incidences = 0;
+  for (uint32_t s = 0; s < slots; ++s) {
+    const double* b = &box_[6 * s];
+    size_t count = 1;
+    for (int k = 0; k < 3; ++k) {
+      lo_cell_[3 * s + k] = cellOf(b[k]);
+      count *= static_cast<size_t>(cellOf(b[3 + k]) - lo_cell_[3 * s + k] + 1);
+    }
+    if (count > kMaxCellsPerBody) {
+      large_.push_back(s);
+    } else {
+      incidences += count;
+    }
+  }
+  size_t capacity = 16;
+  while (capacity < 2 * incidences) capacity *= 2;
+  table_key_.resize(capacity);
+  table_cell_.assign(capacity, kEmpty);
+  table_mask_ = capacity - 1;
+  entry_cell_.reserve(incidences);
+  entry_slot_.reserve(incidences);
+  size_t next_large = 0;
+  for (uint32_t s = 0; s < slots; ++s) {
+    if (next_large < large_.size() && large_[next_large] == s) {
+      ++next_large;
+      continue;
+    }
+    const double* b = &box_[6 * s];
+    const int32_t* lo = &lo_cell_[3 * s];
+    const int32_t hx = cellOf(b[3]), hy = cellOf(b[4]), hz = cellOf(b[5]);
+    for (int32_t z = lo[2]; z <= hz; ++z) {
+      for (int32_t y = lo[1]; y <= hy; ++y) {
+        for (int32_t x = lo[0]; x <= hx; ++x) {
+          entry_cell_.push_back(cellIndex(Cell{x, y, z}));
+          entry_slot_.push_back(s);
+        }
+      }
+    }
+  }
+  // Counting sort of the incidences by cell; stable, so each cell lists its slots ascending.
+  cell_start_.assign(cells_.size() + 1, 0);
+  for (uint32_t c : entry_cell_) ++cell_start_[c + 1];
+  for (size_t c = 0; c < cells_.size(); ++c) cell_start_[c + 1] += cell_start_[c];
+  cell_slots_.resize(entry_cell_.size());
+  std::vector<uint32_t>& fill = entry_cell_;  // reused as the write cursor of each entry's cell
+  for (size_t e = 0; e < entry_slot_.size(); ++e) cell_slots_[cell_start_[fill[e]]++] = entry_slot_[e];
+  // cell_start_[c] now holds the end of cell c: shift back.
+  for (size_t c = cells_.size(); c > 0; --c) cell_start_[c] = cell_start_[c - 1];
+  cell_start_[0] = 0;
+  stats_.cells = cells_.size();
+  stats_.cell_entries = cell_slots_.size();
+  stats_.large_bodies = large_.size();
+}
+
+void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& out) {
+  stats_ = Stats{};
+  using Clock = std::chrono::steady_clock;
+  const auto start = Clock::now();
+  const auto& b = bodies();
+  const double frame = t1 - t0;
+
+  // 1. New axis sets for the bodies whose motion changed (kept under the hysteresis rule).
+  for (BodyId id : dirty_) {
+    if (id >= b.size() || !dirty_flag_[id]) continue;
+    dirty_flag_[id] = 0;
+    if (!b[id].alive) continue;
+    std::vector<uint32_t> axes = selectAxes(b[id].motion, b[id].shape->bounding_radius, frame, *pool_, config_,
+                                            phi_, axes_[id]);
+    if (axes != axes_[id]) {
+      ++stats_.reinserted;
+      axes_[id] = std::move(axes);
+    }
+  }
+  dirty_.clear();
+
+  // 2. Per alive body, in id order: swept AABB and intervals on its pool axes.
+  slot_body_.clear();
+  offset_.clear();
+  box_.clear();
+  intervals_.clear();
+  bits_.clear();
+  rank_.clear();
+  std::fill(slot_of_.begin(), slot_of_.end(), kNoSlot);
+  std::vector<double>& extent = scratch_extent_;
+  extent.clear();
+  double max_abs = 0.0;
+  for (BodyId id = 0; id < b.size(); ++id) {
+    if (!b[id].alive) continue;
+    const uint32_t s = static_cast<uint32_t>(slot_body_.size());
+    slot_of_[id] = s;
+    slot_body_.push_back(id);
+    const SweptBody swept(*b[id].shape, b[id].motion, t0, t1);
+    double lo[3], hi[3], ext = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      const Interval iv = swept.project(Eigen::Vector3d::Unit(k));
+      lo[k] = iv.lo;
+      hi[k] = iv.hi;
+      ext = std::max(ext, iv.hi - iv.lo);
+      max_abs = std::max({max_abs, std::abs(iv.lo), std::abs(iv.hi)});
+    }
+    box_.insert(box_.end(), {lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]});
+    extent.push_back(ext);
+    offset_.push_back(static_cast<uint32_t>(intervals_.size()));
+    const size_t bit0 = bits_.size();
+    bits_.resize(bit0 + words_, 0);
+    rank_.resize(bit0 + words_, 0);
+    for (uint32_t k : axes_[id]) {
+      intervals_.push_back(swept.project(pool_->axis(static_cast<int>(k))));
+      bits_[bit0 + k / 64] |= uint64_t{1} << (k % 64);
+    }
+    for (size_t w = 1; w < words_; ++w) {
+      rank_[bit0 + w] = static_cast<uint16_t>(rank_[bit0 + w - 1] + __builtin_popcountll(bits_[bit0 + w - 1]));
+    }
+  }
+  const auto grid_from = Clock::now();
+  stats_.update_seconds = std::chrono::duration<double>(grid_from - start).count();
+  const size_t slots = slot_body_.size();
+  if (slots < 2) {
+    stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
+    return;
+  }
+
+  // 3. Cell size: about two median boxes, so a typical box spans 1-2 cells per axis; never so
+  //    small that cell coordinates could overflow.
+  double h = cell_size_;
+  if (h == 0.0) {
+    const size_t mid = extent.size() / 2;
+    std::nth_element(extent.begin(), extent.begin() + static_cast<long>(mid), extent.end());
+    h = 2.0 * extent[mid];
+  }
+  h = std::max({h, max_abs / kMaxCellCoordinate, 1e-9});
+  stats_.cell_size = h;
+  buildGrid(h);
+
+  // 4. Pairs of each cell, each reported in the cell of its boxes' common lo corner.
+  for (size_t c = 0; c < cells_.size(); ++c) {
+    const uint32_t from = cell_start_[c], to = cell_start_[c + 1];
+    if (to - from < 2) continue;
+    const Cell cell = cells_[c];
+    for (uint32_t i = from; i + 1 < to; ++i) {
+      const uint32_t a = cell_slots_[i];
+      const int32_t* la = &lo_cell_[3 * a];
+      for (uint32_t j = i + 1; j < to; ++j) {
+        const uint32_t s = cell_slots_[j];
+        const int32_t* ls = &lo_cell_[3 * s];
+        if (std::max(la[0], ls[0]) != cell.x || std::max(la[1], ls[1]) != cell.y ||
+            std::max(la[2], ls[2]) != cell.z) {
+          continue;  // tested in another cell they share
+        }
+        testPair(a, s, out);
+      }
+    }
+  }
+  // 5. Bodies too large for the grid: against every other body, each pair once.
+  std::vector<uint8_t>& is_large = scratch_large_;
+  if (!large_.empty()) {
+    is_large.assign(slots, 0);
+    for (uint32_t s : large_) is_large[s] = 1;
+    for (uint32_t l : large_) {
+      for (uint32_t s = 0; s < slots; ++s) {
+        if (s == l || (is_large[s] && s < l)) continue;
+        testPair(l, s, out);
+      }
+    }
+  }
+  stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
+}
+
+}  // namespace vadop
