@@ -50,51 +50,69 @@ double validateVadopConfig(const VadopConfig& c, const AxisPool& pool) {
   return phi;
 }
 
-std::vector<uint32_t> selectAxes(const Motion& motion, double bounding_radius, double frame_length,
-                                 const AxisPool& pool, const VadopConfig& config, double phi_rad,
-                                 const std::vector<uint32_t>& previous) {
-  const int m = pool.size();
-  std::vector<uint32_t> out;
-  const double speed = motion.linear_velocity.norm();
-  const bool slow = !(speed * frame_length >= config.slow_fraction * bounding_radius) || speed == 0.0;
-  if (slow && config.slow_rule == SlowAxisRule::kAllAxes) {
-    out.resize(m);
-    for (int k = 0; k < m; ++k) out[k] = static_cast<uint32_t>(k);
-    return out;
-  }
-  const Eigen::Vector3d u =
-      slow ? Eigen::Vector3d(config.slow_direction.normalized()) : Eigen::Vector3d(motion.linear_velocity / speed);
+AxisZones axisZones(const VadopConfig& config, double phi_rad) {
   // The tiny slack keeps an axis that lies exactly on the zone's rim (|u.a| == sin(phi)) in,
   // whatever the rounding: the sharing guarantee needs the closed zone.
   const double hysteresis = config.hysteresis_deg * kDeg;
-  const double in_zone = std::sin(phi_rad) + 1e-12;
-  const double keep_zone = std::sin(std::min(phi_rad + hysteresis, kPi / 2)) + 1e-12;
+  AxisZones z;
+  z.in_zone = std::sin(phi_rad) + 1e-12;
+  z.keep_zone = std::sin(std::min(phi_rad + hysteresis, kPi / 2)) + 1e-12;
+  z.fresh_zone = std::sin(std::min(phi_rad + 0.5 * hysteresis, kPi / 2)) + 1e-12;
+  return z;
+}
+
+bool updateAxes(const Motion& motion, double bounding_radius, double frame_length, const AxisPool& pool,
+                const VadopConfig& config, const AxisZones& zones, std::vector<uint32_t>& axes) {
+  const int m = pool.size();
+  const double speed = motion.linear_velocity.norm();
+  const bool slow = !(speed * frame_length >= config.slow_fraction * bounding_radius) || speed == 0.0;
+  if (slow && config.slow_rule == SlowAxisRule::kAllAxes) {
+    if (axes.size() == static_cast<size_t>(m)) return false;  // ascending and unique: all of them
+    axes.resize(m);
+    for (int k = 0; k < m; ++k) axes[k] = static_cast<uint32_t>(k);
+    return true;
+  }
+  const Eigen::Vector3d u =
+      slow ? Eigen::Vector3d(config.slow_direction.normalized()) : Eigen::Vector3d(motion.linear_velocity / speed);
+  const double in_zone = zones.in_zone, keep_zone = zones.keep_zone;
   // Keep the previous set while it still holds the whole zone and nothing far outside it: a
   // steadily turning body then changes lists only every hysteresis / 2 of turn, not each time
   // an axis crosses the rim.
-  if (!previous.empty()) {
+  if (!axes.empty()) {
     bool keep = true;
     size_t p = 0;
     for (int k = 0; k < m && keep; ++k) {
       const double c = std::abs(u.dot(pool.axis(k)));
-      while (p < previous.size() && previous[p] < static_cast<uint32_t>(k)) ++p;
-      const bool used = p < previous.size() && previous[p] == static_cast<uint32_t>(k);
+      while (p < axes.size() && axes[p] < static_cast<uint32_t>(k)) ++p;
+      const bool used = p < axes.size() && axes[p] == static_cast<uint32_t>(k);
       keep = used ? c <= keep_zone : c > in_zone;
     }
-    if (keep) return previous;
+    if (keep) return false;
   }
   // A fresh set: the zone widened by half the hysteresis, so the body can turn either way.
-  const double fresh_zone = std::sin(std::min(phi_rad + 0.5 * hysteresis, kPi / 2)) + 1e-12;
+  const double fresh_zone = zones.fresh_zone;
+  // It differs from the previous set: that one would have been kept (the fresh set holds the
+  // zone and lies within phi + hysteresis / 2).
+  axes.clear();
   for (int k = 0; k < m; ++k) {
-    if (std::abs(u.dot(pool.axis(k))) <= fresh_zone) out.push_back(static_cast<uint32_t>(k));
+    if (std::abs(u.dot(pool.axis(k))) <= fresh_zone) axes.push_back(static_cast<uint32_t>(k));
   }
-  return out;
+  return true;
+}
+
+std::vector<uint32_t> selectAxes(const Motion& motion, double bounding_radius, double frame_length,
+                                 const AxisPool& pool, const VadopConfig& config, double phi_rad,
+                                 const std::vector<uint32_t>& previous) {
+  std::vector<uint32_t> axes = previous;
+  updateAxes(motion, bounding_radius, frame_length, pool, config, axisZones(config, phi_rad), axes);
+  return axes;
 }
 
 SweptBody::SweptBody(const Shape& shape, const Motion& motion, double t0, double t1)
     : shape_(&shape) {
   const double tm = 0.5 * (t0 + t1);
-  rotation_mid_t_ = motion.orientationAt(tm).toRotationMatrix().transpose();
+  // A sphere's projection does not depend on its orientation (see project).
+  if (shape.type != ShapeType::kSphere) rotation_mid_t_ = motion.orientationAt(tm).toRotationMatrix().transpose();
   p0_ = motion.positionAt(t0);
   p1_ = motion.positionAt(t1);
   core_radius_ = std::max(0.0, shape.bounding_radius - shape.margin);

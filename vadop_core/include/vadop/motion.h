@@ -33,8 +33,8 @@ Motion makeMotion(const Eigen::Vector3d& position, const Eigen::Quaterniond& ori
 // Throws vadop::InvalidArgument, prefixed with `what`, when `motion` holds a NaN/Inf or an
 // orientation that is not unit length (to 1e-6).
 void validateMotion(const Motion& motion, const std::string& what);
-// The same test without the message: for hot paths, which call validateMotion (and build its
-// message) only when this says no.
+// A quick pre-test for hot paths: true only for a motion validateMotion accepts (false for a few
+// valid ones too), so they call validateMotion, and build its message, only when this says no.
 bool isValidMotion(const Motion& motion);
 
 }  // namespace vadop

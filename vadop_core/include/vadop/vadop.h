@@ -59,6 +59,14 @@ double validateVadopConfig(const VadopConfig& config, const AxisPool& pool);
 std::vector<uint32_t> selectAxes(const Motion& motion, double bounding_radius, double frame_length,
                                  const AxisPool& pool, const VadopConfig& config, double phi_rad,
                                  const std::vector<uint32_t>& previous = {});
+// The same in place, for the per-frame loops: `axes` holds the previous set and receives the
+// new one (its storage reused); returns whether it changed. `zones` = axisZones(config, phi).
+struct AxisZones {
+  double in_zone, keep_zone, fresh_zone;  // sines of phi, phi + hysteresis, phi + hysteresis / 2
+};
+AxisZones axisZones(const VadopConfig& config, double phi_rad);
+bool updateAxes(const Motion& motion, double bounding_radius, double frame_length, const AxisPool& pool,
+                const VadopConfig& config, const AxisZones& zones, std::vector<uint32_t>& axes);
 
 // Interval on a unit axis bounding the projection of the shape moving with `motion` over
 // [t0, t1]: the support along the axis at the mid-frame orientation, plus the linear

@@ -74,6 +74,7 @@ class VadopGridBroadPhase : public BroadPhase {
   std::unique_ptr<AxisPool> pool_;
   VadopConfig config_;
   double phi_ = 0.0;
+  AxisZones zones_{};
   double cell_size_ = 0.0;
   size_t words_ = 1;  // 64-bit words of an axis bitset
 
@@ -103,6 +104,7 @@ class VadopGridBroadPhase : public BroadPhase {
   std::vector<uint32_t> large_;
   std::vector<double> scratch_extent_;
   std::vector<uint8_t> scratch_large_;
+  std::vector<uint32_t> scratch_sweep_;
   Stats stats_;
 };
 
