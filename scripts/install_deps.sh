@@ -21,6 +21,7 @@ PACKAGES=(
   python3-roslaunch python3-rosmaster
   python3-rospy python3-std-msgs python3-geometry-msgs python3-nav-msgs
   python3-visualization-msgs python3-diagnostic-msgs python3-tf2-ros
+  python3-tf2-msgs python3-rosgraph-msgs python3-rosunit
   librviz-dev rviz xvfb imagemagick python3-pil python3-yaml
   # libraries
   libeigen3-dev libfcl-dev libccd-dev libbullet-dev libassimp-dev

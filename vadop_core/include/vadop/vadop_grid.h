@@ -99,12 +99,16 @@ class VadopGridBroadPhase : public BroadPhase {
   size_t table_mask_ = 0;
   std::vector<Cell> cells_;
   std::vector<uint32_t> cell_start_;
-  std::vector<uint32_t> cell_slots_;
+  struct CellEntry {  // one (body, cell) incidence, in cell order
+    double box[6];
+    int32_t lo_cell[3];
+    uint32_t slot;
+  };
+  std::vector<CellEntry> cell_entries_;
   std::vector<uint32_t> entry_cell_, entry_slot_;
   std::vector<uint32_t> large_;
   std::vector<double> scratch_extent_;
   std::vector<uint8_t> scratch_large_;
-  std::vector<uint32_t> scratch_sweep_;
   Stats stats_;
 };
 

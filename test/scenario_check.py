@@ -1,0 +1,281 @@
+#!/usr/bin/env python3
+"""Scenario rostests, part 2 (the test node of test/scenario_*.test): waits for
+test/scenario_player.py's record of the played bag and checks each monitor's ~impacts and
+/diagnostics against the scenario's ground truth (test/scenario_gen.py, test/ground_truth.py).
+
+Per monitor (its horizon H, rate f and padding p read from the parameter server), with times in
+scenario seconds and T a pair's true first contact (shapes grown by p):
+ 1. every true impact is reported before it happens (a cycle with stamp < T names the pair),
+    unless T comes before the monitor's first cycle can know both bodies;
+ 2. when both bodies moved as the monitor models them (constant twist, no driving turn,
+    constant joint rates, messages flowing) over [T - H, T] (from clean_since plus one message
+    period and LATENCY), the first report is at least H - 1/f - CLOCK_TOL - E ahead (CLOCK_TOL:
+    the granularity of rosbag play's /clock, on which the node's timer fires; E: the pair's
+    largest time_to_impact error in that window, which rule 3 bounds by 50 ms: with noisy
+    odometry a prediction late by E is announced up to E later; 0 without noise);
+ 3. on those windows, every report's stamp + time_to_impact is within TIME_TOL (50 ms) of T;
+ 4. no reported pair (body/link with body/link) that the truth under padding p does not have
+    (cycles within the bag: after it every body goes stale and stands still);
+ 5. the node lived through the bag: cycles until the bag's end, no gap above 3 periods;
+ 6. the scenario's `expect:` entries: pairs that must / must not collide, a minimum number of
+    impacts, and /diagnostics statuses (e.g. the stale or bad body named, the others ok).
+It prints one summary line per monitor (and per impact for small scenarios), and writes them
+to $ROS_TEST_RESULTS_DIR/vadop/scenario_summary/<scenario>.txt.
+"""
+import json
+import os
+import shutil
+import sys
+import time
+import unittest
+
+import rospy
+import rostest
+import yaml
+
+TIME_TOL = 0.05
+LATENCY = 0.02
+NAME = "scenario_check"
+
+
+def key(a, la, b, lb):
+    x, y = (a, la), (b, lb)
+    return (x, y) if x <= y else (y, x)
+
+
+def label(k):
+    return " <-> ".join(b + ("/" + l if l else "") for b, l in k)
+
+
+def body_key(a, b):
+    return tuple(sorted((a, b)))
+
+
+class ScenarioCheck(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node(NAME)
+        cls.workdir = rospy.get_param("~workdir")
+        cls.monitors = rospy.get_param("~monitors", ["vadop_monitor"])
+        cls.clock_hz = float(rospy.get_param("~clock_hz", 200.0))
+        with open(rospy.get_param("~scenario")) as f:
+            cls.spec = yaml.safe_load(f)
+        cls.expect = cls.spec["scenario"].get("expect", {}) or {}
+        path = os.path.join(cls.workdir, "record.json")
+        deadline = time.time() + float(rospy.get_param("~timeout", 240.0))
+        while not os.path.exists(path) and time.time() < deadline and not rospy.is_shutdown():
+            time.sleep(0.2)
+        if not os.path.exists(path):
+            raise AssertionError("no record from scenario_player in %s" % cls.workdir)
+        with open(path) as f:
+            cls.record = json.load(f)
+        cls.truths = {}
+        for m in cls.monitors:
+            with open(os.path.join(cls.workdir, "truth_%s.json" % m)) as f:
+                cls.truths[m] = json.load(f)
+        cls.summary = []
+        cls.failed = False
+
+    @classmethod
+    def tearDownClass(cls):
+        name = cls.record["scenario"]
+        text = "\n".join(cls.summary) + "\n"
+        print(text)
+        base = os.environ.get("ROS_TEST_RESULTS_DIR") or os.path.expanduser("~/.ros/test_results")
+        out = os.path.join(base, "vadop", "scenario_summary")
+        try:
+            os.makedirs(out, exist_ok=True)
+            with open(os.path.join(out, name + ".txt"), "w") as f:
+                f.write(text)
+        except OSError as e:
+            print("cannot write the summary: %s" % e)
+        if not cls.failed:
+            shutil.rmtree(cls.workdir, ignore_errors=True)
+
+    def run(self, result=None):
+        r = super().run(result)
+        if result is not None and (result.failures or result.errors):
+            type(self).failed = True
+        return r
+
+    # ------------------------------------------------------------------ impacts
+    def check_monitor(self, mon):
+        truth = self.truths[mon]
+        t0 = truth["t0"]
+        duration = truth["duration"]
+        horizon = float(rospy.get_param("/%s/horizon" % mon))
+        rate = float(rospy.get_param("/%s/rate" % mon))
+        padding = truth["padding"]
+        arrays = self.record["monitors"][mon]
+        errors = []
+        self.assertGreater(len(arrays), 0, "%s published no ImpactArray" % mon)
+        stamps = [a[0] - t0 for a in arrays]
+        first_cycle, last_cycle = stamps[0], stamps[-1]
+        in_bag = [s for s in stamps if s <= duration]
+        gaps = [b - a for a, b in zip(in_bag[:-1], in_bag[1:])]
+        max_gap = max(gaps) if gaps else 0.0
+        if last_cycle < duration - 0.1:
+            errors.append("%s: last cycle at %.3f s, the bag lasts %.3f s: the node stopped" % (mon, last_cycle, duration))
+        if max_gap > 3.0 / rate:
+            errors.append("%s: %.3f s without an ImpactArray (period %.3f s)" % (mon, max_gap, 1.0 / rate))
+        if any(b < a for a, b in zip(stamps[:-1], stamps[1:])):
+            errors.append("%s: ImpactArray stamps go backwards" % mon)
+
+        reports = {}
+        for s, impacts in arrays:
+            s -= t0
+            tts = [i[4] for i in impacts]
+            if tts != sorted(tts):
+                errors.append("%s: impacts at %.3f s not sorted by time_to_impact" % (mon, s))
+            for a, la, b, lb, tti, contact, closing, toi in impacts:
+                if abs(toi - tti) > 1e-6:
+                    errors.append("%s: time_of_impact - stamp = %.6f != time_to_impact %.6f" % (mon, toi, tti))
+                reports.setdefault(key(a, la, b, lb), []).append((s, tti, contact))
+        truth_pairs = {key(p["a"], p["la"], p["b"], p["lb"]): p for p in truth["pairs"]}
+
+        # Once the bag has ended, every body goes stale (standing still): only cycles within the bag count.
+        false = sorted(k for k in reports if k not in truth_pairs and reports[k][0][0] <= duration)
+        for k in false:
+            r = reports[k][0]
+            errors.append("%s: %s reported (first at %.3f s, in %.3f s, %d cycles) but the truth (padding %.3f m) has "
+                          "no contact" % (mon, label(k), r[0], r[1], len(reports[k]), padding))
+
+        clock_tol = 1.0 / self.clock_hz + 0.001
+        n_rule = n_checked = n_reported = n_skipped = 0
+        min_warning = None
+        worst = 0.0
+        worst_rotating = 0.0
+        details = []
+        for k, p in sorted(truth_pairs.items(), key=lambda kv: kv[1]["t"]):
+            T = p["t"]
+            if T > last_cycle:
+                n_skipped += 1
+                continue
+            before = [r for r in reports.get(k, []) if r[0] < T]
+            knowable = max(first_cycle, p["clean_since"]) + p["msg_delay"] + LATENCY + 1.0 / rate
+            if not before:
+                if T <= knowable:
+                    n_skipped += 1
+                    continue
+                errors.append("%s: %s collides at %.4f s but was never reported before" % (mon, label(k), T))
+                details.append("  %-40s T=%7.3f s  MISSED" % (label(k), T))
+                continue
+            n_reported += 1
+            warning = T - before[0][0]
+            clean_from = max(p["clean_since"], first_cycle) + p["msg_delay"] + LATENCY
+            rule = clean_from <= T - horizon
+            errs = [(abs(s + tti - T), s) for s, tti, _ in before if s >= clean_from]
+            pair_worst = max(errs)[0] if errs else None
+            if rule:
+                n_rule += 1
+                min_warning = warning if min_warning is None else min(min_warning, warning)
+                # A prediction late by e (odometry noise) is announced up to e later.
+                need = horizon - 1.0 / rate - clock_tol - (pair_worst or 0.0)
+                if warning < need:
+                    errors.append("%s: %s first reported %.4f s before contact at %.4f s; constant velocities over the "
+                                  "horizon: at least %.4f s expected" % (mon, label(k), warning, T, need))
+            if errs:
+                n_checked += len(errs)
+                if p["rotating"]:
+                    worst_rotating = max(worst_rotating, pair_worst)
+                else:
+                    worst = max(worst, pair_worst)
+                e, s = max(errs)
+                if e > TIME_TOL:
+                    bad = [(s_, tti) for s_, tti, _ in before if s_ >= clean_from and abs(s_ + tti - T) > TIME_TOL]
+                    errors.append("%s: %s: time_to_impact off by %.1f ms at %.3f s (true contact %.4f s, %.2f s ahead; "
+                                  "%d of %d reports beyond %.0f ms, the last %.2f s ahead)%s"
+                                  % (mon, label(k), 1e3 * e, s, T, T - s, len(bad), len(errs), 1e3 * TIME_TOL,
+                                     T - bad[-1][0], " (rotating link)" if p["rotating"] else ""))
+            details.append("  %-40s T=%7.3f s  first warning %.3f s ahead%s  max |err| %s%s"
+                           % (label(k), T, warning, "" if rule else " (velocity change in the window)",
+                              "%.1f ms" % (1e3 * pair_worst) if pair_worst is not None else "n/a",
+                              " (rotating)" if p["rotating"] else ""))
+
+        # Scenario expectations on pairs.
+        exp = dict(self.expect)
+        exp.update((self.expect.get("monitors", {}) or {}).get(mon, {}) or {})
+        truth_bodies = {body_key(p["a"], p["b"]) for p in truth["pairs"]}
+        reported_bodies = {body_key(k[0][0], k[1][0]) for k in reports}
+        for a, b in exp.get("impacts", []) or []:
+            if body_key(a, b) not in truth_bodies:
+                errors.append("%s: scenario design: %s and %s must collide, the truth says they do not" % (mon, a, b))
+            if body_key(a, b) not in reported_bodies:
+                errors.append("%s: %s <-> %s never reported" % (mon, a, b))
+        for a, b in exp.get("no_impacts", []) or []:
+            if body_key(a, b) in truth_bodies:
+                errors.append("%s: scenario design: %s and %s must not collide, the truth says they do" % (mon, a, b))
+            if body_key(a, b) in reported_bodies:
+                errors.append("%s: %s <-> %s reported, they never collide" % (mon, a, b))
+        if len(truth["pairs"]) < int(exp.get("min_impacts", 0)):
+            errors.append("%s: scenario design: %d true impacts, at least %d expected"
+                          % (mon, len(truth["pairs"]), exp["min_impacts"]))
+
+        line = ("scenario %s [%s: H %.2f s, %.0f Hz, padding %.3f m]: %d true impacts, %d reported before contact, "
+                "%d not checkable (at the start or after the end); earliest warning min %s over %d constant-velocity "
+                "window(s) (rule >= %.3f s); max |time_to_impact error| %.1f ms over %d reports%s; %d false pair(s); "
+                "%d arrays, max gap %.0f ms"
+                % (truth["scenario"], mon, horizon, rate, padding, len(truth_pairs), n_reported, n_skipped,
+                   "%.3f s" % min_warning if min_warning is not None else "n/a", n_rule, horizon - 1.0 / rate - clock_tol,
+                   1e3 * worst, n_checked,
+                   ", %.1f ms on rotating links" % (1e3 * worst_rotating) if worst_rotating else "",
+                   len(false), len(arrays), 1e3 * max_gap))
+        self.summary.append(line)
+        if len(details) <= 12:
+            self.summary.extend(details)
+        return errors
+
+    def test_impacts(self):
+        errors = []
+        for m in self.monitors:
+            errors.extend(self.check_monitor(m))
+        self.assertFalse(errors, "\n" + "\n".join(errors[:40]) + ("\n... %d more" % (len(errors) - 40) if len(errors) > 40 else ""))
+
+    # ------------------------------------------------------------------ diagnostics and survival
+    def test_diagnostics_and_survival(self):
+        errors = []
+        t0 = 1000.0
+        for m in self.monitors:
+            if not self.record["alive_after_bag"].get(m):
+                errors.append("%s was not running any more after the bag" % m)
+        if self.record["rosbag_play_rc"] != 0:
+            errors.append("rosbag play exited with status %d" % self.record["rosbag_play_rc"])
+        diags = self.record["diagnostics"]
+        bodies = {}
+        for s, name, level, message, values in diags:
+            if name.endswith(": bodies"):
+                bodies.setdefault(name.split(":")[0].lstrip("/"), []).append((s - t0, level, message, values))
+        for m in self.monitors:
+            if not bodies.get(m):
+                errors.append("%s: no 'bodies' status on /diagnostics" % m)
+        for e in self.expect.get("diagnostics", []) or []:
+            mon = e.get("monitor", self.monitors[0])
+            lo, hi = e["during"]
+            rows = [r for r in bodies.get(mon, []) if lo <= r[0] <= hi]
+            if not rows:
+                errors.append("%s: no 'bodies' diagnostics in [%.1f, %.1f] s" % (mon, lo, hi))
+                continue
+            for s, level, message, values in rows:
+                v = values.get(e["body"])
+                if v is None:
+                    errors.append("%s at %.2f s: body %s missing from the diagnostics" % (mon, s, e["body"]))
+                    continue
+                for c in e.get("contains", []):
+                    if c not in v:
+                        errors.append("%s at %.2f s: %s: %r does not contain %r" % (mon, s, e["body"], v, c))
+                if "level" in e and level != int(e["level"]):
+                    errors.append("%s at %.2f s: bodies status level %d, expected %d (%s)" % (mon, s, level, e["level"], message))
+                for c in e.get("summary_contains", []):
+                    if c not in message:
+                        errors.append("%s at %.2f s: summary %r does not contain %r" % (mon, s, message, c))
+                for other in e.get("others_ok", []):
+                    if values.get(other) != "ok":
+                        errors.append("%s at %.2f s: %s is %r, expected 'ok'" % (mon, s, other, values.get(other)))
+            self.summary.append("  diagnostics [%.1f, %.1f] s, %s: %s (%d statuses), e.g. %r"
+                                % (lo, hi, e["body"], "as expected" if not errors else "MISMATCH", len(rows),
+                                   rows[len(rows) // 2][3].get(e["body"])))
+        self.assertFalse(errors, "\n" + "\n".join(errors[:40]))
+
+
+if __name__ == "__main__":
+    rostest.rosrun("vadop", NAME, ScenarioCheck, sys.argv)

@@ -1,0 +1,729 @@
+#!/usr/bin/env python3
+"""Scenario generator for vadop_monitor's scenario rostests (issue #6).
+
+A scenario file (test/scenarios/*.yaml) holds the vadop_monitor parameters at its top level
+(it is loaded into the node with <rosparam file=...>) and, under `scenario:`, the motion script:
+
+  scenario:
+    duration: 8.0            # s of bag
+    seed: 1                  # noise and crowd generation (deterministic)
+    urdf: {param_name: file.urdf}    # robot_description parameters (global, written without
+                                     # the leading '/': rosparam would set a key "/x" globally)
+                                     # -> files next to the yaml
+    defaults: {rate: 30, z: 0.25}    # applied to every body script
+    bodies:
+      <name>:                # a configured body (bodies[].name, templates expanded)
+        pose: [x, y, yaw]    # initial pose (m, m, rad) of the body frame; z from `z`
+        z: 0.25
+        segments:            # piecewise body-frame twist, in order; the last lasts to the end
+          - {duration: 2.0, v: [vx, vy, wz]}              # constant
+          - {duration: 1.0, v: [vx, vy, wz], a: [ax, ay, alpha]}   # v(t) = v + a (t - start)
+        rate: 30             # odometry (and odom->child tf) rate, Hz;  phase: first stamp (s)
+        frame: left          # odometry child_frame_id (default: the body name; URDF bodies:
+                             # "<name>/<root link>")
+        noise: {position: 0.002, yaw: 0.001, linear: 0.005, angular: 0.002}   # Gaussian sigmas
+        dropouts: [[2.0, 4.0]]             # no odometry nor tf in [start, end)
+        bad:                 # bad messages: replace the sample nearest to t (nan_position,
+                             # inf_twist, zero_quaternion, huge_position) or add one after it
+                             # (out_of_order: stamp `back` s older, with that older true pose;
+                             # duplicate: the same stamp again)
+          - {t: 3.0, kind: nan_position}
+        joints:              # tf_prefix bodies: joint trajectories (rad, rad/s), others at 0
+          shoulder: {q0: 0.0, segments: [{duration: 2, qd: 0.3}, {qd: 0.0}]}
+        tf_rate: 50          # link tf rate (tf_prefix bodies)
+    crowd:                   # optional: generated straight-line agents
+      name: "agent_{i}"  count: 200  area: [xmin, xmax, ymin, ymax]  speed: [lo, hi]
+      static_fraction: 0.1  min_gap: 0.5  rate: 10  z: 0.25
+    expect: {...}            # read by scenario_check.py only
+
+The bag (bag time = 1000 s + scenario time; ROS time 0 would mean "no clock") holds
+nav_msgs/Odometry on each body's odom_topic (pose of child_frame_id in "odom"; twist in the child
+frame, REP 105) and tf2_msgs/TFMessage on /tf (odom -> child at the odometry stamps, and the
+links of tf_prefix bodies at tf_rate).
+
+The ground truth is computed from the continuous motion the bag samples (before noise), with
+ground_truth.py only (independent of vadop_core): for every pair of collision elements that the
+monitor would check (different bodies; moving-moving or moving-static), the first time their
+shapes, each grown by the monitor's padding, come within 1e-6 m. Truth file (JSON):
+  {"t0": 1000.0, "duration": .., "padding": .., "pairs": [{"a","la","b","lb","t","clean_since",
+   "rotating"}], "bodies": {...}}
+where t is scenario seconds, clean_since the start of the interval before t over which both
+bodies moved as the monitor models them (constant body twist, straight or turning in place,
+constant joint rates, messages flowing), and rotating whether one of them rotates there.
+
+The truth covers [0, until] (the bag's duration plus the horizon: a cycle near the end of the
+bag predicts up to a horizon beyond it, and the bodies go on moving as scripted).
+
+CLI:  scenario_gen.py SCENARIO.yaml --bag OUT.bag --truth OUT.json [--padding P] [--until T]
+"""
+import argparse
+import copy
+import json
+import math
+import os
+import sys
+import time
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import yaml
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import ground_truth as gt  # noqa: E402
+
+T0 = 1000.0       # bag time of scenario time 0
+FINE_DT = 0.001   # s, integration step of the body trajectories
+BROAD_DT = 0.05   # s, grid of the truth's broad phase
+CONTACT_GAP = 1e-6
+TRUTH_EXTRA = 5.0  # s: the motion goes on after the bag (a cycle near the end looks a horizon ahead)
+
+
+# ----------------------------------------------------------------------------- URDF
+class Urdf:
+    """Collision geometry and kinematics of a URDF (box, cylinder, sphere; no meshes)."""
+
+    def __init__(self, text, where):
+        root = ET.fromstring(text)
+        self.links = {}
+        self.collisions = {}  # link -> [(shape spec, (R, p))]
+        for link in root.findall("link"):
+            name = link.get("name")
+            self.links[name] = link
+            items = []
+            for col in link.findall("collision"):
+                origin = _origin(col.find("origin"))
+                g = col.find("geometry")
+                if g is None or len(g) == 0:
+                    continue
+                e = g[0]
+                if e.tag == "box":
+                    spec = {"type": "box", "size": [float(v) for v in e.get("size").split()]}
+                elif e.tag == "cylinder":
+                    spec = {"type": "cylinder", "radius": float(e.get("radius")), "length": float(e.get("length"))}
+                elif e.tag == "sphere":
+                    spec = {"type": "sphere", "radius": float(e.get("radius"))}
+                else:
+                    raise ValueError("%s: link %s: geometry %s not supported by the scenario truth" % (where, name, e.tag))
+                items.append((spec, origin))
+            self.collisions[name] = items
+        self.joints = {}  # child -> (name, type, parent, origin, axis)
+        for j in root.findall("joint"):
+            parent = j.find("parent").get("link")
+            child = j.find("child").get("link")
+            axis_el = j.find("axis")
+            axis = [float(v) for v in axis_el.get("xyz").split()] if axis_el is not None else [1.0, 0.0, 0.0]
+            self.joints[child] = (j.get("name"), j.get("type"), parent, _origin(j.find("origin")), np.array(axis))
+        roots = [n for n in self.links if n not in self.joints]
+        if len(roots) != 1:
+            raise ValueError("%s: expected one root link, got %s" % (where, roots))
+        self.root = roots[0]
+
+    def joint_transform(self, child, q):
+        name, jtype, parent, origin, axis = self.joints[child]
+        if jtype in ("revolute", "continuous"):
+            return gt.compose(origin, (gt.rot_axis(axis, q), np.zeros(3)))
+        if jtype == "prismatic":
+            return gt.compose(origin, (np.eye(3), axis / np.linalg.norm(axis) * q))
+        return origin
+
+    def link_in_root(self, link, qs):
+        """Pose of `link` in the root link frame for joint values qs (dict name -> value)."""
+        pose = (np.eye(3), np.zeros(3))
+        while link != self.root:
+            name, _, parent, _, _ = self.joints[link]
+            pose = gt.compose(self.joint_transform(link, qs.get(name, 0.0)), pose)
+            link = parent
+        return pose
+
+
+def _origin(el):
+    if el is None:
+        return (np.eye(3), np.zeros(3))
+    xyz = [float(v) for v in (el.get("xyz") or "0 0 0").split()]
+    rpy = [float(v) for v in (el.get("rpy") or "0 0 0").split()]
+    return (gt.rot_rpy(*rpy), np.array(xyz))
+
+
+# ----------------------------------------------------------------------------- piecewise motion
+class Piecewise:
+    """Piecewise constant-rate values: segments [(start, end, value0, rate)] (vectors)."""
+
+    def __init__(self, segments, duration, dim):
+        self.segs = []
+        t = 0.0
+        for i, s in enumerate(segments):
+            last = i == len(segments) - 1
+            end = math.inf if last or s.get("duration") is None else t + float(s["duration"])
+            v = np.asarray(s.get("v", s.get("qd", [0.0] * dim)), dtype=float).reshape(dim)
+            a = np.asarray(s.get("a", s.get("qdd", [0.0] * dim)), dtype=float).reshape(dim)
+            self.segs.append((t, end, v, a))
+            if last or end == math.inf:
+                break
+            t = end
+        if not self.segs:
+            self.segs.append((0.0, math.inf, np.zeros(dim), np.zeros(dim)))
+
+    def integral(self, t):
+        """Integral of the value over [0, t]."""
+        out = np.zeros_like(self.segs[0][2])
+        for (s, e, v, a) in self.segs:
+            if t <= s:
+                break
+            d = min(t, e) - s
+            out = out + v * d + 0.5 * a * d * d
+        return out
+
+    def at(self, t):
+        for s in self.segs:
+            if t < s[1] or s is self.segs[-1]:
+                return s[2] + s[3] * (max(t, s[0]) - s[0])
+        raise AssertionError
+
+    def at_vec(self, ts):
+        out = np.empty((len(ts), len(self.segs[0][2])))
+        for i, (s, e, v, a) in enumerate(self.segs):
+            last = i == len(self.segs) - 1
+            m = (ts >= s) & (ts < e) if not last else ts >= s
+            if i == 0:
+                m |= ts < s
+            out[m] = v[None, :] + a[None, :] * (ts[m] - s)[:, None]
+        return out
+
+    def segment(self, t):
+        for s in self.segs:
+            if t < s[1] or s is self.segs[-1]:
+                return s
+        raise AssertionError
+
+
+# ----------------------------------------------------------------------------- bodies
+class Element:
+    def __init__(self, body, link, spec, local):
+        self.body = body        # BodyScript or Static
+        self.link = link        # "" for a primitive body
+        self.spec = spec
+        self.local = local      # function(t) -> (R, p) of the element in the body frame, or a pose
+        self.shape = gt.Shape.from_spec(spec)
+
+    def key(self):
+        return (self.body.name, self.link)
+
+
+class Static:
+    is_static = True
+
+    def __init__(self, name, pose):
+        self.name = name
+        self.pose = pose
+        self.elements = []
+
+
+class BodyScript:
+    is_static = False
+
+    def __init__(self, name, cfg, script, duration, urdfs):
+        self.name = name
+        self.cfg = cfg
+        self.duration = duration
+        self.topic = cfg["odom_topic"]
+        pose = script.get("pose", [0.0, 0.0, 0.0])
+        self.x0, self.y0, self.yaw0 = float(pose[0]), float(pose[1]), float(pose[2])
+        self.z = float(script.get("z", 0.0))
+        self.twist = Piecewise(script.get("segments", []), duration, 3)
+        self.rate = float(script.get("rate", 30.0))
+        self.phase = float(script.get("phase", 0.0))
+        self.noise = script.get("noise", {}) or {}
+        self.dropouts = [tuple(map(float, d)) for d in script.get("dropouts", [])]
+        self.bad = script.get("bad", []) or []
+        self.tf_rate = float(script.get("tf_rate", 50.0))
+        self.elements = []
+        self.urdf = None
+        self.links_from_tf = "tf_prefix" in cfg
+        self.tf_prefix = cfg.get("tf_prefix", "")
+        self.joints = {}
+        for jn, js in (script.get("joints", {}) or {}).items():
+            pw = Piecewise(js.get("segments", []), duration, 1)
+            self.joints[jn] = (float(js.get("q0", 0.0)), pw)
+        if "shape" in cfg:
+            self.frame = script.get("frame", cfg.get("frame", name))
+            ident = (np.eye(3), np.zeros(3))
+            self.elements.append(Element(self, "", cfg["shape"], ident))
+        else:
+            self.urdf = urdfs[cfg["robot_description"].lstrip("/")]
+            default_frame = (self.tf_prefix + "/" if self.tf_prefix else "") + self.urdf.root
+            self.frame = script.get("frame", cfg.get("frame", default_frame))
+            ref = self.frame.split("/")[-1]
+            if ref not in self.urdf.links:
+                ref = self.urdf.root
+            self.ref_link = ref
+            for link, items in self.urdf.collisions.items():
+                for spec, origin in items:
+                    self.elements.append(Element(self, link, spec, self._link_local(link, origin)))
+        self._integrate()
+
+    def q(self, t):
+        """Joint values at t."""
+        return {jn: q0 + float(pw.integral(t)[0]) for jn, (q0, pw) in self.joints.items()}
+
+    def _link_local(self, link, origin):
+        urdf = self.urdf
+        if not self.links_from_tf:
+            ref_in_root = urdf.link_in_root(self.ref_link, {})
+            inv = (ref_in_root[0].T, -ref_in_root[0].T @ ref_in_root[1])
+            fixed = gt.compose(gt.compose(inv, urdf.link_in_root(link, {})), origin)
+            return fixed
+        # From tf: the link pose relative to the body frame (the reference link) at t.
+
+        def local(t):
+            qs = self.q(t)
+            ref_in_root = urdf.link_in_root(self.ref_link, qs)
+            inv = (ref_in_root[0].T, -ref_in_root[0].T @ ref_in_root[1])
+            return gt.compose(gt.compose(inv, urdf.link_in_root(link, qs)), origin)
+        return local
+
+    def _integrate(self):
+        n = int(math.ceil((self.duration + TRUTH_EXTRA) / FINE_DT)) + 2
+        self.ts = np.arange(n) * FINE_DT
+        # mean twist over each step (8 sub-samples: exact enough where a segment ends mid-step)
+        tw = sum(self.twist.at_vec(self.ts[:-1] + (j + 0.5) / 8.0 * FINE_DT) for j in range(8)) / 8.0
+        yaw = self.yaw0 + np.concatenate(([0.0], np.cumsum(tw[:, 2] * FINE_DT)))
+        hm = yaw[:-1] + 0.5 * tw[:, 2] * FINE_DT
+        c, s = np.cos(hm), np.sin(hm)
+        self.xs = self.x0 + np.concatenate(([0.0], np.cumsum((c * tw[:, 0] - s * tw[:, 1]) * FINE_DT)))
+        self.ys = self.y0 + np.concatenate(([0.0], np.cumsum((s * tw[:, 0] + c * tw[:, 1]) * FINE_DT)))
+        self.yaws = yaw
+
+    def pose2d(self, t):
+        """(x, y, yaw) at scenario time t (linear interpolation of the fine trajectory)."""
+        f = min(max(t / FINE_DT, 0.0), len(self.ts) - 1.000001)
+        k = int(f)
+        u = f - k
+        return ((1 - u) * self.xs[k] + u * self.xs[k + 1], (1 - u) * self.ys[k] + u * self.ys[k + 1],
+                (1 - u) * self.yaws[k] + u * self.yaws[k + 1])
+
+    def pose(self, t):
+        x, y, yaw = self.pose2d(t)
+        return (gt.rot_z(yaw), np.array([x, y, self.z]))
+
+    def poses_vec(self, ts):
+        f = np.clip(ts / FINE_DT, 0.0, len(self.ts) - 1.000001)
+        k = f.astype(int)
+        u = f - k
+        x = (1 - u) * self.xs[k] + u * self.xs[k + 1]
+        y = (1 - u) * self.ys[k] + u * self.ys[k + 1]
+        yaw = (1 - u) * self.yaws[k] + u * self.yaws[k + 1]
+        return x, y, yaw
+
+    def in_dropout(self, t):
+        return any(a <= t < b for a, b in self.dropouts)
+
+    def moving_joints(self):
+        return bool(self.joints) and self.links_from_tf
+
+    # Motion model of the monitor exact at t: constant body twist, no turning while driving,
+    # constant joint rates.
+    def exact_since(self, t):
+        """Start of the interval ending at t over which the monitor's model of this body is
+        exact and its messages flow; also whether it rotates there."""
+        s, e, v, a = self.twist.segment(t)
+        start = s
+        exact = not np.any(a) and (v[2] == 0.0 or (v[0] == 0.0 and v[1] == 0.0))
+        rotating = v[2] != 0.0
+        for jn, (q0, pw) in self.joints.items():
+            js, je, jv, ja = pw.segment(t)
+            start = max(start, js)
+            exact = exact and not np.any(ja)
+            rotating = rotating or (self.links_from_tf and jv[0] != 0.0)
+        for (d0, d1) in self.dropouts:
+            if d0 <= t:
+                start = max(start, d1)
+        if not exact:
+            start = t  # never exact
+        return start, rotating
+
+
+def _expand_bodies(params):
+    out = []
+    for b in params.get("bodies", []) or []:
+        n = b.get("count")
+        if n is None:
+            out.append(b)
+            continue
+        for i in range(int(n)):
+            e = {k: (v.replace("{i}", str(i)) if isinstance(v, str) else v) for k, v in b.items() if k != "count"}
+            out.append(e)
+    return out
+
+
+def _static_pose(p):
+    pos = np.array(p.get("position", [0, 0, 0]), dtype=float) if p else np.zeros(3)
+    if p and "orientation" in p:
+        x, y, z, w = [float(v) for v in p["orientation"]]
+        n = math.sqrt(x * x + y * y + z * z + w * w)
+        x, y, z, w = x / n, y / n, z / n, w / n
+        r = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                      [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                      [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    elif p and "rpy" in p:
+        r = gt.rot_rpy(*[float(v) for v in p["rpy"]])
+    else:
+        r = np.eye(3)
+    return (r, pos)
+
+
+def _crowd(spec, rng, duration):
+    """Straight-line agents: random start poses at least min_gap apart, constant speeds."""
+    count = int(spec["count"])
+    x0, x1, y0, y1 = [float(v) for v in spec["area"]]
+    lo, hi = [float(v) for v in spec["speed"]]
+    min_gap = float(spec.get("min_gap", 0.5))
+    clearance = float(spec.get("clearance", 0.6))  # body diameter
+    static_fraction = float(spec.get("static_fraction", 0.0))
+    pts = []
+    while len(pts) < count:
+        p = rng.uniform([x0, y0], [x1, y1])
+        if all(np.hypot(*(p - q)) >= clearance + min_gap for q in pts):
+            pts.append(p)
+    scripts = {}
+    for i, p in enumerate(pts):
+        name = spec["name"].replace("{i}", str(i))
+        yaw = float(rng.uniform(-math.pi, math.pi))
+        speed = 0.0 if rng.uniform() < static_fraction else float(rng.uniform(lo, hi))
+        scripts[name] = {"pose": [float(p[0]), float(p[1]), yaw], "z": float(spec.get("z", 0.0)),
+                         "segments": [{"v": [speed, 0.0, 0.0]}], "rate": float(spec.get("rate", 10.0)),
+                         "phase": float(rng.uniform(0.0, 1.0 / float(spec.get("rate", 10.0))))}
+    return scripts
+
+
+class Scenario:
+    def __init__(self, path):
+        self.path = os.path.abspath(path)
+        self.name = os.path.splitext(os.path.basename(path))[0]
+        with open(path) as f:
+            self.params = yaml.safe_load(f)
+        sc = self.params["scenario"]
+        self.sc = sc
+        self.duration = float(sc["duration"])
+        self.seed = int(sc.get("seed", 0))
+        here = os.path.dirname(self.path)
+        self.urdfs = {}
+        for pname, fname in (sc.get("urdf", {}) or {}).items():
+            with open(os.path.join(here, fname)) as f:
+                self.urdfs[pname.lstrip("/")] = Urdf(f.read(), fname)
+        rng = np.random.default_rng(self.seed)
+        scripts = copy.deepcopy(sc.get("bodies", {}) or {})
+        if sc.get("crowd"):
+            scripts.update(_crowd(sc["crowd"], rng, self.duration))
+        defaults = sc.get("defaults", {}) or {}
+        self.bodies = []
+        for cfg in _expand_bodies(self.params):
+            if cfg["name"] not in scripts:
+                raise ValueError("scenario %s: no motion for body %s" % (self.name, cfg["name"]))
+            script = dict(defaults)
+            script.update(scripts[cfg["name"]])
+            self.bodies.append(BodyScript(cfg["name"], cfg, script, self.duration, self.urdfs))
+        unknown = set(scripts) - {b.name for b in self.bodies}
+        if unknown:
+            raise ValueError("scenario %s: motion for unknown bodies %s" % (self.name, sorted(unknown)))
+        self.statics = []
+        for o in self.params.get("static_obstacles", []) or []:
+            s = Static(o["name"], _static_pose(o.get("pose")))
+            if "shape" in o:
+                s.elements.append(Element(s, "", o["shape"], (np.eye(3), np.zeros(3))))
+            else:
+                u = self.urdfs[o["robot_description"].lstrip("/")]
+                for link, items in u.collisions.items():
+                    for spec, origin in items:
+                        s.elements.append(Element(s, link, spec, gt.compose(u.link_in_root(link, {}), origin)))
+            self.statics.append(s)
+        self.noise_rng = np.random.default_rng(self.seed + 1)
+
+    # ------------------------------------------------------------------ element poses
+    def element_pose(self, el, t):
+        if el.body.is_static:
+            return gt.compose(el.body.pose, el.local)
+        local = el.local(t) if callable(el.local) else el.local
+        return gt.compose(el.body.pose(t), local)
+
+    def element_origins(self, el, ts):
+        """Origins (n x 3) of the element at times ts."""
+        if el.body.is_static:
+            p = gt.compose(el.body.pose, el.local)[1]
+            return np.tile(p, (len(ts), 1))
+        if callable(el.local):
+            return np.array([self.element_pose(el, t)[1] for t in ts])
+        x, y, yaw = el.body.poses_vec(ts)
+        off = el.local[1]
+        c, s = np.cos(yaw), np.sin(yaw)
+        return np.stack([x + c * off[0] - s * off[1], y + s * off[0] + c * off[1],
+                         np.full_like(x, el.body.z + off[2])], axis=1)
+
+    def speed_bounds(self, el, margin):
+        """(origin speed bound, bound on the speed of any point of the padded shape)."""
+        if el.body.is_static:
+            return 0.0, 0.0
+        ts = np.arange(0.0, self.duration + TRUTH_EXTRA, 0.002)
+        o = self.element_origins(el, ts)
+        vo = np.linalg.norm(np.diff(o, axis=0), axis=1) / 0.002
+        body = el.body
+        w_body = np.abs(np.array([body.twist.at(t)[2] for t in ts[:-1]]))
+        if callable(el.local) and body.joints:
+            # rotation rate of the link relative to the body: finite differences
+            rs = [el.local(t)[0] for t in ts[::5]]
+            rel = []
+            for a, b in zip(rs[:-1], rs[1:]):
+                c = np.clip((np.trace(b @ a.T) - 1.0) / 2.0, -1.0, 1.0)
+                rel.append(math.acos(c) / 0.01)
+            wrel = np.repeat(np.array(rel + [rel[-1]]), 5)[:len(w_body)]
+        else:
+            wrel = 0.0
+        r = el.shape.bounding_radius + margin
+        vp = vo + (w_body + wrel) * r
+        return float(vo.max()) * 1.02 + 1e-6, float(vp.max()) * 1.02 + 1e-6
+
+    # ------------------------------------------------------------------ ground truth
+    def all_elements(self):
+        out = []
+        for b in self.bodies:
+            out.extend(b.elements)
+        for s in self.statics:
+            out.extend(s.elements)
+        return out
+
+    def truth(self, padding, until=None, log=None):
+        """First contacts in [0, until] (default: the bag's duration; at most TRUTH_EXTRA more)."""
+        start = time.time()
+        until = self.duration if until is None else min(float(until), self.duration + TRUTH_EXTRA - 0.01)
+        els = self.all_elements()
+        n = len(els)
+        grid = np.arange(0.0, until + 1e-9, BROAD_DT)
+        if grid[-1] < until:
+            grid = np.append(grid, until)
+        origins = np.stack([self.element_origins(e, grid) for e in els])  # n x g x 3
+        bounds = np.array([e.shape.bounding_radius + padding for e in els])
+        sb = [self.speed_bounds(e, padding) for e in els]
+        vo = np.array([s[0] for s in sb])
+        vp = np.array([s[1] for s in sb])
+        moving = np.array([not e.body.is_static for e in els])
+        body_of = [e.body.name for e in els]
+        shapes = [e.shape.padded(padding) for e in els]
+        pairs = []
+        checked = 0
+        for i in range(n):
+            js = np.arange(i + 1, n)
+            keep = np.array([(moving[i] or moving[j]) and body_of[i] != body_of[j] for j in js], dtype=bool)
+            js = js[keep]
+            if len(js) == 0:
+                continue
+            sep = np.linalg.norm(origins[js] - origins[i][None], axis=2) - (bounds[js] + bounds[i])[:, None]
+            reach = ((vo[js] + vo[i]) * BROAD_DT)[:, None]
+            flag = sep[:, :-1] <= reach + 1e-9  # interval k = [grid[k], grid[k+1]] may hold a contact
+            for jj in np.nonzero(flag.any(axis=1))[0]:
+                j = js[jj]
+                checked += 1
+                vmax = vp[i] + vp[j]
+                ea, eb, sa, sbb = els[i], els[j], shapes[i], shapes[j]
+
+                def dist(t, ea=ea, eb=eb, sa=sa, sbb=sbb):
+                    return gt.distance(sa, self.element_pose(ea, t), sbb, self.element_pose(eb, t))
+                hit = None
+                ks = np.nonzero(flag[jj])[0]
+                # runs of consecutive flagged intervals
+                run_start = ks[0]
+                prev = ks[0]
+                runs = []
+                for k in ks[1:]:
+                    if k != prev + 1:
+                        runs.append((run_start, prev))
+                        run_start = k
+                    prev = k
+                runs.append((run_start, prev))
+                for (k0, k1) in runs:
+                    hit = gt.first_contact(dist, grid[k0], grid[k1 + 1], vmax, gap=CONTACT_GAP)
+                    if hit is not None:
+                        break
+                if hit is None:
+                    continue
+                a, b = (ea, eb)
+                pairs.append(self._pair_record(a, b, hit))
+        pairs.sort(key=lambda p: p["t"])
+        if log:
+            log("truth %s (padding %.3f): %d elements, %d pairs checked exactly, %d impacts, %.1f s"
+                % (self.name, padding, n, checked, len(pairs), time.time() - start))
+        return {"scenario": self.name, "t0": T0, "duration": self.duration, "until": until, "padding": padding,
+                "pairs": pairs, "bodies": self.body_info()}
+
+    def _pair_record(self, a, b, t):
+        since = -1e9
+        rotating = False
+        extra = 0.0
+        for el in (a, b):
+            if el.body.is_static:
+                continue
+            s, rot = el.body.exact_since(t)
+            first = el.body.phase
+            since = max(since, s, first)
+            rotating = rotating or rot
+            extra = max(extra, 1.0 / el.body.rate)
+            if el.body.links_from_tf:
+                extra = max(extra, 2.0 / el.body.tf_rate)
+        return {"a": a.body.name, "la": a.link, "b": b.body.name, "lb": b.link, "t": float(t),
+                "clean_since": float(since), "msg_delay": float(extra), "rotating": bool(rotating)}
+
+    def body_info(self):
+        info = {}
+        for b in self.bodies:
+            invalid = sum(1 for x in b.bad if x["kind"] in INVALID_KINDS)
+            ooo = sum(1 for x in b.bad if x["kind"] in ("out_of_order", "duplicate"))
+            info[b.name] = {"rate": b.rate, "dropouts": b.dropouts, "invalid": invalid, "out_of_order": ooo,
+                            "first": b.phase}
+        for s in self.statics:
+            info[s.name] = {"static": True}
+        return info
+
+    # ------------------------------------------------------------------ bag
+    def write_bag(self, path, log=None):
+        import rosbag
+        import rospy
+        from geometry_msgs.msg import TransformStamped
+        from nav_msgs.msg import Odometry
+        from tf2_msgs.msg import TFMessage
+
+        start = time.time()
+        records = []  # (bag time, order, topic, msg)
+        tf_groups = {}  # stamp (us) -> [TransformStamped]
+        order = 0
+        for b in self.bodies:
+            nz = b.noise
+            bad_at = {}
+            stamps = []
+            t = b.phase
+            while t <= self.duration + 1e-9:
+                stamps.append(t)
+                t = b.phase + len(stamps) / b.rate
+            stamps = [t for t in stamps if not b.in_dropout(t)]
+            extra = []
+            for item in b.bad:
+                k = int(np.argmin([abs(s - float(item["t"])) for s in stamps]))
+                if item["kind"] in INVALID_KINDS:
+                    bad_at[k] = item["kind"]
+                else:
+                    extra.append((k, item))
+            for k, t in enumerate(stamps):
+                msg, pose3 = self._odom(b, t, nz)
+                kind = bad_at.get(k)
+                if kind:
+                    _corrupt(msg, kind)
+                records.append((t, order, b.topic, msg))
+                order += 1
+                if not kind:
+                    tf_groups.setdefault(int(round(t * 1e6)), []).append(self._tf(pose3, t, "odom", b.frame))
+            for k, item in extra:
+                t = stamps[k]
+                if item["kind"] == "out_of_order":
+                    old = t - float(item.get("back", 0.2))
+                    msg, _ = self._odom(b, old, {})
+                else:  # duplicate
+                    msg, _ = self._odom(b, t, {})
+                records.append((t + 1e-4, order, b.topic, msg))
+                order += 1
+            if b.links_from_tf:
+                n = int(math.floor(self.duration * b.tf_rate + 1e-9)) + 1
+                prefix = b.tf_prefix + "/" if b.tf_prefix else ""
+                for k in range(n):
+                    t = k / b.tf_rate
+                    if b.in_dropout(t):
+                        continue
+                    qs = b.q(t)
+                    for child, (jn, jtype, parent, origin, axis) in b.urdf.joints.items():
+                        tr = b.urdf.joint_transform(child, qs.get(jn, 0.0))
+                        tf_groups.setdefault(int(round(t * 1e6)), []).append(
+                            self._tf(tr, t, prefix + parent, prefix + child))
+        for us, transforms in tf_groups.items():
+            records.append((us * 1e-6, -1, "/tf", TFMessage(transforms=transforms)))
+        records.sort(key=lambda r: (r[0], r[1]))
+        with rosbag.Bag(path, "w") as bag:
+            for t, _, topic, msg in records:
+                bag.write(topic, msg, rospy.Time.from_sec(T0 + t))
+        if log:
+            log("bag %s: %d messages over %.1f s, %.1f s" % (path, len(records), self.duration, time.time() - start))
+        _ = (Odometry, TransformStamped)
+
+    def _odom(self, b, t, nz):
+        from nav_msgs.msg import Odometry
+        import rospy
+        x, y, yaw = b.pose2d(t)
+        vx, vy, w = b.twist.at(t)
+        rng = self.noise_rng
+        if nz:
+            x += rng.normal(0.0, nz.get("position", 0.0))
+            y += rng.normal(0.0, nz.get("position", 0.0))
+            yaw += rng.normal(0.0, nz.get("yaw", 0.0))
+            vx += rng.normal(0.0, nz.get("linear", 0.0))
+            vy += rng.normal(0.0, nz.get("linear", 0.0))
+            w += rng.normal(0.0, nz.get("angular", 0.0))
+        m = Odometry()
+        m.header.stamp = rospy.Time.from_sec(T0 + t)
+        m.header.frame_id = "odom"
+        m.child_frame_id = b.frame
+        m.pose.pose.position.x, m.pose.pose.position.y, m.pose.pose.position.z = x, y, b.z
+        m.pose.pose.orientation.z = math.sin(0.5 * yaw)
+        m.pose.pose.orientation.w = math.cos(0.5 * yaw)
+        m.twist.twist.linear.x, m.twist.twist.linear.y = vx, vy
+        m.twist.twist.angular.z = w
+        return m, (gt.rot_z(yaw), np.array([x, y, b.z]))
+
+    @staticmethod
+    def _tf(pose, t, parent, child):
+        import rospy
+        from geometry_msgs.msg import TransformStamped
+        m = TransformStamped()
+        m.header.stamp = rospy.Time.from_sec(T0 + t)
+        m.header.frame_id = parent
+        m.child_frame_id = child
+        m.transform.translation.x, m.transform.translation.y, m.transform.translation.z = [float(v) for v in pose[1]]
+        q = gt.quaternion_from_matrix(pose[0])
+        m.transform.rotation.x, m.transform.rotation.y, m.transform.rotation.z, m.transform.rotation.w = [float(v) for v in q]
+        return m
+
+
+INVALID_KINDS = ("nan_position", "inf_twist", "zero_quaternion", "huge_position")
+
+
+def _corrupt(m, kind):
+    if kind == "nan_position":
+        m.pose.pose.position.x = float("nan")
+    elif kind == "inf_twist":
+        m.twist.twist.linear.x = float("inf")
+    elif kind == "zero_quaternion":
+        m.pose.pose.orientation.x = m.pose.pose.orientation.y = 0.0
+        m.pose.pose.orientation.z = m.pose.pose.orientation.w = 0.0
+    elif kind == "huge_position":
+        m.pose.pose.position.y = 1e12
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("scenario")
+    ap.add_argument("--bag")
+    ap.add_argument("--truth")
+    ap.add_argument("--padding", type=float, default=None, help="default: the file's padding parameter")
+    ap.add_argument("--until", type=float, default=None,
+                    help="truth up to this time (s; default: the duration plus the file's horizon)")
+    args = ap.parse_args(argv)
+    sc = Scenario(args.scenario)
+
+    def log(s):
+        print(s, file=sys.stderr)
+    if args.bag:
+        sc.write_bag(args.bag, log)
+    if args.truth:
+        p = args.padding if args.padding is not None else float(sc.params.get("padding", 0.0))
+        with open(args.truth, "w") as f:
+            until = args.until if args.until is not None else sc.duration + float(sc.params.get("horizon", 2.0)) + 0.5
+            json.dump(sc.truth(p, until, log), f, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

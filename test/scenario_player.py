@@ -1,0 +1,146 @@
+#!/usr/bin/env python3
+"""Scenario rostests, part 1 (a plain node of test/scenario_*.test): generates the scenario's bag
+and ground truth deterministically into ~workdir (test/scenario_gen.py), waits until every
+monitor has subscribed, plays the bag with `rosbag play --clock`, records what the monitors
+publish (~impacts of each, /diagnostics) and writes it to ~workdir/record.json when the bag
+has ended. test/scenario_check.py (the test node) then checks the record against the truth.
+
+Parameters: ~scenario (path of the yaml), ~workdir, ~monitors (node names, default
+[vadop_monitor]), ~clock_hz (rosbag play --hz, default 200), ~delay (s, rosbag play -d; default 1 s plus 1 s per 50 odometry topics, the
+time the monitors take to connect to every topic).
+Why a node of its own: rostest runs the tests of a file one after the other and starts the
+whole launch afresh for each. The first test, rostest's hztest, measures ~impacts while this
+node plays the bag; after the bag this node keeps /clock running (real-time rate) so that the
+node keeps cycling until hztest ends (its test_duration covers the bag plus a little). In the
+second launch (the check test) this node finds record.json in ~workdir and only waits.
+"""
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import rosgraph
+import rospy
+from diagnostic_msgs.msg import DiagnosticArray
+from rosgraph_msgs.msg import Clock
+from vadop.msg import ImpactArray
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import scenario_gen  # noqa: E402
+
+
+def log(s):
+    rospy.loginfo("scenario_player: %s", s)
+
+
+def main():
+    rospy.init_node("scenario_player")
+    path = rospy.get_param("~scenario")
+    workdir = rospy.get_param("~workdir")
+    monitors = rospy.get_param("~monitors", ["vadop_monitor"])
+    clock_hz = float(rospy.get_param("~clock_hz", 200.0))
+    delay = rospy.get_param("~delay", None)  # default: 1 s + 1 s per 50 topics (connections)
+    os.makedirs(workdir, exist_ok=True)
+    if os.path.exists(os.path.join(workdir, "record.json")):
+        rospy.loginfo("scenario_player: %s already has the record: nothing to do", workdir)
+        rospy.spin()
+        return
+    wall0 = time.time()
+
+    lock = threading.Lock()
+    arrays = {m: [] for m in monitors}
+    diags = []
+
+    def on_impacts(msg, mon):
+        row = [msg.header.stamp.to_sec(),
+               [[i.body_a, i.link_a, i.body_b, i.link_b, i.time_to_impact, bool(i.in_contact), i.closing_speed,
+                 (i.time_of_impact - msg.header.stamp).to_sec()] for i in msg.impacts]]
+        with lock:
+            arrays[mon].append(row)
+
+    def on_diag(msg):
+        rows = [[msg.header.stamp.to_sec(), s.name, int(s.level) if not isinstance(s.level, bytes) else s.level[0],
+                 s.message, {kv.key: kv.value for kv in s.values}] for s in msg.status]
+        with lock:
+            diags.extend(rows)
+
+    subs = [rospy.Subscriber("/%s/impacts" % m, ImpactArray, on_impacts, callback_args=m, queue_size=1000,
+                             tcp_nodelay=True) for m in monitors]
+    subs.append(rospy.Subscriber("/diagnostics", DiagnosticArray, on_diag, queue_size=1000))
+
+    sc = scenario_gen.Scenario(path)
+    bag = os.path.join(workdir, "scenario.bag")
+    sc.write_bag(bag, log)
+    for m in monitors:
+        padding = float(rospy.get_param("/%s/padding" % m, 0.0))
+        horizon = float(rospy.get_param("/%s/horizon" % m, 2.0))
+        truth = sc.truth(padding, sc.duration + horizon + 0.5, log)
+        with open(os.path.join(workdir, "truth_%s.json" % m), "w") as f:
+            json.dump(truth, f)
+    gen_wall = time.time() - wall0
+
+    # Every monitor up and subscribed to every odometry topic; our subscribers connected.
+    master = rosgraph.Master("/scenario_player")
+    topics = sorted({b.topic for b in sc.bodies})
+    deadline = time.time() + 60.0
+    while not rospy.is_shutdown():
+        _, subscribers, _ = master.getSystemState()
+        subs_of = {t: set(nodes) for t, nodes in subscribers}
+        ready = all(all("/" + m in subs_of.get(t, ()) for t in topics) for m in monitors)
+        ready = ready and all(s.get_num_connections() > 0 for s in subs[:-1])
+        if ready or time.time() > deadline:
+            break
+        time.sleep(0.1)
+    if not ready:
+        rospy.logerr("scenario_player: the monitors did not subscribe within 60 s")
+
+    clock_pub = rospy.Publisher("/clock", Clock, queue_size=10)  # used after the bag only
+    if delay is None:
+        delay = 1.0 + len(topics) / 50.0
+    cmd = ["rosbag", "play", "--clock", "--hz=%g" % clock_hz, "-d", "%g" % delay, "-q", bag]
+    log("playing: %s" % " ".join(cmd))
+    play_start = time.time()
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, start_new_session=True)
+
+    def stop_player():
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGINT)
+    rospy.on_shutdown(stop_player)
+    rc = proc.wait()
+    play_wall = time.time() - play_start
+    # Keep the clock going (from the bag's end, real-time rate) until roslaunch stops us.
+    end = rospy.Time.from_sec(scenario_gen.T0 + sc.duration)
+    stop = threading.Event()
+
+    def run_clock():
+        start = time.time()
+        while not stop.is_set() and not rospy.is_shutdown():
+            clock_pub.publish(Clock(clock=end + rospy.Duration.from_sec(time.time() - start)))
+            time.sleep(1.0 / clock_hz)
+    threading.Thread(target=run_clock, daemon=True).start()
+    time.sleep(0.5)  # the last messages in flight
+    alive = {}
+    for m in monitors:
+        try:
+            master.lookupNode("/" + m)
+            alive[m] = True
+        except Exception:  # noqa: BLE001
+            alive[m] = False
+    with lock:
+        record = {"scenario": sc.name, "monitors": arrays, "diagnostics": diags, "rosbag_play_rc": rc,
+                  "generate_wall_s": gen_wall, "play_wall_s": play_wall, "alive_after_bag": alive}
+        tmp = os.path.join(workdir, "record.json.tmp")
+        with open(tmp, "w") as f:
+            json.dump(record, f)
+        os.replace(tmp, os.path.join(workdir, "record.json"))
+    log("done: bag played in %.1f s (rc %d), %s" % (play_wall, rc, ", ".join(
+        "%s: %d arrays" % (m, len(a)) for m, a in arrays.items())))
+    rospy.spin()  # stay until roslaunch ends the test
+    stop.set()
+
+
+if __name__ == "__main__":
+    main()
