@@ -28,6 +28,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 COLORS = {
     "vadop": "tab:red",
+    "vadop_sap": "tab:olive",
     "kdop": "tab:purple",
     "sap": "tab:orange",
     "fcl_refit": "tab:blue",
@@ -64,9 +65,9 @@ def load(paths):
 
 def label(row, many_phi):
     s = row["method"]
-    if row["method"] in ("vadop", "kdop") and row.get("m") is not None:
+    if row["method"] in ("vadop", "vadop_sap", "kdop") and row.get("m") is not None:
         s += f" m={row['m']}"
-    if row["method"] == "vadop" and many_phi and row.get("phi") is not None:
+    if row["method"] in ("vadop", "vadop_sap") and many_phi and row.get("phi") is not None:
         s += f" phi={row['phi']:g}"
     return s
 
@@ -181,12 +182,12 @@ def main():
     plt.close(fig)
 
     # 4. m sweep (VADOP and k-DOP), at each n, per speed.
-    sweep = [r for r in rows if r["method"] in ("vadop", "kdop") and r.get("m")]
+    sweep = [r for r in rows if r["method"] in ("vadop", "vadop_sap", "kdop") and r.get("m")]
     if sweep:
         fig, axes = plt.subplots(1, len(speeds), figsize=(5.2 * len(speeds), 4.4), squeeze=False)
         for ax, sp in zip(axes[0], speeds):
             i = 0
-            for method in ("vadop", "kdop"):
+            for method in ("vadop", "vadop_sap", "kdop"):
                 for n in ns:
                     pts = sorted((r["m"], r[tkey]) for r in sweep
                                  if r["method"] == method and r["n"] == n and r["speed"] == sp and r[tkey] > 0)
@@ -278,7 +279,39 @@ def write_summary(rows, labels, ns, speeds, path):
                 ratio = bv[key] / bp[key] if bp[key] > 0 else float("inf")
                 lines += ["", f"Best VADOP ({bv['label']}, {bv[key]:.3g} ms) / best swept-AABB peer "
                               f"({bp['label']}, {bp[key]:.3g} ms) = **{ratio:.2f}** ({key})."]
+                # The broad phase alone (c_u + c_s, wall medians): what the method itself costs.
+                bpv = bv["update_ms"] + bv["sort_ms"]
+                bpp = min(r["update_ms"] + r["sort_ms"] for r in peer)
+                if bpp > 0:
+                    lines.append(f"Broad phase alone (c_u + c_s): {bpv:.3g} ms against the best peer's {bpp:.3g} ms = "
+                                 f"**{bpv / bpp:.2f}**.")
+                disc = [r for r in sel if r["method"].startswith("fcl_discrete") and key in r]
+                if disc:
+                    bd = min(disc, key=lambda r: r[key])
+                    lines.append(f"Against pseudo-dynamic detection ({bd['label']}, {bd[key]:.3g} ms, missing "
+                                 f"{bd['missed']} of {bd.get('reference_impacts', '?')} impacts): "
+                                 f"**{bv[key] / bd[key]:.2f}**.")
             lines.append("")
+    # Growth of the cost with n: exponent of the CPU time per frame between the smallest and the
+    # largest n measured (target: no steeper than n^1.2), and of the peak memory.
+    if len(ns) > 1:
+        lines += [f"## Growth from n = {ns[0]:,} to n = {ns[-1]:,}", "",
+                  "Exponent k in time ~ n^k (CPU per frame) and in peak RSS ~ n^k, per method and speed.", "",
+                  "| method | speed | time exponent | memory exponent |", "|---|---|---|---|"]
+        for lab in order:
+            for sp in speeds:
+                a = [r for r in rows if r["label"] == lab and r["speed"] == sp and r["n"] == ns[0]]
+                b = [r for r in rows if r["label"] == lab and r["speed"] == sp and r["n"] == ns[-1]]
+                if not a or not b or b[0].get("truncated"):
+                    continue
+                key = "frame_cpu_ms_median" if "frame_cpu_ms_median" in a[0] else "frame_ms_median"
+                if a[0][key] <= 0 or b[0][key] <= 0:
+                    continue
+                dn = math.log(ns[-1] / ns[0])
+                kt = math.log(b[0][key] / a[0][key]) / dn
+                km = math.log(b[0]["peak_rss_mb"] / a[0]["peak_rss_mb"]) / dn
+                lines.append(f"| {lab} | {sp:g} | {kt:.2f} | {km:.2f} |")
+        lines.append("")
     with open(path, "w", encoding="utf-8") as f:
         f.write("\n".join(lines) + "\n")
 

@@ -108,6 +108,11 @@ class ScenarioCheck(unittest.TestCase):
         padding = truth["padding"]
         arrays = self.record["monitors"][mon]
         errors = []
+        unconnected = (self.record.get("unconnected_at_start") or {}).get(mon)
+        if unconnected:
+            errors.append("test harness: the bag started before %s was connected to %d of its topics (%s): the "
+                          "checks below see it miss those bodies' first messages"
+                          % (mon, len(unconnected), ", ".join(unconnected[:8])))
         self.assertGreater(len(arrays), 0, "%s published no ImpactArray" % mon)
         stamps = [a[0] - t0 for a in arrays]
         first_cycle, last_cycle = stamps[0], stamps[-1]
@@ -171,6 +176,12 @@ class ScenarioCheck(unittest.TestCase):
                 min_warning = warning if min_warning is None else min(min_warning, warning)
                 # A prediction late by e (odometry noise) is announced up to e later.
                 need = horizon - 1.0 / rate - clock_tol - (pair_worst or 0.0)
+                # The node's timer may fire late on a loaded machine (the gap between two cycles then
+                # exceeds 1/f + CLOCK_TOL): what counts is that the first cycle whose horizon reaches
+                # T (stamp >= T - H + e, 1 ms slack) reported it.
+                due = next((c for c in in_bag if c >= T - horizon + (pair_worst or 0.0) + 0.001), None)
+                if due is not None:
+                    need = min(need, T - due)
                 if warning < need:
                     errors.append("%s: %s first reported %.4f s before contact at %.4f s; constant velocities over the "
                                   "horizon: at least %.4f s expected" % (mon, label(k), warning, T, need))
@@ -214,12 +225,12 @@ class ScenarioCheck(unittest.TestCase):
         line = ("scenario %s [%s: H %.2f s, %.0f Hz, padding %.3f m]: %d true impacts, %d reported before contact, "
                 "%d not checkable (at the start or after the end); earliest warning min %s over %d constant-velocity "
                 "window(s) (rule >= %.3f s); max |time_to_impact error| %.1f ms over %d reports%s; %d false pair(s); "
-                "%d arrays, max gap %.0f ms"
+                "%d arrays, max gap %.0f ms; connected to every topic %.2f s after rosbag play started"
                 % (truth["scenario"], mon, horizon, rate, padding, len(truth_pairs), n_reported, n_skipped,
                    "%.3f s" % min_warning if min_warning is not None else "n/a", n_rule, horizon - 1.0 / rate - clock_tol,
                    1e3 * worst, n_checked,
                    ", %.1f ms on rotating links" % (1e3 * worst_rotating) if worst_rotating else "",
-                   len(false), len(arrays), 1e3 * max_gap))
+                   len(false), len(arrays), 1e3 * max_gap, self.record.get("connect_wall_s", float("nan"))))
         self.summary.append(line)
         if len(details) <= 12:
             self.summary.extend(details)

@@ -6,8 +6,17 @@ publish (~impacts of each, /diagnostics) and writes it to ~workdir/record.json w
 has ended. test/scenario_check.py (the test node) then checks the record against the truth.
 
 Parameters: ~scenario (path of the yaml), ~workdir, ~monitors (node names, default
-[vadop_monitor]), ~clock_hz (rosbag play --hz, default 200), ~delay (s, rosbag play -d; default 1 s plus 1 s per 50 odometry topics, the
-time the monitors take to connect to every topic).
+[vadop_monitor]), ~clock_hz (rosbag play --hz, default 200), ~delay (s, rosbag play -d, default 0),
+~connect_timeout (s, default 60).
+Start of the bag: rosbag play starts paused (--pause) and is resumed (a space on its stdin) only
+once every monitor is connected to every topic of the bag it subscribes to, and to /clock, as
+rosbag play's own getBusInfo shows (an outgoing link exists once the subscriber's connection
+header has arrived). A fixed delay is not enough: with 200 topics, a few of the connections of
+the burst that follows the advertisements can take several seconds on a loaded machine (listen
+queues overflow, the kernel retries the connection 1, 3, 7 s later), and the monitor then never
+sees those bodies' first seconds (test/scenario_crowd.test missed their impacts). Topics still
+unconnected after ~connect_timeout are written to the record (unconnected_at_start), and
+scenario_check.py reports them.
 Why a node of its own: rostest runs the tests of a file one after the other and starts the
 whole launch afresh for each. The first test, rostest's hztest, measures ~impacts while this
 node plays the bag; after the bag this node keeps /clock running (real-time rate) so that the
@@ -21,6 +30,7 @@ import subprocess
 import sys
 import threading
 import time
+import xmlrpc.client
 
 import rosgraph
 import rospy
@@ -36,13 +46,25 @@ def log(s):
     rospy.loginfo("scenario_player: %s", s)
 
 
+def outgoing_links(master, node):
+    """(topic, subscriber node) of every link `node` publishes on (its getBusInfo), or None."""
+    try:
+        code, _, info = xmlrpc.client.ServerProxy(master.lookupNode(node)).getBusInfo("/scenario_player")
+    except Exception:  # noqa: BLE001  (the node not registered yet, or gone)
+        return None
+    if code != 1:
+        return None
+    return {(row[4], row[1]) for row in info if len(row) > 4 and row[2] == "o"}
+
+
 def main():
     rospy.init_node("scenario_player")
     path = rospy.get_param("~scenario")
     workdir = rospy.get_param("~workdir")
     monitors = rospy.get_param("~monitors", ["vadop_monitor"])
     clock_hz = float(rospy.get_param("~clock_hz", 200.0))
-    delay = rospy.get_param("~delay", None)  # default: 1 s + 1 s per 50 topics (connections)
+    delay = float(rospy.get_param("~delay", 0.0))
+    connect_timeout = float(rospy.get_param("~connect_timeout", 60.0))
     os.makedirs(workdir, exist_ok=True)
     if os.path.exists(os.path.join(workdir, "record.json")):
         rospy.loginfo("scenario_player: %s already has the record: nothing to do", workdir)
@@ -98,17 +120,48 @@ def main():
         rospy.logerr("scenario_player: the monitors did not subscribe within 60 s")
 
     clock_pub = rospy.Publisher("/clock", Clock, queue_size=10)  # used after the bag only
-    if delay is None:
-        delay = 1.0 + len(topics) / 50.0
-    cmd = ["rosbag", "play", "--clock", "--hz=%g" % clock_hz, "-d", "%g" % delay, "-q", bag]
+    # Paused until every monitor is connected to the bag's topics (see the module docstring).
+    cmd = ["rosbag", "play", "--clock", "--hz=%g" % clock_hz, "-d", "%g" % delay, "--pause", "-q", bag]
     log("playing: %s" % " ".join(cmd))
     play_start = time.time()
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, start_new_session=True)
+    proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, start_new_session=True)
 
     def stop_player():
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGINT)
     rospy.on_shutdown(stop_player)
+    import rosbag  # slow to import: only here (the second launch must see record.json at once)
+    with rosbag.Bag(bag) as b:
+        bag_topics = set(b.get_type_and_topic_info().topics) | {"/clock"}
+    missing = {}
+    deadline = time.time() + connect_timeout
+    while not rospy.is_shutdown() and proc.poll() is None:
+        publishers, subscribers, _ = master.getSystemState()
+        subs_of = {t: set(nodes) for t, nodes in subscribers}
+        # rosbag play's node (anonymous: /play_<n>), found as a publisher of the bag's first topic
+        player = next((n for t, nodes in publishers if t == topics[0] for n in nodes if n.startswith("/play_")), None)
+        links = outgoing_links(master, player) if player else None
+        if links is None:
+            missing = {m: ["(no rosbag play node answering getBusInfo)"] for m in monitors}
+        else:
+            missing = {m: sorted(t for t in bag_topics if "/" + m in subs_of.get(t, ()) and (t, "/" + m) not in links)
+                       for m in monitors}
+            missing = {m: t for m, t in missing.items() if t}
+            if not missing:
+                break
+        if time.time() > deadline:
+            rospy.logerr("scenario_player: after %.0f s, %s: starting the bag anyway" % (connect_timeout, "; ".join(
+                "%s not connected to %d topic(s) (%s)" % (m, len(t), ", ".join(t[:5])) for m, t in missing.items())))
+            break
+        time.sleep(0.05)
+    connect_wall = time.time() - play_start
+    log("monitors connected to every topic after %.2f s: resuming the bag" % connect_wall if not missing else
+        "resuming the bag with topics unconnected")
+    try:
+        proc.stdin.write(b" ")  # rosbag play: a space toggles pause
+        proc.stdin.flush()
+    except OSError:
+        pass  # rosbag play already ended: its exit status tells
     rc = proc.wait()
     play_wall = time.time() - play_start
     # Keep the clock going (from the bag's end, real-time rate) until roslaunch stops us.
@@ -131,7 +184,8 @@ def main():
             alive[m] = False
     with lock:
         record = {"scenario": sc.name, "monitors": arrays, "diagnostics": diags, "rosbag_play_rc": rc,
-                  "generate_wall_s": gen_wall, "play_wall_s": play_wall, "alive_after_bag": alive}
+                  "generate_wall_s": gen_wall, "play_wall_s": play_wall, "alive_after_bag": alive,
+                  "connect_wall_s": connect_wall, "unconnected_at_start": missing}
         tmp = os.path.join(workdir, "record.json.tmp")
         with open(tmp, "w") as f:
             json.dump(record, f)

@@ -18,6 +18,12 @@ using vadop_test::FakeTf;
 
 namespace {
 
+// Where an element's shape is at time t (registry seconds), and how fast that point moves.
+Eigen::Vector3d centre(const vadop_ros::Element& e, double t) { return e.motion.positionAt(t); }
+Eigen::Vector3d centreVelocity(const vadop_ros::Element& e, double t) {
+  return e.motion.velocityOfPoint(centre(e, t), t);
+}
+
 const double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 MonitorParams params(const std::string& yaml_text) { return vadop_ros::parseParams(vadop_test::yaml(yaml_text)); }
@@ -235,23 +241,30 @@ bodies:
   ASSERT_EQ(r.onOdometry(0, odom(1.0, 0, 0, 1.0, 0, 0, 1.0, "odom", "bot/base_link"), ros::Time(1.0)),
             InputResult::kAccepted);
   r.update(ros::Time(1.0), tf);
+  const double ts = r.seconds(ros::Time(1.0));
   const auto& bodies = r.bodies();
   bool saw_arm = false;
   for (const size_t ei : bodies[0].elements) {
     const auto& e = r.elements()[ei];
     ASSERT_TRUE(e.active) << e.id;
     EXPECT_TRUE(e.motion.angular_velocity.isApprox(Eigen::Vector3d(0, 0, 1), 1e-12));
-    const Eigen::Vector3d rr = e.motion.position;  // body at the origin
+    // Every link turns about the body's screw axis (here through (0, 1, 0): v = 1 along x, w = 1
+    // about z), so it follows its arc.
+    EXPECT_TRUE((e.motion.pivotAt(ts) - Eigen::Vector3d(0, 1, e.motion.pivotAt(ts).z())).isZero(1e-12)) << e.id;
+    const Eigen::Vector3d rr = centre(e, ts);  // body at the origin
     const Eigen::Vector3d expected = Eigen::Vector3d(1, 0, 0) + Eigen::Vector3d(0, 0, 1).cross(rr);
-    EXPECT_TRUE(e.motion.linear_velocity.isApprox(expected, 1e-12)) << e.id;
+    EXPECT_TRUE(centreVelocity(e, ts).isApprox(expected, 1e-12)) << e.id;
     if (e.link == "arm") {
       saw_arm = true;
       EXPECT_EQ(e.id, "bot/arm");
-      EXPECT_TRUE(e.motion.position.isApprox(Eigen::Vector3d(0.2, 0, 0.3), 1e-12));
-      EXPECT_TRUE(e.motion.linear_velocity.isApprox(Eigen::Vector3d(1, 0.2, 0), 1e-12));
+      EXPECT_TRUE(rr.isApprox(Eigen::Vector3d(0.2, 0, 0.3), 1e-12));
+      EXPECT_TRUE(centreVelocity(e, ts).isApprox(Eigen::Vector3d(1, 0.2, 0), 1e-12));
+      // Half a turn later the arm (0.2 m ahead of the body, 1.2 m from the axis through
+      // (0, 1)) is on the other side of that axis: (-0.2, 2, 0.3), not pi m further along x.
+      EXPECT_TRUE(centre(e, ts + M_PI).isApprox(Eigen::Vector3d(-0.2, 2, 0.3), 1e-9)) << centre(e, ts + M_PI);
     }
     if (e.link == "base_link" && e.id == "bot/base_link#1") {
-      EXPECT_TRUE(e.motion.position.isApprox(Eigen::Vector3d(0, 0, 0.3), 1e-12));
+      EXPECT_TRUE(rr.isApprox(Eigen::Vector3d(0, 0, 0.3), 1e-12));
     }
   }
   EXPECT_TRUE(saw_arm);
@@ -274,8 +287,9 @@ TEST(BodyRegistry, RigidUrdfBodyFrameMayBeAChildLink) {
   r.update(ros::Time(1.0), tf);
   for (const size_t ei : r.bodies()[0].elements) {
     const auto& e = r.elements()[ei];
-    if (e.id == "bot/base_link") EXPECT_NEAR(e.motion.position.z(), 1.0 + 0.1, 1e-12);
-    if (e.id == "bot/mast") EXPECT_NEAR(e.motion.position.z(), 1.4 + 0.5, 1e-12);
+    const double ts = r.seconds(ros::Time(1.0));
+    if (e.id == "bot/base_link") EXPECT_NEAR(centre(e, ts).z(), 1.0 + 0.1, 1e-12);
+    if (e.id == "bot/mast") EXPECT_NEAR(centre(e, ts).z(), 1.4 + 0.5, 1e-12);
   }
 }
 
@@ -309,13 +323,24 @@ TEST(BodyRegistry, TfLinksGetTheirOwnVelocity) {
   ASSERT_TRUE(arm.active);
   EXPECT_EQ(arm.tf_frame, "r/arm");
   EXPECT_NEAR(arm.motion.angular_velocity.z(), 0.5, 1e-9);
-  // The collision origin 1 m along the arm's x: velocity w x r = 0.5 * (-sin, cos).
-  EXPECT_NEAR(arm.motion.linear_velocity.x(), -0.5 * std::sin(0.05), 1e-9);
-  EXPECT_NEAR(arm.motion.linear_velocity.y(), 0.5 * std::cos(0.05), 1e-9);
-  // A missing link transform skips that link only.
-  tf.erase("r/arm");
+  // The collision origin 1 m along the arm's x moves at w x r = 0.5 * (-sin, cos) and, turning
+  // about the joint (its screw axis), stays on its circle.
+  EXPECT_TRUE(arm.motion.pivotAt(r.seconds(ros::Time(1.1))).isZero(1e-9));
+  const double ts = r.seconds(ros::Time(1.1));
+  EXPECT_NEAR(centreVelocity(arm, ts).x(), -0.5 * std::sin(0.05), 1e-9);
+  EXPECT_NEAR(centreVelocity(arm, ts).y(), 0.5 * std::cos(0.05), 1e-9);
+  EXPECT_NEAR(centre(arm, ts + 1.0).norm(), 1.0, 1e-9);
+  EXPECT_NEAR(std::atan2(centre(arm, ts + 1.0).y(), centre(arm, ts + 1.0).x()), 0.55, 1e-9);
+  // Odometry newer than the link's tf (1.2 s against 1.1 s): the link pose is carried to the
+  // odometry's stamp with the link's own motion (0.1 rad at 1.2 s, not the 0.05 rad of 1.1 s).
   ASSERT_EQ(r.onOdometry(0, odom(1.2, 0, 0, 0, 0, 0, 0, "odom", "r/base"), ros::Time(1.2)), InputResult::kAccepted);
   r.update(ros::Time(1.2), tf);
+  const double t12 = r.seconds(ros::Time(1.2));
+  EXPECT_NEAR(std::atan2(centre(arm, t12).y(), centre(arm, t12).x()), 0.1, 1e-9);
+  // A missing link transform skips that link only.
+  tf.erase("r/arm");
+  ASSERT_EQ(r.onOdometry(0, odom(1.3, 0, 0, 0, 0, 0, 0, "odom", "r/base"), ros::Time(1.3)), InputResult::kAccepted);
+  r.update(ros::Time(1.3), tf);
   EXPECT_TRUE(r.elements()[body.elements[0]].active);
   EXPECT_FALSE(r.elements()[body.elements[1]].active);
   EXPECT_EQ(r.bodies()[0].status.state, BodyState::kTfMissing);
@@ -382,6 +407,9 @@ bodies:
   const auto& e = r.elements()[0];
   ASSERT_TRUE(e.active);
   EXPECT_TRUE(e.motion.position.isApprox(Eigen::Vector3d(1.0, 0.0, 0.5), 1e-12));
-  EXPECT_TRUE(e.motion.linear_velocity.isApprox(Eigen::Vector3d(0.0, 1.0, 0.0), 1e-12));
+  const double ts = r.seconds(ros::Time(1.0));
+  EXPECT_TRUE(centreVelocity(e, ts).isApprox(Eigen::Vector3d(0.0, 1.0, 0.0), 1e-12));
   EXPECT_TRUE(e.motion.angular_velocity.isApprox(Eigen::Vector3d(0.0, 0.0, 1.0), 1e-12));
+  // It turns about base_footprint: a quarter turn later it is at (0, 1, 0.5).
+  EXPECT_TRUE(centre(e, ts + M_PI / 2).isApprox(Eigen::Vector3d(0.0, 1.0, 0.5), 1e-9)) << centre(e, ts + M_PI / 2);
 }

@@ -122,7 +122,11 @@ void BruteForceBroadPhase::computePairs(double t0, double t1, std::vector<Pair>&
   caps.reserve(size());
   for (BodyId i = 0; i < b.size(); ++i) {
     if (!b[i].alive) continue;
-    caps.push_back({b[i].motion.positionAt(t0), b[i].motion.positionAt(t1), b[i].shape->bounding_radius, i});
+    // The ball about the pivot that holds the shape in every orientation, swept along the
+    // pivot's straight path.
+    const Motion& m = b[i].motion;
+    const double r = b[i].shape->bounding_radius + (m.hasPivot() ? m.pivot_offset.norm() : 0.0);
+    caps.push_back({m.pivotAt(t0), m.pivotAt(t1), r, i});
   }
   for (size_t i = 0; i < caps.size(); ++i) {
     for (size_t j = i + 1; j < caps.size(); ++j) {

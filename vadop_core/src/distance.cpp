@@ -90,10 +90,13 @@ Eigen::Vector3d coreSupportBody(const PreparedShapeData& s, const Eigen::Vector3
 struct Convex {
   const PreparedShapeData* shape = nullptr;  // null: the triangle `tri` (world frame)
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
-  Eigen::Vector3d p = Eigen::Vector3d::Zero();  // body origin (the rotation centre)
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();  // the rotation centre (Motion's pivot)
+  Eigen::Vector3d shift = Eigen::Vector3d::Zero();  // body origin - p
   std::array<Eigen::Vector3d, 3> tri;
   double rounding = 0.0;
   double lever = 0.0;  // max |x - p| over the padded convex
+
+  Eigen::Vector3d origin() const { return p + shift; }
 
   // Farthest core point along d (world frame; d need not be unit).
   Eigen::Vector3d support(const Eigen::Vector3d& d) const {
@@ -102,30 +105,34 @@ struct Convex {
       if (a >= b && a >= c) return tri[0];
       return b >= c ? tri[1] : tri[2];
     }
-    return R * coreSupportBody(*shape, R.transpose() * d) + p;
+    return R * coreSupportBody(*shape, R.transpose() * d) + p + shift;
   }
   // Support value of the padded convex about p: max over x of (x - p).u (u need not be unit).
   double h(const Eigen::Vector3d& u) const { return (support(u) - p).dot(u) + rounding * u.norm(); }
 };
 
-Convex makeConvex(const PreparedShapeData& s, const Eigen::Matrix3d& R, const Eigen::Vector3d& p) {
+// p: the rotation centre; shift: the body origin relative to it (Motion::pivot_offset turned).
+Convex makeConvex(const PreparedShapeData& s, const Eigen::Matrix3d& R, const Eigen::Vector3d& p,
+                  const Eigen::Vector3d& shift = Eigen::Vector3d::Zero()) {
   Convex c;
   c.shape = &s;
   c.R = R;
   c.p = p;
+  c.shift = shift;
   c.rounding = s.rounding;
-  c.lever = s.lever;
+  c.lever = s.lever + shift.norm();
   return c;
 }
 
 Convex makeTriangle(const PreparedShapeData& mesh, int tri, const Eigen::Matrix3d& R,
-                    const Eigen::Vector3d& p) {
+                    const Eigen::Vector3d& p, const Eigen::Vector3d& shift) {
   Convex c;
   const Tri& t = mesh.tris[tri];
-  for (int k = 0; k < 3; ++k) c.tri[k] = R * t.v[k] + p;
+  for (int k = 0; k < 3; ++k) c.tri[k] = R * t.v[k] + p + shift;
   c.p = p;
+  c.shift = shift;
   c.rounding = mesh.rounding;
-  c.lever = t.lever;
+  c.lever = t.lever + shift.norm();
   return c;
 }
 
@@ -314,7 +321,7 @@ bool closestOnSimplex(SVert* s, int& n, double* lambda) {
 Gjk runGjk(const Convex& A, const Convex& B, Eigen::Vector3d guess, double abs_tol, double rel_tol,
            int max_iter) {
   Gjk r;
-  if (!(guess.squaredNorm() > 0.0) || !guess.allFinite()) guess = A.p - B.p;
+  if (!(guess.squaredNorm() > 0.0) || !guess.allFinite()) guess = A.origin() - B.origin();
   if (!(guess.squaredNorm() > 0.0)) guess = Eigen::Vector3d::UnitX();
   // Scale for "numerically zero": the size of the coordinates involved.
   const double scale = 1.0 + A.p.norm() + B.p.norm() + A.lever + B.lever;
@@ -393,11 +400,11 @@ Eigen::Vector3d anyPerpendicular(const Eigen::Vector3d& n) {
 Eigen::Vector3d penetrationDirection(const Convex& A, const Convex& B, const Eigen::Vector3d& hint) {
   std::vector<Eigen::Vector3d> cand;
   if (hint.squaredNorm() > 0.0) cand.push_back(hint.normalized());
-  const Eigen::Vector3d cc = B.p - A.p;
+  const Eigen::Vector3d cc = B.origin() - A.origin();
   if (cc.squaredNorm() > 0.0) cand.push_back(cc.normalized());
   // Centroids of the cores (meaningful for triangles, whose p is the mesh origin).
-  const Eigen::Vector3d ca = A.shape ? A.p : Eigen::Vector3d((A.tri[0] + A.tri[1] + A.tri[2]) / 3.0);
-  const Eigen::Vector3d cb = B.shape ? B.p : Eigen::Vector3d((B.tri[0] + B.tri[1] + B.tri[2]) / 3.0);
+  const Eigen::Vector3d ca = A.shape ? A.origin() : Eigen::Vector3d((A.tri[0] + A.tri[1] + A.tri[2]) / 3.0);
+  const Eigen::Vector3d cb = B.shape ? B.origin() : Eigen::Vector3d((B.tri[0] + B.tri[1] + B.tri[2]) / 3.0);
   if ((cb - ca).squaredNorm() > 0.0) cand.push_back((cb - ca).normalized());
   for (const Convex* c : {&A, &B}) {
     if (c->shape) {
@@ -623,16 +630,21 @@ double separationStep(const Convex& A, const Kin& ka, const Convex& B, const Kin
 struct Side {
   const PreparedShapeData* d = nullptr;
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
-  Eigen::Vector3d p = Eigen::Vector3d::Zero();
-  Kin kin;
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();      // the rotation centre (Motion's pivot)
+  Eigen::Vector3d shift = Eigen::Vector3d::Zero();  // body origin - p
+  Kin kin;  // of p
   bool mesh = false;
 
   int root() const { return mesh ? d->root : 0; }
   bool leaf(int i) const { return !mesh || d->nodes[i].tri >= 0; }
-  Eigen::Vector3d centre(int i) const { return mesh ? Eigen::Vector3d(R * d->nodes[i].centre + p) : p; }
+  Eigen::Vector3d centre(int i) const {
+    return mesh ? Eigen::Vector3d(R * d->nodes[i].centre + p + shift) : Eigen::Vector3d(p + shift);
+  }
   double radius(int i) const { return mesh ? d->nodes[i].radius : d->lever; }
-  double lever(int i) const { return mesh ? d->nodes[i].lever : d->lever; }
-  Convex convex(int i) const { return mesh ? makeTriangle(*d, d->nodes[i].tri, R, p) : makeConvex(*d, R, p); }
+  double lever(int i) const { return (mesh ? d->nodes[i].lever : d->lever) + shift.norm(); }
+  Convex convex(int i) const {
+    return mesh ? makeTriangle(*d, d->nodes[i].tri, R, p, shift) : makeConvex(*d, R, p, shift);
+  }
 };
 
 struct Tolerances {
@@ -662,7 +674,7 @@ DistanceResult meshDistance(const Side& A, const Side& B, const Tolerances& tol)
     }
     if (A.leaf(ia) && B.leaf(ib)) {
       const Convex ca = A.convex(ia), cb = B.convex(ib);
-      DistanceResult r = convexDistance(ca, cb, ca.p - cb.p, tol.abs_tol, tol.rel_tol, tol.max_iter, nullptr);
+      DistanceResult r = convexDistance(ca, cb, ca.origin() - cb.origin(), tol.abs_tol, tol.rel_tol, tol.max_iter, nullptr);
       iterations += r.iterations;
       best.lower_bound = std::min(best.lower_bound, r.lower_bound);
       if (r.distance < best.distance) {
@@ -757,8 +769,8 @@ AdvanceStep meshStep(const Side& A, const Side& B, double horizon, double touch,
     const int ia = it.ia, ib = it.ib;
     if (A.leaf(ia) && B.leaf(ib)) {
       const Convex ca = A.convex(ia), cb = B.convex(ib);
-      const Eigen::Vector3d ga = ca.shape ? ca.p : Eigen::Vector3d((ca.tri[0] + ca.tri[1] + ca.tri[2]) / 3.0);
-      const Eigen::Vector3d gb = cb.shape ? cb.p : Eigen::Vector3d((cb.tri[0] + cb.tri[1] + cb.tri[2]) / 3.0);
+      const Eigen::Vector3d ga = ca.shape ? ca.origin() : Eigen::Vector3d((ca.tri[0] + ca.tri[1] + ca.tri[2]) / 3.0);
+      const Eigen::Vector3d gb = cb.shape ? cb.origin() : Eigen::Vector3d((cb.tri[0] + cb.tri[1] + cb.tri[2]) / 3.0);
       if (!out.touching && (gb - ga).squaredNorm() > 0.0) {
         // Cheap screen before GJK: the exact separation of the two pieces along their
         // centroid line with the linear motion bound (a valid certificate, only weaker).
@@ -812,10 +824,10 @@ AdvanceStep meshStep(const Side& A, const Side& B, double horizon, double touch,
   out.clear = best_step >= horizon;
   if (!std::isfinite(out.closest.distance)) {
     // Every pair was bounded away: report the centres' direction.
-    const Eigen::Vector3d cc = B.p - A.p;
+    const Eigen::Vector3d cc = B.centre(B.root()) - A.centre(A.root());
     out.closest.normal = cc.squaredNorm() > 0.0 ? Eigen::Vector3d(cc.normalized()) : Eigen::Vector3d::UnitX();
-    out.closest.point_a = A.p;
-    out.closest.point_b = B.p;
+    out.closest.point_a = A.centre(A.root());
+    out.closest.point_b = B.centre(B.root());
     out.closest.distance = out.closest.lower_bound =
         (B.centre(B.root()) - A.centre(A.root())).norm() - A.radius(A.root()) - B.radius(B.root());
   }
@@ -903,12 +915,24 @@ void checkPose(const Eigen::Isometry3d& pose, const char* what) {
   if (!pose.matrix().allFinite()) throw InvalidArgument(std::string(what) + " is not finite");
 }
 
-Side makeSide(const PreparedShapeData& d, const Eigen::Matrix3d& R, const Eigen::Vector3d& p) {
+Side makeSide(const PreparedShapeData& d, const Eigen::Matrix3d& R, const Eigen::Vector3d& p,
+              const Eigen::Vector3d& shift = Eigen::Vector3d::Zero()) {
   Side s;
   s.d = &d;
   s.R = R;
   s.p = p;
+  s.shift = shift;
   s.mesh = d.kind == CoreKind::kMesh;
+  return s;
+}
+
+// The side of a body moving with m, at time t: posed, seen from its rotation centre (the pivot;
+// the certified steps below bound every point's motion about it), with the pivot's velocity.
+Side sideAt(const PreparedShapeData& d, const Motion& m, double t) {
+  const Eigen::Matrix3d R = m.isRotating() ? m.orientationAt(t).toRotationMatrix() : m.orientation.toRotationMatrix();
+  Side s = m.hasPivot() ? makeSide(d, R, m.pivotAt(t), m.positionAt(t) - m.pivotAt(t)) : makeSide(d, R, m.positionAt(t));
+  s.kin.v = m.linear_velocity;
+  s.kin.w = m.angular_velocity;
   return s;
 }
 
@@ -921,24 +945,16 @@ AdvanceStep advanceStep(const PreparedShape& a, const Motion& ma, const Prepared
                         double advance_gap, Eigen::Vector3d* hint) {
   const PreparedShapeData& da = a.data();
   const PreparedShapeData& db = b.data();
-  Side A = makeSide(da, ma.isRotating() ? ma.orientationAt(t).toRotationMatrix()
-                                        : ma.orientation.toRotationMatrix(),
-                    ma.positionAt(t));
-  Side B = makeSide(db, mb.isRotating() ? mb.orientationAt(t).toRotationMatrix()
-                                        : mb.orientation.toRotationMatrix(),
-                    mb.positionAt(t));
-  A.kin.v = ma.linear_velocity;
-  A.kin.w = ma.angular_velocity;
-  B.kin.v = mb.linear_velocity;
-  B.kin.w = mb.angular_velocity;
+  const Side A = sideAt(da, ma, t);
+  const Side B = sideAt(db, mb, t);
   // GJK accuracy: a small fraction of the band between the advance target and the touch
   // threshold, so that the loop always reaches "touching" after landing on the target.
   const Tolerances tol{0.01 * (touch_gap - advance_gap), 1e-7, 128};
   if (A.mesh || B.mesh) return meshStep(A, B, horizon, touch_gap, advance_gap, tol);
 
   AdvanceStep out;
-  const Convex ca = makeConvex(da, A.R, A.p), cb = makeConvex(db, B.R, B.p);
-  const Eigen::Vector3d guess = (hint && hint->squaredNorm() > 0.0) ? *hint : Eigen::Vector3d(ca.p - cb.p);
+  const Convex ca = A.convex(0), cb = B.convex(0);
+  const Eigen::Vector3d guess = (hint && hint->squaredNorm() > 0.0) ? *hint : Eigen::Vector3d(ca.origin() - cb.origin());
   Eigen::Vector3d cert;
   out.closest = convexDistance(ca, cb, guess, tol.abs_tol, tol.rel_tol, tol.max_iter, &cert);
   if (hint) *hint = -out.closest.normal;

@@ -23,6 +23,25 @@ Eigen::Quaterniond Motion::orientationAt(double t) const {
   return q;
 }
 
+Eigen::Matrix3d Motion::spin(double t) const {
+  const Eigen::Vector3d rotation = angular_velocity * (t - t_ref);
+  const double angle = rotation.norm();
+  if (angle == 0.0) return Eigen::Matrix3d::Identity();
+  return Eigen::AngleAxisd(angle, rotation / angle).toRotationMatrix();
+}
+
+Eigen::Vector3d screwPivotOffset(const Eigen::Vector3d& origin_velocity, const Eigen::Vector3d& w) {
+  const double w2 = w.squaredNorm();
+  if (!(w2 > 0.0)) return Eigen::Vector3d::Zero();
+  return w.cross(origin_velocity) / w2;
+}
+
+Eigen::Vector3d screwPivotVelocity(const Eigen::Vector3d& origin_velocity, const Eigen::Vector3d& w) {
+  const double w2 = w.squaredNorm();
+  if (!(w2 > 0.0)) return origin_velocity;
+  return w * (w.dot(origin_velocity) / w2);
+}
+
 Eigen::Isometry3d Motion::poseAt(double t) const {
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   pose.linear() = orientationAt(t).toRotationMatrix();
@@ -54,7 +73,8 @@ Motion makeMotion(const Eigen::Vector3d& position, const Eigen::Quaterniond& ori
 bool isValidMotion(const Motion& m) {
   // A NaN or Inf anywhere makes the sum non-finite (so may an overflow of finite values: then
   // validateMotion, the exact test, finds nothing to complain about).
-  const double sum = m.position.sum() + m.linear_velocity.sum() + m.angular_velocity.sum() + m.t_ref;
+  const double sum =
+      m.position.sum() + m.linear_velocity.sum() + m.angular_velocity.sum() + m.pivot_offset.sum() + m.t_ref;
   return std::isfinite(sum) && std::abs(m.orientation.squaredNorm() - 1.0) <= 1e-6;
 }
 
@@ -62,6 +82,7 @@ void validateMotion(const Motion& m, const std::string& what) {
   requireFinite(m.position, what, "position");
   requireFinite(m.linear_velocity, what, "linear_velocity");
   requireFinite(m.angular_velocity, what, "angular_velocity");
+  requireFinite(m.pivot_offset, what, "pivot_offset");
   if (!m.orientation.coeffs().allFinite()) throw InvalidArgument(what + ": orientation is not finite");
   if (std::abs(m.orientation.norm() - 1.0) > 1e-6) {
     throw InvalidArgument(what + ": orientation is not a unit quaternion (norm " +

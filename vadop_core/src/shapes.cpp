@@ -131,6 +131,55 @@ Shape makeMesh(std::vector<Eigen::Vector3d> vertices, std::vector<std::array<int
   return s;
 }
 
+Shape transformShape(const Shape& shape, const Eigen::Isometry3d& pose) {
+  const Eigen::Matrix3d R = pose.linear();
+  const Eigen::Vector3d t = pose.translation();
+  if (!R.allFinite() || !t.allFinite()) throw InvalidArgument("transformShape: the pose is not finite");
+  if (!(R.transpose() * R).isIdentity(1e-9) || R.determinant() < 0.0) {
+    throw InvalidArgument("transformShape: the pose is not a rigid transform (rotation part not orthonormal)");
+  }
+  if (R.isIdentity(0.0) && t.isZero(0.0)) return shape;
+  std::vector<Eigen::Vector3d> points;
+  double rounding = shape.margin;
+  switch (shape.type) {
+    case ShapeType::kSphere:
+      points.push_back(Eigen::Vector3d::Zero());
+      rounding += shape.radius;
+      break;
+    case ShapeType::kCapsule:
+      points.emplace_back(0.0, 0.0, -shape.half_length);
+      points.emplace_back(0.0, 0.0, shape.half_length);
+      rounding += shape.radius;
+      break;
+    case ShapeType::kBox:
+      for (int k = 0; k < 8; ++k) {
+        points.emplace_back((k & 1 ? 1 : -1) * shape.half_extents.x(), (k & 2 ? 1 : -1) * shape.half_extents.y(),
+                            (k & 4 ? 1 : -1) * shape.half_extents.z());
+      }
+      break;
+    case ShapeType::kCylinder: {
+      constexpr int kSides = 24;
+      const double kPiLocal = 3.14159265358979323846;
+      const double r = shape.radius / std::cos(kPiLocal / kSides);  // the polygon's edges touch the circle
+      for (int k = 0; k < kSides; ++k) {
+        const double a = 2.0 * kPiLocal * k / kSides;
+        for (double z : {-shape.half_length, shape.half_length}) points.emplace_back(r * std::cos(a), r * std::sin(a), z);
+      }
+      break;
+    }
+    case ShapeType::kConvex:
+    case ShapeType::kMesh: points = shape.points; break;
+  }
+  for (auto& p : points) p = R * p + t;
+  Shape out;
+  if (shape.type == ShapeType::kMesh) {
+    out = makeMesh(std::move(points), shape.triangles);
+  } else {
+    out = makeConvex(std::move(points));
+  }
+  return rounding > 0.0 ? inflate(out, rounding) : out;
+}
+
 Shape inflate(const Shape& shape, double padding) {
   if (!std::isfinite(padding) || padding < 0.0) {
     throw InvalidArgument("padding must be finite and >= 0, got " + formatNumber(padding));

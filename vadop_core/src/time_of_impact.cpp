@@ -36,7 +36,7 @@ void validateCommon(const Motion& ma, const Motion& mb, double t0, double t1, co
   }
 }
 
-// Spheres are centred on their body origin, so rotation never moves them: the gap is
+// Spheres are centred on their body origin, so rotation about it never moves them: the gap is
 // |d0 + dv s| - R, and the first time it reaches tol/2 is the smaller root of a quadratic.
 Impact sphereSphere(const Shape& a, const Motion& ma, const Shape& b, const Motion& mb, double t0,
                     double t1, double tol) {
@@ -130,7 +130,8 @@ Impact conservativeAdvancement(const PreparedShape& a, const Motion& ma, const P
 Impact timeOfImpact(const PreparedShape& a, const Motion& ma, const PreparedShape& b,
                     const Motion& mb, double t0, double t1, const ToiOptions& options) {
   validateCommon(ma, mb, t0, t1, options);
-  if (a.shape().type == ShapeType::kSphere && b.shape().type == ShapeType::kSphere) {
+  if (a.shape().type == ShapeType::kSphere && b.shape().type == ShapeType::kSphere && !ma.hasPivot() &&
+      !mb.hasPivot()) {
     return sphereSphere(a.shape(), ma, b.shape(), mb, t0, t1, options.tolerance);
   }
   return conservativeAdvancement(a, ma, b, mb, t0, t1, options);
@@ -141,7 +142,7 @@ Impact timeOfImpact(const Shape& a, const Motion& ma, const Shape& b, const Moti
   validateShape(a, "timeOfImpact: shape a");
   validateShape(b, "timeOfImpact: shape b");
   validateCommon(ma, mb, t0, t1, options);
-  if (a.type == ShapeType::kSphere && b.type == ShapeType::kSphere) {
+  if (a.type == ShapeType::kSphere && b.type == ShapeType::kSphere && !ma.hasPivot() && !mb.hasPivot()) {
     return sphereSphere(a, ma, b, mb, t0, t1, options.tolerance);
   }
   return conservativeAdvancement(PreparedShape(a), ma, PreparedShape(b), mb, t0, t1, options);

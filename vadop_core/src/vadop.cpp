@@ -113,9 +113,18 @@ SweptBody::SweptBody(const Shape& shape, const Motion& motion, double t0, double
   const double tm = 0.5 * (t0 + t1);
   // A sphere's projection does not depend on its orientation (see project).
   if (shape.type != ShapeType::kSphere) rotation_mid_t_ = motion.orientationAt(tm).toRotationMatrix().transpose();
-  p0_ = motion.positionAt(t0);
-  p1_ = motion.positionAt(t1);
+  // Everything turns about the pivot, which moves in a straight line: the sweep is that of
+  // the pivot, and the shape is seen from the pivot (shifted by origin - pivot at mid-frame,
+  // its lever arm grown by the offset).
+  p0_ = motion.pivotAt(t0);
+  p1_ = motion.pivotAt(t1);
   core_radius_ = std::max(0.0, shape.bounding_radius - shape.margin);
+  if (motion.hasPivot()) {
+    shift_mid_ = motion.positionAt(tm) - motion.pivotAt(tm);
+    core_radius_ += motion.pivot_offset.norm();
+  } else {
+    shift_mid_.setZero();
+  }
   const double w = motion.angular_velocity.norm();
   if (w > 0.0) {
     spin_axis_ = motion.angular_velocity / w;
@@ -140,6 +149,9 @@ Interval SweptBody::project(const Eigen::Vector3d& a) const {
     const bool symmetric = shape_->type != ShapeType::kConvex && shape_->type != ShapeType::kMesh;
     down = symmetric ? up : support(*shape_, -a_body);
   }
+  const double shift = a.dot(shift_mid_);
+  up += shift;
+  down -= shift;
   const double c0 = a.dot(p0_);
   const double c1 = a.dot(p1_);
   // Only the component of a point orthogonal to the spin axis moves, and only the part of the

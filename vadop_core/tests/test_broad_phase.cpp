@@ -85,7 +85,10 @@ class RandomScene {
     Eigen::Vector3d w = Eigen::Vector3d::Zero();
     if (!p_.spheres_only && u01(rng_) < p_.rotating_fraction) w = unit() * 10.0 * u01(rng_);
     Eigen::Quaterniond q(Eigen::AngleAxisd(2 * kPi * u01(rng_), unit()));
-    return makeMotion(p, q, v, w, t_ref);
+    Motion m = makeMotion(p, q, v, w, t_ref);
+    // Some turn about a pivot off their origin (links of turning robots, vehicles on curves).
+    if (w.squaredNorm() > 0.0 && u01(rng_) < 0.3) m.pivot_offset = unit() * 2.0 * u01(rng_);
+    return m;
   }
 
   // A slight turn of the current velocity: exercises the hysteresis and in-place updates.

@@ -214,6 +214,12 @@ inline toi_truth::Scene randomScene(vadop::ShapeType ta, vadop::ShapeType tb, co
   const double tb_ref = r.chance(0.5) ? ta_ref : r.uni(sc.t0 - 1.0, sc.t1 + 1.0);
   sc.ma = vadop::makeMotion(pa0 - va * (sc.t0 - ta_ref), r.quat(), va, wa, ta_ref);
   sc.mb = vadop::makeMotion(pb0 - vb * (sc.t0 - tb_ref), r.quat(), vb, wb, tb_ref);
+  if (o.rotating) {
+    // Some bodies turn about a pivot off their origin (a link of a turning robot, a vehicle on
+    // a curve): their origins move on arcs.
+    if (r.chance(0.3)) sc.ma.pivot_offset = r.unit() * r.uni(0.0, 2.0);
+    if (r.chance(0.3)) sc.mb.pivot_offset = r.unit() * r.uni(0.0, 2.0);
+  }
   if (r.chance(o.graze_fraction)) {
     double tm = 0.0, g = 0.0;
     Vector3d n;

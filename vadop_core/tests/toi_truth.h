@@ -65,11 +65,17 @@ inline Matrix3d rodrigues(const Vector3d& rv) {
 
 inline Pose poseAt(const vadop::Motion& m, double t) {
   const double dt = t - m.t_ref;
+  const Matrix3d turn = rodrigues(m.angular_velocity * dt);
   Pose P;
-  P.R = rodrigues(m.angular_velocity * dt) * m.orientation.normalized().toRotationMatrix();
-  P.p = m.position + m.linear_velocity * dt;
+  P.R = turn * m.orientation.normalized().toRotationMatrix();
+  // The body turns about its pivot, which moves in a straight line (motion.h).
+  const Vector3d pivot = m.position + m.pivot_offset + m.linear_velocity * dt;
+  P.p = pivot - turn * m.pivot_offset;
   return P;
 }
+
+// How far the pivot may be from any body point beyond the point's distance to the origin.
+inline double pivotLever(const vadop::Motion& m) { return m.pivot_offset.norm(); }
 
 // ---------------------------------------------------------------------------------------
 // Pieces
@@ -460,7 +466,9 @@ class Truth {
     vrel_ = (s.mb.linear_velocity - s.ma.linear_velocity).norm();
     wa_ = s.ma.angular_velocity.norm();
     wb_ = s.mb.angular_velocity.norm();
-    lever_ = wa_ * bodyLever(A_) + wb_ * bodyLever(B_);
+    pa_ = pivotLever(s.ma);
+    pb_ = pivotLever(s.mb);
+    lever_ = wa_ * (bodyLever(A_) + pa_) + wb_ * (bodyLever(B_) + pb_);
   }
 
   int pairs() const { return na_ * nb_; }
@@ -553,17 +561,17 @@ class Truth {
       const Piece& A = A_.pieces[k / nb_];
       const Piece& B = B_.pieces[k % nb_];
       // Bounding spheres, Lipschitz in time with the speed bound of their centres.
-      const double Ls = vrel_ + wa_ * A.centre.norm() + wb_ * B.centre.norm();
+      const double Ls = vrel_ + wa_ * (A.centre.norm() + pa_) + wb_ * (B.centre.norm() + pb_);
       if (0.5 * (a.sgap[k] + b.sgap[k] - Ls * h) > theta) continue;
       const PairRec& ra = pair(a, k);
       const PairRec& rb = pair(b, k);
       if (ra.lo <= theta || rb.lo <= theta || ra.overlap || rb.overlap) return false;
       const double rnd = A.rounding + B.rounding;
       // Exact pair gap, Lipschitz with the pair's speed bound.
-      const double Lp = vrel_ + wa_ * (A.lever + A.rounding) + wb_ * (B.lever + B.rounding);
+      const double Lp = vrel_ + wa_ * (A.lever + A.rounding + pa_) + wb_ * (B.lever + B.rounding + pb_);
       if (0.5 * (ra.lo + rb.lo - Lp * h) > theta) continue;
       // Second-order bound along the separating directions found at either end.
-      const double M = wa_ * wa_ * A.lever + wb_ * wb_ * B.lever;
+      const double M = wa_ * wa_ * (A.lever + pa_) + wb_ * wb_ * (B.lever + pb_);
       const double q = M * h * h / 8.0;
       const double s_ab = coreSeparation(A, b.pa, B, b.pb, ra.n) - rnd;  // n from a, at b
       const double s_ba = coreSeparation(A, a.pa, B, a.pb, rb.n) - rnd;  // n from b, at a
@@ -601,7 +609,7 @@ class Truth {
   Scene s_;
   Body A_, B_;
   int na_ = 0, nb_ = 0;
-  double vrel_ = 0.0, wa_ = 0.0, wb_ = 0.0, lever_ = 0.0;
+  double vrel_ = 0.0, wa_ = 0.0, wb_ = 0.0, lever_ = 0.0, pa_ = 0.0, pb_ = 0.0;
   long evaluations_ = 0;
   long pair_evaluations_ = 0;
   double worst_bracket_ = 0.0;

@@ -13,6 +13,9 @@
 namespace vadop_ros {
 namespace {
 
+// Farthest screw axis (m from the element) modelled as a rotation about it (see update()).
+constexpr double kMaxPivot = 1e4;
+
 constexpr double kMaxMagnitude = 1e9;  // m, m/s, rad/s: anything beyond is treated as garbage
 
 double wallNow() { return ros::WallTime::now().toSec(); }
@@ -465,6 +468,16 @@ void BodyRegistry::update(const ros::Time& now, TransformSource& tf) {
           e.rel_stamp = ls;
           e.rel_pose = body_link;
         }
+        // The tf pose holds at its own stamp: carried to the body's t_ref with the link's own
+        // motion (tf and odometry rarely share stamps).
+        const double lag = tr - seconds(ls);
+        if (!stale && e.has_rel && std::abs(lag) <= 1.0) {
+          body_link.translation() += e.rel_v * lag;
+          const Eigen::Vector3d turn = e.rel_w * lag;
+          if (turn.squaredNorm() > 0.0) {
+            body_link.linear() = Eigen::AngleAxisd(turn.norm(), turn.normalized()).toRotationMatrix() * body_link.linear();
+          }
+        }
         const Eigen::Isometry3d le = body_link * e.offset;  // element in the body frame
         pe = fb * le;
         const Eigen::Vector3d r_world = rb * le.translation();
@@ -477,7 +490,16 @@ void BodyRegistry::update(const ros::Time& now, TransformSource& tf) {
         we = w + own_w;
       }
       try {
-        vadop::Motion m = vadop::makeMotion(pe.translation(), Eigen::Quaterniond(pe.linear()), ve, we, tr);
+        // A constant twist turns the element about its screw axis (a link of a robot turning in
+        // place about the robot, a robot on a curve about the curve's centre, a link about its
+        // joint): the world gets that pivot, so the element follows its arc instead of drifting
+        // off along the tangent. Nearly straight motion (axis farther than kMaxPivot) stays a
+        // translation: the two differ by |v| |w| t^2 / 2 < 1e-3 m over a 2 s horizon there.
+        const Eigen::Vector3d pivot = vadop::screwPivotOffset(ve, we);
+        const bool screw = pivot.norm() <= kMaxPivot;
+        vadop::Motion m = vadop::makeMotion(pe.translation(), Eigen::Quaterniond(pe.linear()),
+                                            screw ? vadop::screwPivotVelocity(ve, we) : ve, we, tr);
+        if (screw) m.pivot_offset = pivot;
         if (!finiteMotionOver(m, t_now, t_now + 120.0)) {
           rejectInput(b, "pose or velocity out of range after transformation", now);
           continue;

@@ -1,7 +1,12 @@
-// Rigid motion with constant linear and angular velocity, the model of the whole library.
-// p(t) = position + linear_velocity (t - t_ref);  R(t) = exp([w]x (t - t_ref)) R(t_ref),
-// with w the angular velocity in the fixed frame, about the body origin.
-// It does not model acceleration: callers re-state the motion when velocities change.
+// Rigid motion with constant linear and angular velocity (a constant twist), the model of the
+// whole library. The body turns about a pivot point that moves in a straight line:
+//   c(t) = position + pivot_offset + linear_velocity (t - t_ref)      (the pivot)
+//   R(t) = exp([w]x (t - t_ref)) R(t_ref)                              (w: fixed frame)
+//   origin(t) = c(t) - exp([w]x (t - t_ref)) pivot_offset              (the body origin)
+// pivot_offset = 0 (the default) turns the body about its own origin. A vehicle driving a
+// curve, or a link turning about a joint, has its pivot on the screw axis (screwPivotOffset):
+// its origin then follows the true arc, where a motion about the origin would drift off along
+// the tangent. It does not model acceleration: callers re-state the motion when velocities change.
 #pragma once
 
 #include <Eigen/Core>
@@ -15,14 +20,34 @@ struct Motion {
   double t_ref = 0.0;                                      // time at which the pose holds
   Eigen::Vector3d position = Eigen::Vector3d::Zero();      // body origin in the fixed frame
   Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();  // normalised
-  Eigen::Vector3d linear_velocity = Eigen::Vector3d::Zero();
+  Eigen::Vector3d linear_velocity = Eigen::Vector3d::Zero();   // of the pivot (= origin by default)
   Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();  // fixed frame, rad/s
+  Eigen::Vector3d pivot_offset = Eigen::Vector3d::Zero();  // pivot - origin at t_ref, fixed frame
 
-  Eigen::Vector3d positionAt(double t) const { return position + linear_velocity * (t - t_ref); }
+  Eigen::Vector3d positionAt(double t) const {
+    const Eigen::Vector3d p = position + linear_velocity * (t - t_ref);
+    return hasPivot() ? Eigen::Vector3d(p + pivot_offset - spin(t) * pivot_offset) : p;
+  }
+  Eigen::Vector3d pivotAt(double t) const { return position + pivot_offset + linear_velocity * (t - t_ref); }
   Eigen::Quaterniond orientationAt(double t) const;
   Eigen::Isometry3d poseAt(double t) const;
   bool isRotating() const { return angular_velocity.squaredNorm() > 0.0; }
+  // Whether the pivot differs from the origin in a way that matters (rotating, non-zero offset).
+  bool hasPivot() const { return isRotating() && pivot_offset.squaredNorm() > 0.0; }
+  // Velocity of the material point at x (fixed frame) at time t.
+  Eigen::Vector3d velocityOfPoint(const Eigen::Vector3d& x, double t) const {
+    return linear_velocity + angular_velocity.cross(x - pivotAt(t));
+  }
+  // exp([w]x (t - t_ref)): the rotation accumulated since t_ref.
+  Eigen::Matrix3d spin(double t) const;
 };
+
+// The pivot offset that makes a motion with angular velocity w, whose origin moves at
+// origin_velocity, a screw about its axis: the axis point nearest the origin,
+// w x origin_velocity / |w|^2 (zero when w = 0). The pivot's own velocity is then the part
+// of origin_velocity along w: screwPivotVelocity.
+Eigen::Vector3d screwPivotOffset(const Eigen::Vector3d& origin_velocity, const Eigen::Vector3d& w);
+Eigen::Vector3d screwPivotVelocity(const Eigen::Vector3d& origin_velocity, const Eigen::Vector3d& w);
 
 // Builds a Motion, normalising the quaternion. Throws vadop::InvalidArgument naming the
 // field when any value is NaN/Inf or the quaternion's norm is below 1e-9 (a zero quaternion).

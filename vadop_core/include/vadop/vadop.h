@@ -85,10 +85,11 @@ class SweptBody {
  private:
   const Shape* shape_;
   Eigen::Matrix3d rotation_mid_t_;  // R(t_mid)^T: fixed frame -> body frame
-  Eigen::Vector3d p0_, p1_;         // body origin at t0 and t1
+  Eigen::Vector3d p0_, p1_;         // pivot (the body origin unless Motion::pivot_offset) at t0, t1
+  Eigen::Vector3d shift_mid_;       // body origin - pivot at t_mid
   Eigen::Vector3d spin_axis_;       // unit angular velocity direction (zero if not rotating)
   double chord_ = 0.0;              // bound on how far a point at unit radius moves, from t_mid
-  double core_radius_ = 0.0;        // farthest core point from the origin (margin excluded)
+  double core_radius_ = 0.0;        // farthest core point from the pivot (margin excluded)
 };
 
 inline bool overlaps(const Interval& a, const Interval& b) { return a.lo <= b.hi && b.lo <= a.hi; }
