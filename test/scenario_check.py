@@ -21,6 +21,12 @@ scenario seconds and T a pair's true first contact (shapes grown by p):
     impacts, and /diagnostics statuses (e.g. the stale or bad body named, the others ok).
 It prints one summary line per monitor (and per impact for small scenarios), and writes them
 to $ROS_TEST_RESULTS_DIR/vadop/scenario_summary/<scenario>.txt.
+
+Work directory (~workdir, shared by every launch of one rostest run, see scenario_player.py): this
+must be the last test of its .test file (rostest runs them in the order of their test-name). When
+every check passed, it removes ~workdir, but only once the scenario_player of its own launch (~player)
+has set its ~state (it has seen the record and will not regenerate it); when a check failed, it
+keeps ~workdir for inspection, says so in the failure message and writes KEPT_FOR_INSPECTION.txt there.
 """
 import json
 import os
@@ -29,6 +35,7 @@ import sys
 import time
 import unittest
 
+import rosgraph
 import rospy
 import rostest
 import yaml
@@ -61,25 +68,54 @@ class ScenarioCheck(unittest.TestCase):
         with open(rospy.get_param("~scenario")) as f:
             cls.spec = yaml.safe_load(f)
         cls.expect = cls.spec["scenario"].get("expect", {}) or {}
+        cls.player = rospy.get_param("~player", "scenario_player")
         path = os.path.join(cls.workdir, "record.json")
         deadline = time.time() + float(rospy.get_param("~timeout", 240.0))
         while not os.path.exists(path) and time.time() < deadline and not rospy.is_shutdown():
             time.sleep(0.2)
+        # (When setUpClass fails, unittest skips tearDownClass: the directory stays.)
         if not os.path.exists(path):
-            raise AssertionError("no record from scenario_player in %s" % cls.workdir)
-        with open(path) as f:
-            cls.record = json.load(f)
-        cls.truths = {}
-        for m in cls.monitors:
-            with open(os.path.join(cls.workdir, "truth_%s.json" % m)) as f:
-                cls.truths[m] = json.load(f)
-        cls.summary = []
+            raise AssertionError("no record from scenario_player in %s%s" % (cls.workdir, cls.kept()))
+        try:
+            with open(path) as f:
+                cls.record = json.load(f)
+            cls.truths = {}
+            for m in cls.monitors:
+                with open(os.path.join(cls.workdir, "truth_%s.json" % m)) as f:
+                    cls.truths[m] = json.load(f)
+        except (OSError, ValueError) as e:
+            raise AssertionError("cannot read scenario_player's record or truth: %s%s" % (e, cls.kept())) from e
+        cls.summary = []  # per monitor: the one-line summary (then per-impact lines)
+        cls.diag_summary = []  # after them, whatever order unittest runs the tests in
         cls.failed = False
+
+    @classmethod
+    def kept(cls):
+        """The failure message's note that the work directory stays."""
+        return "\n(work directory kept for inspection: %s)" % cls.workdir
+
+    @classmethod
+    def wait_for_player(cls, timeout=45.0):
+        """True once the player of this launch has set ~state ("idle": it found the record, or
+        "recorded": it wrote it) with its own URI: from then on it never touches the work directory."""
+        master = rosgraph.Master(rospy.get_name())
+        name = rosgraph.names.ns_join("/", cls.player)
+        deadline = time.time() + timeout
+        while time.time() < deadline:
+            try:
+                uri = master.lookupNode(name)
+                state, _, who = str(master.getParam(name + "/state")).partition("|")
+                if who == uri and state in ("idle", "recorded"):
+                    return True
+            except Exception:  # noqa: BLE001  (not registered yet, no ~state yet, or the master gone)
+                pass
+            time.sleep(0.1)
+        return False
 
     @classmethod
     def tearDownClass(cls):
         name = cls.record["scenario"]
-        text = "\n".join(cls.summary) + "\n"
+        text = "\n".join(cls.summary + cls.diag_summary) + "\n"
         print(text)
         base = os.environ.get("ROS_TEST_RESULTS_DIR") or os.path.expanduser("~/.ros/test_results")
         out = os.path.join(base, "vadop", "scenario_summary")
@@ -89,8 +125,19 @@ class ScenarioCheck(unittest.TestCase):
                 f.write(text)
         except OSError as e:
             print("cannot write the summary: %s" % e)
-        if not cls.failed:
-            shutil.rmtree(cls.workdir, ignore_errors=True)
+        if cls.failed:
+            print("scenario_check: work directory kept for inspection: %s" % cls.workdir)
+            try:
+                with open(os.path.join(cls.workdir, "KEPT_FOR_INSPECTION.txt"), "w") as f:
+                    f.write("scenario %s failed its checks; this directory (bag, truth, record) is kept on purpose and "
+                            "may be removed by hand.\n%s" % (name, text))
+            except OSError:
+                pass
+            return
+        if not cls.wait_for_player():
+            print("scenario_check: %s did not report its state within 45 s (dead?); removing %s anyway"
+                  % (cls.player, cls.workdir))
+        shutil.rmtree(cls.workdir, ignore_errors=True)
 
     def run(self, result=None):
         r = super().run(result)
@@ -113,7 +160,7 @@ class ScenarioCheck(unittest.TestCase):
             errors.append("test harness: the bag started before %s was connected to %d of its topics (%s): the "
                           "checks below see it miss those bodies' first messages"
                           % (mon, len(unconnected), ", ".join(unconnected[:8])))
-        self.assertGreater(len(arrays), 0, "%s published no ImpactArray" % mon)
+        self.assertGreater(len(arrays), 0, "%s published no ImpactArray%s" % (mon, self.kept()))
         stamps = [a[0] - t0 for a in arrays]
         first_cycle, last_cycle = stamps[0], stamps[-1]
         in_bag = [s for s in stamps if s <= duration]
@@ -240,7 +287,8 @@ class ScenarioCheck(unittest.TestCase):
         errors = []
         for m in self.monitors:
             errors.extend(self.check_monitor(m))
-        self.assertFalse(errors, "\n" + "\n".join(errors[:40]) + ("\n... %d more" % (len(errors) - 40) if len(errors) > 40 else ""))
+        self.assertFalse(errors, "\n" + "\n".join(errors[:40]) + ("\n... %d more" % (len(errors) - 40) if len(errors) > 40 else "")
+                         + self.kept())
 
     # ------------------------------------------------------------------ diagnostics and survival
     def test_diagnostics_and_survival(self):
@@ -262,6 +310,7 @@ class ScenarioCheck(unittest.TestCase):
         for e in self.expect.get("diagnostics", []) or []:
             mon = e.get("monitor", self.monitors[0])
             lo, hi = e["during"]
+            n_errors = len(errors)
             rows = [r for r in bodies.get(mon, []) if lo <= r[0] <= hi]
             if not rows:
                 errors.append("%s: no 'bodies' diagnostics in [%.1f, %.1f] s" % (mon, lo, hi))
@@ -282,10 +331,10 @@ class ScenarioCheck(unittest.TestCase):
                 for other in e.get("others_ok", []):
                     if values.get(other) != "ok":
                         errors.append("%s at %.2f s: %s is %r, expected 'ok'" % (mon, s, other, values.get(other)))
-            self.summary.append("  diagnostics [%.1f, %.1f] s, %s: %s (%d statuses), e.g. %r"
-                                % (lo, hi, e["body"], "as expected" if not errors else "MISMATCH", len(rows),
-                                   rows[len(rows) // 2][3].get(e["body"])))
-        self.assertFalse(errors, "\n" + "\n".join(errors[:40]))
+            self.diag_summary.append("  diagnostics [%.1f, %.1f] s, %s: %s (%d statuses), e.g. %r"
+                                     % (lo, hi, e["body"], "as expected" if len(errors) == n_errors else "MISMATCH",
+                                        len(rows), rows[len(rows) // 2][3].get(e["body"])))
+        self.assertFalse(errors, "\n" + "\n".join(errors[:40]) + self.kept())
 
 
 if __name__ == "__main__":

@@ -22,6 +22,13 @@ whole launch afresh for each. The first test, rostest's hztest, measures ~impact
 node plays the bag; after the bag this node keeps /clock running (real-time rate) so that the
 node keeps cycling until hztest ends (its test_duration covers the bag plus a little). In the
 second launch (the check test) this node finds record.json in ~workdir and only waits.
+Work directory: ~workdir is /tmp/$(anon vadop_scenario) in the .test files; rostest parses the file
+once per run (one anonymous name, with rostest's pid, shared by every launch of that run; a new one
+for the next run). It is removed by scenario_check.py (the last test) when the checks pass, and only
+once this launch's player has set ~state to "idle" (it found the record and will not touch the
+directory again) or "recorded" (it wrote the record): the player of that launch may start after the
+checker, and would otherwise find no record, then regenerate and replay the bag into a new
+directory left behind in /tmp. A failing check keeps the directory for inspection and says so.
 """
 import json
 import os
@@ -57,6 +64,12 @@ def outgoing_links(master, node):
     return {(row[4], row[1]) for row in info if len(row) > 4 and row[2] == "o"}
 
 
+def set_state(state):
+    """~state = "<state>|<this node's XML-RPC URI>" (see the module docstring: scenario_check.py waits for it
+    before it removes ~workdir; the URI tells this launch's player from a previous launch's on a reused master)."""
+    rospy.set_param("~state", "%s|%s" % (state, rospy.get_node_uri()))
+
+
 def main():
     rospy.init_node("scenario_player")
     path = rospy.get_param("~scenario")
@@ -68,6 +81,7 @@ def main():
     os.makedirs(workdir, exist_ok=True)
     if os.path.exists(os.path.join(workdir, "record.json")):
         rospy.loginfo("scenario_player: %s already has the record: nothing to do", workdir)
+        set_state("idle")  # from here on this node never touches workdir: scenario_check may remove it
         rospy.spin()
         return
     wall0 = time.time()
@@ -190,6 +204,7 @@ def main():
         with open(tmp, "w") as f:
             json.dump(record, f)
         os.replace(tmp, os.path.join(workdir, "record.json"))
+    set_state("recorded")
     log("done: bag played in %.1f s (rc %d), %s" % (play_wall, rc, ", ".join(
         "%s: %d arrays" % (m, len(a)) for m, a in arrays.items())))
     rospy.spin()  # stay until roslaunch ends the test

@@ -6,6 +6,7 @@
 #include "vadop/broad_phase.h"
 #include "vadop/error.h"
 #include "vadop/sweep_prune.h"
+#include "vadop/vadop_grid.h"
 
 #include <sys/resource.h>
 
@@ -17,6 +18,7 @@
 #include <cstring>
 #include <memory>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -29,7 +31,7 @@ struct Options {
   double density = 0.01;   // sphere volume / box volume
   int axes = 32;
   double phi_deg = 25.0;
-  std::string methods = "vadop,sap,kdop,brute";
+  std::string methods = "vadop,vadop_sap,sap,kdop,brute";
   uint64_t seed = 1;
   double static_fraction = 0.0;  // share of bodies standing still (parked robots, furniture)
   std::string slow_rule = "zone";
@@ -39,7 +41,7 @@ struct Options {
   std::fprintf(stderr,
                "error: %s\n"
                "usage: vadop_broadphase_demo [--n N] [--frames F] [--speed RADII_PER_FRAME] [--density D]\n"
-               "                             [--axes M] [--phi DEG] [--methods vadop,sap,kdop,brute] [--seed S]\n"
+               "                             [--axes M] [--phi DEG] [--methods vadop,vadop_sap,sap,kdop,brute] [--seed S]\n"
                "                             [--static-fraction F] [--slow-rule zone|all]\n",
                msg);
   std::exit(2);
@@ -109,29 +111,44 @@ int main(int argc, char** argv) {
 
   std::printf("%d spheres of radius %.1f in a box of side %.1f (density %.3f), %.2f radii/frame, %d frames\n", o.n,
               radius, 2 * half, o.density, o.speed, o.frames);
-  std::printf("%-8s %10s %10s %14s %12s %12s %10s %s\n", "method", "median ms", "max ms", "candidates/fr", "swaps/fr",
+  std::printf("%-9s %10s %10s %14s %12s %12s %10s %s\n", "method", "median ms", "max ms", "candidates/fr", "swaps/fr",
               "tests/fr", "memory MB", "complete");
 
   const auto sphere = std::make_shared<const vadop::Shape>(vadop::makeSphere(radius));
   std::vector<std::vector<vadop::Pair>> truth;  // exact swept-sphere pairs, from brute force
   std::vector<std::string> order;
   // Brute force first, so the others can be checked against it.
-  for (const char* name : {"brute", "vadop", "sap", "kdop"}) {
-    if (o.methods.find(name) == std::string::npos) continue;
+  std::vector<std::string> wanted;
+  {
+    std::stringstream ss(o.methods);
+    for (std::string w; std::getline(ss, w, ',');) {
+      if (w != "brute" && w != "vadop" && w != "vadop_sap" && w != "sap" && w != "kdop") {
+        std::fprintf(stderr, "error: unknown method '%s' (vadop, vadop_sap, sap, kdop, brute)\n", w.c_str());
+        return 2;
+      }
+      wanted.push_back(w);
+    }
+  }
+  for (const char* name : {"brute", "vadop", "vadop_sap", "sap", "kdop"}) {
+    if (std::find(wanted.begin(), wanted.end(), name) == wanted.end()) continue;
     if (std::string(name) == "brute" && o.n > 5000) {
-      std::printf("%-8s skipped (n > 5000)\n", name);
+      std::printf("%-9s skipped (n > 5000)\n", name);
       continue;
     }
     std::unique_ptr<vadop::BroadPhase> bp;
     try {
       if (std::string(name) == "brute") {
         bp = std::make_unique<vadop::BruteForceBroadPhase>();
-      } else if (std::string(name) == "vadop") {
+      } else if (std::string(name) == "vadop" || std::string(name) == "vadop_sap") {
         vadop::VadopConfig c;
         c.axes = o.axes;
         c.phi_deg = o.phi_deg;
         c.slow_rule = o.slow_rule == "all" ? vadop::SlowAxisRule::kAllAxes : vadop::SlowAxisRule::kFixedZone;
-        bp = std::make_unique<vadop::SweepPruneBroadPhase>(c);
+        if (std::string(name) == "vadop") {
+          bp = std::make_unique<vadop::VadopGridBroadPhase>(c);
+        } else {
+          bp = std::make_unique<vadop::SweepPruneBroadPhase>(c);
+        }
       } else if (std::string(name) == "sap") {
         bp = vadop::SweepPruneBroadPhase::makeEveryAxis(3);
       } else {
@@ -182,7 +199,7 @@ int main(int argc, char** argv) {
     }
     std::vector<double> sorted = ms;
     std::sort(sorted.begin(), sorted.end());
-    std::printf("%-8s %10.3f %10.3f %14.1f %12.0f %12.0f %10.1f %s\n", name, sorted[sorted.size() / 2], sorted.back(),
+    std::printf("%-9s %10.3f %10.3f %14.1f %12.0f %12.0f %10.1f %s\n", name, sorted[sorted.size() / 2], sorted.back(),
                 static_cast<double>(candidates) / o.frames, static_cast<double>(swaps) / o.frames,
                 static_cast<double>(tests) / o.frames, bp->memoryBytes() / 1048576.0,
                 std::string(name) == "brute" ? "(reference)" : truth.empty() ? "not checked" : complete ? "yes" : "NO");
