@@ -10,12 +10,13 @@ namespace {
 
 bool sameMotion(const vadop::Motion& a, const vadop::Motion& b) {
   return a.t_ref == b.t_ref && a.position == b.position && a.orientation.coeffs() == b.orientation.coeffs() &&
-         a.linear_velocity == b.linear_velocity && a.angular_velocity == b.angular_velocity;
+         a.linear_velocity == b.linear_velocity && a.angular_velocity == b.angular_velocity &&
+         a.pivot_offset == b.pivot_offset;
 }
 
 // Velocity of the material point x of a body moving with m, at time t.
 Eigen::Vector3d pointVelocity(const vadop::Motion& m, const Eigen::Vector3d& x, double t) {
-  return m.linear_velocity + m.angular_velocity.cross(x - m.positionAt(t));
+  return m.velocityOfPoint(x, t);
 }
 
 vadop::WorldConfig worldConfig(const PredictorConfig& c) {
