@@ -201,3 +201,32 @@ static_obstacles:
 TEST(MonitorCore, RejectsABadVadopConfiguration) {
   EXPECT_THROW(makeCore("axes: 3\nphi_deg: 1.0\n"), vadop_ros::ParamError);
 }
+
+TEST(MonitorCore, RobotDrivingACurveIsPredictedOnItsArc) {
+  // 1 m/s along x while turning at 1 rad/s about z: a circle of radius 1 about (0, 1). A post
+  // (radius 0.1) at the top of that circle, (0, 2); the robot is a ball of radius 0.1. Contact
+  // when the chord to the post is 0.2: at the angle pi - 2 asin(0.1), i.e. after 2.9413 s,
+  // moving at 1 m/s at asin(0.1) from the contact normal. A straight-line extrapolation (with
+  // spin) never reaches the post.
+  MonitorCore core = makeCore(R"(
+horizon: 5.0
+bodies:
+  - {name: robot, odom_topic: /r, shape: {type: sphere, radius: 0.1}}
+static_obstacles:
+  - {name: post, shape: {type: sphere, radius: 0.1}, pose: {position: [0.0, 2.0, 0.0]}}
+)");
+  FakeTf tf;
+  nav_msgs::Odometry m = odom(10.0, 0.0, 0.0, 1.0);
+  m.child_frame_id = "base_link";
+  m.twist.twist.angular.z = 1.0;
+  ASSERT_EQ(core.registry().onOdometry(0, m, ros::Time(10.0)), vadop_ros::InputResult::kAccepted);
+  const vadop::ImpactArray& out = core.cycle(ros::Time(10.0), tf);
+  ASSERT_EQ(out.impacts.size(), 1u);
+  const vadop::Impact& i = out.impacts[0];
+  EXPECT_NEAR(i.time_to_impact, M_PI - 2.0 * std::asin(0.1), 1e-3);
+  EXPECT_NEAR(i.closing_speed, std::cos(std::asin(0.1)), 1e-3);
+  // Halfway between the two centres: the robot's at (sin a, 1 + cos a), a = 2 asin(0.1).
+  const double a = 2.0 * std::asin(0.1);
+  EXPECT_NEAR(i.point.x, 0.5 * std::sin(a), 1e-3);
+  EXPECT_NEAR(i.point.y, 0.5 * (1.0 + std::cos(a) + 2.0), 1e-3);
+}
