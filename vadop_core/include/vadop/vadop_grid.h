@@ -22,8 +22,8 @@ namespace vadop {
 
 class VadopGridBroadPhase : public BroadPhase {
  public:
-  // cell_size (m): 0 chooses it each frame from the bodies' swept boxes (about twice the
-  // median extent). Throws vadop::InvalidArgument for a bad configuration
+  // cell_size (m): 0 chooses it each frame from the bodies' swept boxes (0.5 to 3 times the
+  // median box, by an estimated cost; see computePairs). Throws vadop::InvalidArgument for a bad configuration
   // (validateVadopConfig) or a cell size that is negative or not finite.
   explicit VadopGridBroadPhase(const VadopConfig& config, double cell_size = 0.0);
 
