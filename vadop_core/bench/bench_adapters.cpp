@@ -16,6 +16,15 @@
 #include <vector>
 
 namespace vadop_bench {
+
+void TimedBroadPhase::computeBoxes(double ta, double tb) {
+  const auto& b = bodies();
+  boxes_.resize(b.size());
+  for (vadop::BodyId id = 0; id < b.size(); ++id) {
+    if (b[id].alive) boxes_[id] = sweptBox(b[id].motion, b[id].shape->bounding_radius, ta, tb);
+  }
+}
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -83,12 +92,7 @@ class FclBroadPhase : public TimedBroadPhase {
   void computePairs(double t0, double t1, std::vector<vadop::Pair>& out) override {
     const auto c0 = Clock::now();
     const auto& b = bodies();
-    boxes_.resize(b.size());
-    for (vadop::BodyId id = 0; id < b.size(); ++id) {
-      if (!b[id].alive) continue;
-      const double r = b[id].shape->bounding_radius;
-      boxes_[id] = kind_ == BoxKind::kSwept ? sweptBox(b[id].motion, r, t0, t1) : sweptBox(b[id].motion, r, t1, t1);
-    }
+    computeBoxes(kind_ == BoxKind::kSwept ? t0 : t1, t1);
     update_s_ = seconds(c0, Clock::now());
     for (vadop::BodyId id = 0; id < b.size(); ++id) {
       if (b[id].alive) objects_[id]->setBox(boxes_[id]);
@@ -122,7 +126,6 @@ class FclBroadPhase : public TimedBroadPhase {
   std::shared_ptr<fcl::CollisionGeometryd> geometry_;
   std::vector<std::unique_ptr<BoxObject>> objects_;
   std::vector<fcl::CollisionObjectd*> pending_, all_;
-  std::vector<Box> boxes_;
   size_t alive_ = 0;
   fcl::DynamicAABBTreeCollisionManagerd manager_;
 };
@@ -185,10 +188,7 @@ class BulletBroadPhase : public TimedBroadPhase {
   void computePairs(double t0, double t1, std::vector<vadop::Pair>& out) override {
     const auto c0 = Clock::now();
     const auto& b = bodies();
-    boxes_.resize(b.size());
-    for (vadop::BodyId id = 0; id < b.size(); ++id) {
-      if (b[id].alive) boxes_[id] = sweptBox(b[id].motion, b[id].shape->bounding_radius, t0, t1);
-    }
+    computeBoxes(t0, t1);
     update_s_ = seconds(c0, Clock::now());
     for (vadop::BodyId id = 0; id < b.size(); ++id) {
       if (b[id].alive) broadphase_.setAabb(proxies_[id], floorVec(boxes_[id].lo), ceilVec(boxes_[id].hi), &dispatcher_);
@@ -209,7 +209,6 @@ class BulletBroadPhase : public TimedBroadPhase {
   btCollisionDispatcher dispatcher_;
   btDbvtBroadphase broadphase_;
   std::vector<btBroadphaseProxy*> proxies_;
-  std::vector<Box> boxes_;
   size_t alive_ = 0;
 };
 
@@ -220,7 +219,7 @@ class GridBroadPhase : public TimedBroadPhase {
  public:
   std::string name() const override { return "grid"; }
   size_t memoryBytes() const override {
-    return boxes_.capacity() * sizeof(Box) + (cell_start_.capacity() + cell_body_.capacity() + ids_.capacity() +
+    return packed_.capacity() * sizeof(Box) + (cell_start_.capacity() + cell_body_.capacity() + ids_.capacity() +
                                               cell_of_.capacity()) * sizeof(uint32_t);
   }
 
@@ -232,20 +231,20 @@ class GridBroadPhase : public TimedBroadPhase {
   void computePairs(double t0, double t1, std::vector<vadop::Pair>& out) override {
     const auto c0 = Clock::now();
     const auto& b = bodies();
-    boxes_.clear();
+    packed_.clear();
     ids_.clear();
     Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = -lo;
     ext_.clear();
     for (vadop::BodyId id = 0; id < b.size(); ++id) {
       if (!b[id].alive) continue;
-      boxes_.push_back(sweptBox(b[id].motion, b[id].shape->bounding_radius, t0, t1));
+      packed_.push_back(sweptBox(b[id].motion, b[id].shape->bounding_radius, t0, t1));
       ids_.push_back(id);
-      lo = lo.cwiseMin(boxes_.back().lo);
-      hi = hi.cwiseMax(boxes_.back().hi);
-      ext_.push_back((boxes_.back().hi - boxes_.back().lo).maxCoeff());
+      lo = lo.cwiseMin(packed_.back().lo);
+      hi = hi.cwiseMax(packed_.back().hi);
+      ext_.push_back((packed_.back().hi - packed_.back().lo).maxCoeff());
     }
     update_s_ = seconds(c0, Clock::now());
-    const size_t n = boxes_.size();
+    const size_t n = packed_.size();
     if (n < 2) return;
     // Cells no smaller than 98% of the boxes, about one box per cell; boxes listed by their
     // lo corner. The few larger boxes ("big") are paired with the small ones by a range query
@@ -265,7 +264,7 @@ class GridBroadPhase : public TimedBroadPhase {
     cell_of_.resize(n);
     cell_body_.resize(n);
     for (size_t i = 0; i < n; ++i) {
-      const Box& bx = boxes_[i];
+      const Box& bx = packed_[i];
       cell_of_[i] = static_cast<uint32_t>((static_cast<size_t>(cell(bx.lo.z(), 2)) * g + cell(bx.lo.y(), 1)) * g +
                                           cell(bx.lo.x(), 0));
       ++cell_start_[cell_of_[i] + 1];
@@ -280,7 +279,7 @@ class GridBroadPhase : public TimedBroadPhase {
       if (ext_[i] > h) big_.push_back(static_cast<uint32_t>(i));
     }
     for (size_t i = 0; i < n; ++i) {
-      const Box& bx = boxes_[i];
+      const Box& bx = packed_[i];
       const bool i_big = ext_[i] > h;
       const int x0 = cell(bx.lo.x() - h, 0), x1 = cell(bx.hi.x(), 0);
       const int y0 = cell(bx.lo.y() - h, 1), y1 = cell(bx.hi.y(), 1);
@@ -292,17 +291,17 @@ class GridBroadPhase : public TimedBroadPhase {
             const uint32_t j = cell_body_[k];
             // Small-small pairs once (j > i); a big body pairs with every small one here.
             if (ext_[j] > h || (!i_big && j <= i)) continue;
-            if (overlaps(bx, boxes_[j])) out.push_back(vadop::makePair(ids_[i], ids_[j]));
+            if (overlaps(bx, packed_[j])) out.push_back(vadop::makePair(ids_[i], ids_[j]));
           }
         }
     }
     for (size_t x = 0; x < big_.size(); ++x)
       for (size_t y = x + 1; y < big_.size(); ++y)
-        if (overlaps(boxes_[big_[x]], boxes_[big_[y]])) out.push_back(vadop::makePair(ids_[big_[x]], ids_[big_[y]]));
+        if (overlaps(packed_[big_[x]], packed_[big_[y]])) out.push_back(vadop::makePair(ids_[big_[x]], ids_[big_[y]]));
   }
 
  private:
-  std::vector<Box> boxes_;
+  std::vector<Box> packed_;
   std::vector<vadop::BodyId> ids_;
   std::vector<double> ext_;
   std::vector<uint32_t> cell_start_, cell_body_, cell_of_, big_;

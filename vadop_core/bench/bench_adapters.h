@@ -8,10 +8,12 @@
 // calculateOverlappingPairs) plus reading the pairs out.
 #pragma once
 
+#include "bench_world.h"
 #include "vadop/broad_phase.h"
 
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace vadop_bench {
 
@@ -20,7 +22,11 @@ class TimedBroadPhase : public vadop::BroadPhase {
   double lastUpdateSeconds() const { return update_s_; }
 
  protected:
+  // boxes_[id] = every alive body's box over [ta, tb] (bounding sphere swept along its path).
+  void computeBoxes(double ta, double tb);
+
   double update_s_ = 0.0;
+  std::vector<Box> boxes_;  // indexed by BodyId
 };
 
 enum class FclMode { kRefit, kRebuild };

@@ -456,6 +456,25 @@ Json runMethod(const Options& o, const Scene& scene, const RunSpec& spec, ChildR
   Progress progress(label, o.frames);
   const auto start = Clock::now();
   size_t bp_bytes = 0, world_bytes = 0;
+  // Books one frame's figures; true when the run must stop (the time budget, never for the
+  // reference, never before kMinFrames).
+  auto recordFrame = [&](int f, const FrameStats& st) {
+    if (f == 0 && o.frames > 1) {
+      first_frame_ms = st.total() * 1e3;
+    } else {
+      series.add(st);
+    }
+    candidates.push_back(static_cast<double>(st.candidates));
+    impacts += st.impacts;
+    wall_hits += st.wall_hits;
+    ++frames_done;
+    progress.frame(frames_done, st.total() * 1e3);
+    if (role != ChildRole::kReference && o.max_seconds > 0 && frames_done >= kMinFrames &&
+        std::chrono::duration<double>(Clock::now() - start).count() > o.max_seconds && f + 1 < o.frames) {
+      truncated = true;
+    }
+    return truncated;
+  };
 
   if (discrete) {
     DiscreteWorld world(scene, std::move(bp));
@@ -475,21 +494,7 @@ Json runMethod(const Options& o, const Scene& scene, const RunSpec& spec, ChildR
           if (!std::binary_search(detected.begin(), detected.end(), vadop::Pair{p.first, p.second})) ++missed;
         }
       }
-      if (f == 0 && o.frames > 1) {
-        first_frame_ms = st.total() * 1e3;
-      } else {
-        series.add(st);
-      }
-      candidates.push_back(static_cast<double>(st.candidates));
-      impacts += st.impacts;
-      wall_hits += st.wall_hits;
-      ++frames_done;
-      progress.frame(frames_done, st.total() * 1e3);
-      if (role != ChildRole::kReference && o.max_seconds > 0 && frames_done >= kMinFrames &&
-          std::chrono::duration<double>(Clock::now() - start).count() > o.max_seconds && f + 1 < o.frames) {
-        truncated = true;
-        break;
-      }
+      if (recordFrame(f, st)) break;
     }
     bp_bytes = world.broadPhase().memoryBytes();
   } else {
@@ -538,22 +543,8 @@ Json runMethod(const Options& o, const Scene& scene, const RunSpec& spec, ChildR
           }
         }
       }
-      if (f == 0 && o.frames > 1) {
-        first_frame_ms = st.total() * 1e3;
-      } else {
-        series.add(st);
-      }
-      candidates.push_back(static_cast<double>(st.candidates));
       requery_pairs.push_back(static_cast<double>(st.requery_pairs));
-      impacts += st.impacts;
-      wall_hits += st.wall_hits;
-      ++frames_done;
-      progress.frame(frames_done, st.total() * 1e3);
-      if (role != ChildRole::kReference && o.max_seconds > 0 && frames_done >= kMinFrames &&
-          std::chrono::duration<double>(Clock::now() - start).count() > o.max_seconds && f + 1 < o.frames) {
-        truncated = true;
-        break;
-      }
+      if (recordFrame(f, st)) break;
     }
     std::fclose(logf);
     bp_bytes = world.broadPhase().memoryBytes();

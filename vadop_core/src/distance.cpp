@@ -199,6 +199,24 @@ void closestTriangle(const SVert& A, const SVert& B, const SVert& C, SVert* out,
   const Eigen::Vector3d n = ab.cross(ac);
   const double nn = n.squaredNorm();
   const SVert* v3[3] = {&A, &B, &C};
+  // The closest point over the edges opposite the vertices k with use[k].
+  auto closestEdge = [&](const bool use[3]) {
+    double best = kInf;
+    for (int k = 0; k < 3; ++k) {
+      if (!use[k]) continue;
+      SVert s[2] = {*v3[(k + 1) % 3], *v3[(k + 2) % 3]};
+      int ns = 2;
+      double ls[2];
+      closestSegment(s, ns, ls);
+      Eigen::Vector3d v = ls[0] * s[0].w;
+      if (ns == 2) v += ls[1] * s[1].w;
+      if (v.squaredNorm() < best) {
+        best = v.squaredNorm();
+        m = ns;
+        for (int q = 0; q < ns; ++q) { out[q] = s[q]; lambda[q] = ls[q]; }
+      }
+    }
+  };
   if (nn > 1e-28 * ab.squaredNorm() * ac.squaredNorm() && nn > 0.0) {
     const Eigen::Vector3d p = n * (n.dot(A.w) / nn);
     double l[3];
@@ -212,38 +230,13 @@ void closestTriangle(const SVert& A, const SVert& B, const SVert& C, SVert* out,
       return;
     }
     // Edges opposite a negative coordinate face the projection.
-    double best = kInf;
-    for (int k = 0; k < 3; ++k) {
-      if (l[k] >= 0.0) continue;
-      SVert s[2] = {*v3[(k + 1) % 3], *v3[(k + 2) % 3]};
-      int ns = 2;
-      double ls[2];
-      closestSegment(s, ns, ls);
-      Eigen::Vector3d v = ls[0] * s[0].w;
-      if (ns == 2) v += ls[1] * s[1].w;
-      if (v.squaredNorm() < best) {
-        best = v.squaredNorm();
-        m = ns;
-        for (int q = 0; q < ns; ++q) { out[q] = s[q]; lambda[q] = ls[q]; }
-      }
-    }
+    const bool facing[3] = {l[0] < 0.0, l[1] < 0.0, l[2] < 0.0};
+    closestEdge(facing);
     return;
   }
   // Degenerate (collinear) triangle: the closest of its edges.
-  double best = kInf;
-  for (int k = 0; k < 3; ++k) {
-    SVert s[2] = {*v3[(k + 1) % 3], *v3[(k + 2) % 3]};
-    int ns = 2;
-    double ls[2];
-    closestSegment(s, ns, ls);
-    Eigen::Vector3d v = ls[0] * s[0].w;
-    if (ns == 2) v += ls[1] * s[1].w;
-    if (v.squaredNorm() < best) {
-      best = v.squaredNorm();
-      m = ns;
-      for (int q = 0; q < ns; ++q) { out[q] = s[q]; lambda[q] = ls[q]; }
-    }
-  }
+  const bool all[3] = {true, true, true};
+  closestEdge(all);
 }
 
 // The closest point itself, computed from the reduced simplex in the most accurate form:
@@ -641,7 +634,6 @@ struct Side {
     return mesh ? Eigen::Vector3d(R * d->nodes[i].centre + p + shift) : Eigen::Vector3d(p + shift);
   }
   double radius(int i) const { return mesh ? d->nodes[i].radius : d->lever; }
-  double lever(int i) const { return (mesh ? d->nodes[i].lever : d->lever) + shift.norm(); }
   Convex convex(int i) const {
     return mesh ? makeTriangle(*d, d->nodes[i].tri, R, p, shift) : makeConvex(*d, R, p, shift);
   }

@@ -1,6 +1,7 @@
 #include "vadop/sweep_prune.h"
 
 #include "vadop/error.h"
+#include "popcount.h"
 
 #include <algorithm>
 #include <chrono>
@@ -24,20 +25,15 @@
 namespace vadop {
 
 SweepPruneBroadPhase::SweepPruneBroadPhase(const VadopConfig& config)
-    : SweepPruneBroadPhase(
-          [&] {
-            if (config.axes < 3 || config.axes > AxisPool::kMaxAxes) {
-              throw InvalidArgument("axes must be in [3, " + std::to_string(AxisPool::kMaxAxes) +
-                                    "], got " + std::to_string(config.axes));
-            }
-            return std::make_unique<AxisPool>(config.axes);
-          }(),
-          config, true) {}
+    : SweepPruneBroadPhase(makeAxisPool(config.axes), config, true) {}
 
 SweepPruneBroadPhase::SweepPruneBroadPhase(std::unique_ptr<AxisPool> pool, const VadopConfig& config,
                                            bool aligned)
     : pool_(std::move(pool)), config_(config), aligned_(aligned) {
-  if (aligned_) phi_ = validateVadopConfig(config_, *pool_);
+  if (aligned_) {
+    phi_ = validateVadopConfig(config_, *pool_);
+    zones_ = axisZones(config_, phi_);
+  }
   const size_t m = pool_->size();
   lists_.resize(m);
   pending_.resize(m);
@@ -45,14 +41,9 @@ SweepPruneBroadPhase::SweepPruneBroadPhase(std::unique_ptr<AxisPool> pool, const
 }
 
 std::unique_ptr<SweepPruneBroadPhase> SweepPruneBroadPhase::makeEveryAxis(int m) {
-  if (m < 3 || m > AxisPool::kMaxAxes) {
-    throw InvalidArgument("axes must be in [3, " + std::to_string(AxisPool::kMaxAxes) + "], got " +
-                          std::to_string(m));
-  }
   VadopConfig config;
   config.axes = m;
-  return std::unique_ptr<SweepPruneBroadPhase>(
-      new SweepPruneBroadPhase(std::make_unique<AxisPool>(m), config, false));
+  return std::unique_ptr<SweepPruneBroadPhase>(new SweepPruneBroadPhase(makeAxisPool(m), config, false));
 }
 
 std::string SweepPruneBroadPhase::name() const {
@@ -104,15 +95,8 @@ void SweepPruneBroadPhase::onRemove(BodyId id) {
   // A stale entry in dirty_ is skipped in computePairs (the body is not alive or is new).
 }
 
-// The hottest function of the engine counts bits; baseline x86-64 has no popcount
-// instruction, so GCC builds a second version for CPUs that have one and picks it at load time.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define VADOP_POPCNT_CLONES __attribute__((target_clones("popcnt", "default")))
-#else
-#define VADOP_POPCNT_CLONES
-#endif
 
-VADOP_POPCNT_CLONES
+VADOP_POPCNT_CLONES  // the hottest function of the engine counts bits
 bool SweepPruneBroadPhase::overlapOnShared(BodyId a, BodyId b, uint32_t* first_shared) {
   ++stats_.overlap_tests;
   const State& sa = states_[a];
@@ -255,19 +239,17 @@ void SweepPruneBroadPhase::computePairs(double t0, double t1, std::vector<Pair>&
     if (id >= b.size() || !b[id].alive || !states_[id].dirty) continue;
     State& s = states_[id];
     s.dirty = false;
-    std::vector<uint32_t> current;
-    current.reserve(s.entries.size());
-    for (const Entry& e : s.entries) current.push_back(e.axis);
-    std::vector<uint32_t> axes;
+    std::vector<uint32_t> axes;  // its current set, then the new one
+    axes.reserve(s.entries.size());
+    for (const Entry& e : s.entries) axes.push_back(e.axis);
+    bool changed = !s.listed;
     if (aligned_) {
-      axes = selectAxes(b[id].motion, b[id].shape->bounding_radius, frame, *pool_, config_, phi_, current);
+      changed |= updateAxes(b[id].motion, b[id].shape->bounding_radius, frame, *pool_, config_, zones_, axes);
     } else if (!s.listed) {
       axes.resize(pool_->size());
       for (uint32_t k = 0; k < axes.size(); ++k) axes[k] = k;
-    } else {
-      axes = current;
     }
-    if (s.listed && axes == current) continue;  // same lists: the sort below handles it
+    if (!changed) continue;  // same lists: the sort below handles it
     if (s.listed) unlist(id);
     setAxes(s, axes);
     reinsert.push_back(id);

@@ -61,6 +61,14 @@ AxisZones axisZones(const VadopConfig& config, double phi_rad) {
   return z;
 }
 
+std::unique_ptr<AxisPool> makeAxisPool(int axes) {
+  if (axes < 3 || axes > AxisPool::kMaxAxes) {
+    throw InvalidArgument("axes must be in [3, " + std::to_string(AxisPool::kMaxAxes) + "], got " +
+                          std::to_string(axes));
+  }
+  return std::make_unique<AxisPool>(axes);
+}
+
 bool updateAxes(const Motion& motion, double bounding_radius, double frame_length, const AxisPool& pool,
                 const VadopConfig& config, const AxisZones& zones, std::vector<uint32_t>& axes) {
   const int m = pool.size();

@@ -1,6 +1,7 @@
 #include "vadop/vadop_grid.h"
 
 #include "vadop/error.h"
+#include "popcount.h"
 
 #include <algorithm>
 #include <chrono>
@@ -28,6 +29,7 @@ constexpr size_t kSample = 1024;
 // Cells with more bodies than this are swept along x rather than tested pair by pair.
 constexpr uint32_t kSweepMin = 8;
 constexpr uint32_t kEmpty = ~uint32_t{0};
+constexpr double kInf = std::numeric_limits<double>::infinity();
 // Cell coordinates stay well inside int32.
 constexpr double kMaxCellCoordinate = 1 << 29;
 
@@ -41,14 +43,10 @@ inline uint64_t mix(uint64_t k) {
 }  // namespace
 
 VadopGridBroadPhase::VadopGridBroadPhase(const VadopConfig& config, double cell_size) : config_(config) {
-  if (config.axes < 3 || config.axes > AxisPool::kMaxAxes) {
-    throw InvalidArgument("axes must be in [3, " + std::to_string(AxisPool::kMaxAxes) + "], got " +
-                          std::to_string(config.axes));
-  }
   if (!std::isfinite(cell_size) || cell_size < 0.0) {
     throw InvalidArgument("cell_size must be finite and >= 0 (0 = automatic), got " + formatNumber(cell_size));
   }
-  pool_ = std::make_unique<AxisPool>(config.axes);
+  pool_ = makeAxisPool(config.axes);
   phi_ = validateVadopConfig(config_, *pool_);
   zones_ = axisZones(config_, phi_);
   cell_size_ = cell_size;
@@ -136,14 +134,7 @@ uint32_t VadopGridBroadPhase::cellIndex(const Cell& c) {
   }
 }
 
-// Baseline x86-64 has no popcount instruction: GCC builds a second version for CPUs that do.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define VADOP_GRID_POPCNT_CLONES __attribute__((target_clones("popcnt", "default")))
-#else
-#define VADOP_GRID_POPCNT_CLONES
-#endif
-
-VADOP_GRID_POPCNT_CLONES
+VADOP_POPCNT_CLONES
 bool VadopGridBroadPhase::overlapOnShared(uint32_t a, uint32_t b) {
   ++stats_.overlap_tests;
   const uint64_t* ba = &bits_[a * words_];
@@ -278,7 +269,8 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
   std::fill(slot_of_.begin(), slot_of_.end(), kNoSlot);
   std::vector<double>& extent = scratch_extent_;
   extent.resize(slots);
-  double max_abs = 0.0;
+  // Bounds of all boxes: the grid's extent (cell size choice, coordinate range).
+  double world_lo[3] = {kInf, kInf, kInf}, world_hi[3] = {-kInf, -kInf, -kInf};
   uint32_t s = 0, next_interval = 0;
   for (BodyId id = 0; id < b.size(); ++id) {
     if (!b[id].alive) continue;
@@ -292,7 +284,8 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
       box[k] = iv.lo;
       box[3 + k] = iv.hi;
       ext = std::max(ext, iv.hi - iv.lo);
-      max_abs = std::max({max_abs, std::abs(iv.lo), std::abs(iv.hi)});
+      world_lo[k] = std::min(world_lo[k], iv.lo);
+      world_hi[k] = std::max(world_hi[k], iv.hi);
     }
     extent[s] = ext;
     offset_[s] = next_interval;
@@ -323,16 +316,9 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
     const size_t mid = e.size() / 2;
     std::nth_element(e.begin(), e.begin() + static_cast<long>(mid), e.end());
     const double median = e[mid];
-    double world_lo[3] = {box_[0], box_[1], box_[2]}, world_hi[3] = {box_[3], box_[4], box_[5]};
-    for (size_t i = 1; i < slots; ++i) {
-      for (int k = 0; k < 3; ++k) {
-        world_lo[k] = std::min(world_lo[k], box_[6 * i + k]);
-        world_hi[k] = std::max(world_hi[k], box_[6 * i + 3 + k]);
-      }
-    }
     const double volume = (world_hi[0] - world_lo[0]) * (world_hi[1] - world_lo[1]) * (world_hi[2] - world_lo[2]);
     const size_t stride = std::max<size_t>(1, slots / kSample);
-    double best = std::numeric_limits<double>::infinity();
+    double best = kInf;
     for (double factor : {0.5, 0.75, 1.0, 1.5, 2.0, 3.0}) {
       const double hc = factor * median;
       if (!(hc > 0.0)) continue;
@@ -351,6 +337,8 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
       }
     }
   }
+  double max_abs = 0.0;
+  for (int k = 0; k < 3; ++k) max_abs = std::max({max_abs, std::abs(world_lo[k]), std::abs(world_hi[k])});
   h = std::max({h, max_abs / kMaxCellCoordinate, 1e-9});
   stats_.cell_size = h;
   buildGrid(h);

@@ -121,29 +121,36 @@ BodyRegistry::BodyRegistry(const MonitorParams& params, const ParamReader& read_
     return nullptr;
   };
 
+  // The body's elements: its primitive shape, or every collision element of its URDF. False
+  // (and the body flagged "no geometry") when the URDF cannot be had.
+  auto addGeometry = [&](size_t bi, bool has_shape, const vadop::Shape& shape, const std::string& description,
+                         bool links_from_tf, const std::string& tf_prefix) {
+    if (has_shape) {
+      Element e;
+      e.id = bodies_[bi].name;
+      e.body = bi;
+      e.shape = shape;
+      elements_.push_back(std::move(e));
+      bodies_[bi].elements.push_back(elements_.size() - 1);
+      return true;
+    }
+    std::string error;
+    const auto urdf = getUrdf(description, error);
+    if (!urdf) {
+      bodies_[bi].status.geometry_errors.push_back(error);
+      bodies_[bi].status.state = BodyState::kNoGeometry;
+      return false;
+    }
+    addUrdfGeometry(bi, description, *urdf, links_from_tf, tf_prefix);
+    return true;
+  };
+
   for (const BodyParams& bp : params.bodies) {
     Body b;
     b.name = bp.name;
     b.params = bp;
     bodies_.push_back(std::move(b));
-    const size_t bi = bodies_.size() - 1;
-    if (bp.has_shape) {
-      Element e;
-      e.id = bp.name;
-      e.body = bi;
-      e.shape = bp.shape;
-      elements_.push_back(std::move(e));
-      bodies_[bi].elements.push_back(elements_.size() - 1);
-      continue;
-    }
-    std::string error;
-    const auto urdf = getUrdf(bp.robot_description, error);
-    if (!urdf) {
-      bodies_[bi].status.geometry_errors.push_back(error);
-      bodies_[bi].status.state = BodyState::kNoGeometry;
-      continue;
-    }
-    addUrdfGeometry(bi, bp.robot_description, *urdf, bp.links_from_tf, bp.tf_prefix);
+    addGeometry(bodies_.size() - 1, bp.has_shape, bp.shape, bp.robot_description, bp.links_from_tf, bp.tf_prefix);
   }
 
   for (const StaticObstacleParams& op : params.static_obstacles) {
@@ -155,23 +162,7 @@ BodyRegistry::BodyRegistry(const MonitorParams& params, const ParamReader& read_
     b.status.state = BodyState::kStatic;
     bodies_.push_back(std::move(b));
     const size_t bi = bodies_.size() - 1;
-    if (op.has_shape) {
-      Element e;
-      e.id = op.name;
-      e.body = bi;
-      e.shape = op.shape;
-      elements_.push_back(std::move(e));
-      bodies_[bi].elements.push_back(elements_.size() - 1);
-    } else {
-      std::string error;
-      const auto urdf = getUrdf(op.robot_description, error);
-      if (!urdf) {
-        bodies_[bi].status.geometry_errors.push_back(error);
-        bodies_[bi].status.state = BodyState::kNoGeometry;
-        continue;
-      }
-      addUrdfGeometry(bi, op.robot_description, *urdf, false, "");
-    }
+    if (!addGeometry(bi, op.has_shape, op.shape, op.robot_description, false, "")) continue;
     // Static elements: fixed pose, zero velocity, always active.
     for (const size_t ei : bodies_[bi].elements) {
       Element& e = elements_[ei];

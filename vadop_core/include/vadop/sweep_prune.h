@@ -119,6 +119,7 @@ class SweepPruneBroadPhase : public BroadPhase {
   VadopConfig config_;
   bool aligned_ = true;
   double phi_ = 0.0;
+  AxisZones zones_{};
   std::vector<State> states_;
   std::vector<BodyId> dirty_;
   std::vector<std::vector<Endpoint>> lists_;

@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace vadop {
@@ -50,6 +51,10 @@ struct VadopConfig {
 // out of range or phi < rho (two bodies' zones could then share no axis, and the broad phase
 // would have to pair them blindly). Returns phi in radians (rho when phi_deg == 0).
 double validateVadopConfig(const VadopConfig& config, const AxisPool& pool);
+
+// The pool of `axes` axes, for the engines built on it. Throws vadop::InvalidArgument
+// ("axes must be in [3, 4096], got ...") when the count is out of range.
+std::unique_ptr<AxisPool> makeAxisPool(int axes);
 
 // Axis selection for the body's direction u (its velocity, or slow_direction when slow):
 // `previous` itself while it contains every pool axis a with |u . a| <= sin(phi) and none
