@@ -173,9 +173,7 @@ void RequeryGrid::build(const std::vector<Box>& boxes, double half) {
   inv_h_ = 1.0 / h_;
   g_ = std::max(1, static_cast<int>(std::ceil(side / h_)) + 1);
   const size_t cells = static_cast<size_t>(g_) * g_ * g_;
-  static_box_ = boxes;
   cell_start_.assign(cells + 1, 0);
-  cell_body_.resize(n);
   std::vector<uint32_t> cell_of(n);
   for (size_t i = 0; i < n; ++i) {
     cell_of[i] = static_cast<uint32_t>(index(cellOf(boxes[i].lo.x()), cellOf(boxes[i].lo.y()), cellOf(boxes[i].lo.z())));
@@ -183,9 +181,18 @@ void RequeryGrid::build(const std::vector<Box>& boxes, double half) {
   }
   std::partial_sum(cell_start_.begin(), cell_start_.end(), cell_start_.begin());
   std::vector<uint32_t> fill(cell_start_.begin(), cell_start_.end() - 1);
-  for (size_t i = 0; i < n; ++i) cell_body_[fill[cell_of[i]]++] = static_cast<uint32_t>(i);
-  moved_.assign(n, 0);
-  moved_box_.resize(n);
+  entries_.resize(n);
+  entry_of_.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    const uint32_t e = fill[cell_of[i]]++;
+    Entry& en = entries_[e];
+    for (int k = 0; k < 3; ++k) {
+      en.lo[k] = boxes[i].lo[k];
+      en.hi[k] = boxes[i].hi[k];
+    }
+    en.body = static_cast<uint32_t>(i);
+    entry_of_[i] = e;
+  }
   moved_version_.resize(n, 0);
   if (dyn_head_.size() != cells) {
     dyn_head_.assign(cells, -1);
@@ -204,31 +211,40 @@ void RequeryGrid::build(const std::vector<Box>& boxes, double half) {
 }
 
 void RequeryGrid::moved(uint32_t id, const Box& box) {
-  moved_[id] = 1;
-  moved_box_[id] = box;
+  if (entry_of_[id] != kNone) {  // off its frame path: empty its static entry
+    Entry& en = entries_[entry_of_[id]];
+    en.lo[0] = std::numeric_limits<double>::infinity();
+    en.hi[0] = -std::numeric_limits<double>::infinity();
+    entry_of_[id] = kNone;
+  }
   const uint32_t version = ++moved_version_[id];
   const int x0 = cellOf(box.lo.x()), x1 = cellOf(box.hi.x());
   const int y0 = cellOf(box.lo.y()), y1 = cellOf(box.hi.y());
   const int z0 = cellOf(box.lo.z()), z1 = cellOf(box.hi.z());
+  Node node{{box.lo.x(), box.lo.y(), box.lo.z()}, {box.hi.x(), box.hi.y(), box.hi.z()}, id, version, -1};
   for (int z = z0; z <= z1; ++z)
     for (int y = y0; y <= y1; ++y)
       for (int x = x0; x <= x1; ++x) {
         const size_t c = index(x, y, z);
         if (dyn_head_[c] < 0) dyn_touched_.push_back(c);
-        dyn_nodes_.push_back(Node{id, version, dyn_head_[c]});
+        node.next = dyn_head_[c];
+        dyn_nodes_.push_back(node);
         dyn_head_[c] = static_cast<int32_t>(dyn_nodes_.size() - 1);
       }
 }
 
+namespace {
+template <class T>
+bool overlapsBox(const T& e, const Box& b) {
+  return e.lo[0] <= b.hi.x() && b.lo.x() <= e.hi[0] && e.lo[1] <= b.hi.y() && b.lo.y() <= e.hi[1] &&
+         e.lo[2] <= b.hi.z() && b.lo.z() <= e.hi[2];
+}
+}  // namespace
+
 void RequeryGrid::query(uint32_t id, const Box& box, std::vector<uint32_t>& out) {
   out.clear();
-  if (++stamp_now_ == 0) {
-    std::fill(stamp_.begin(), stamp_.end(), 0);
-    stamp_now_ = 1;
-  }
-  stamp_[id] = stamp_now_;
-  // Bodies still on their frame path: the lo corner of an overlapping box is within one cell
-  // size below the query box.
+  // Bodies still on their frame path: each has one entry, in the cell of its box's lo corner,
+  // which lies within one cell size below the query box if the boxes overlap.
   {
     const int x0 = cellOf(box.lo.x() - h_), x1 = cellOf(box.hi.x());
     const int y0 = cellOf(box.lo.y() - h_), y1 = cellOf(box.hi.y());
@@ -236,18 +252,20 @@ void RequeryGrid::query(uint32_t id, const Box& box, std::vector<uint32_t>& out)
     for (int z = z0; z <= z1; ++z)
       for (int y = y0; y <= y1; ++y) {
         const size_t row = index(0, y, z);
-        for (uint32_t k = cell_start_[row + x0]; k < cell_start_[row + x1 + 1]; ++k) {
-          const uint32_t b = cell_body_[k];
-          if (stamp_[b] == stamp_now_ || moved_[b]) continue;
-          if (overlaps(static_box_[b], box)) {
-            stamp_[b] = stamp_now_;
-            out.push_back(b);
-          }
+        const Entry* e = entries_.data() + cell_start_[row + x0];
+        const Entry* end = entries_.data() + cell_start_[row + x1 + 1];
+        for (; e != end; ++e) {
+          if (overlapsBox(*e, box) && e->body != id) out.push_back(e->body);
         }
       }
   }
-  // Bodies that changed velocity this frame: listed in every cell their new box overlaps.
+  // Bodies that changed velocity this frame: possibly listed in several cells, so deduplicated.
   if (!dyn_nodes_.empty()) {
+    if (++stamp_now_ == 0) {
+      std::fill(stamp_.begin(), stamp_.end(), 0);
+      stamp_now_ = 1;
+    }
+    stamp_[id] = stamp_now_;
     const int x0 = cellOf(box.lo.x()), x1 = cellOf(box.hi.x());
     const int y0 = cellOf(box.lo.y()), y1 = cellOf(box.hi.y());
     const int z0 = cellOf(box.lo.z()), z1 = cellOf(box.hi.z());
@@ -256,20 +274,20 @@ void RequeryGrid::query(uint32_t id, const Box& box, std::vector<uint32_t>& out)
         for (int x = x0; x <= x1; ++x)
           for (int32_t k = dyn_head_[index(x, y, z)]; k >= 0; k = dyn_nodes_[k].next) {
             const Node& node = dyn_nodes_[k];
-            if (node.version != moved_version_[node.body] || stamp_[node.body] == stamp_now_) continue;
-            if (overlaps(moved_box_[node.body], box)) {
-              stamp_[node.body] = stamp_now_;
-              out.push_back(node.body);
+            if (!overlapsBox(node, box) || node.version != moved_version_[node.body] ||
+                stamp_[node.body] == stamp_now_) {
+              continue;
             }
+            stamp_[node.body] = stamp_now_;
+            out.push_back(node.body);
           }
   }
 }
 
 size_t RequeryGrid::memoryBytes() const {
-  return static_box_.capacity() * sizeof(Box) + cell_start_.capacity() * 4 + cell_body_.capacity() * 4 +
-         moved_.capacity() + moved_box_.capacity() * sizeof(Box) + moved_version_.capacity() * 4 +
-         dyn_head_.capacity() * 4 + dyn_touched_.capacity() * sizeof(size_t) + dyn_nodes_.capacity() * sizeof(Node) +
-         stamp_.capacity() * 4;
+  return cell_start_.capacity() * 4 + entries_.capacity() * sizeof(Entry) + entry_of_.capacity() * 4 +
+         moved_version_.capacity() * 4 + dyn_head_.capacity() * 4 + dyn_touched_.capacity() * sizeof(size_t) +
+         dyn_nodes_.capacity() * sizeof(Node) + stamp_.capacity() * 4;
 }
 
 // ---------------------------------------------------------------------------------------------

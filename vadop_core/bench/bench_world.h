@@ -92,19 +92,29 @@ class RequeryGrid {
 
   double origin_ = 0.0, h_ = 1.0, inv_h_ = 1.0;
   int g_ = 1;
-  std::vector<Box> static_box_;             // the frame boxes, by body
-  std::vector<uint32_t> cell_start_, cell_body_;  // CSR: bodies by the cell of their box's lo corner
-  std::vector<uint8_t> moved_;              // body left its static entry this frame
-  std::vector<Box> moved_box_;              // its current box (valid when moved_)
+  // Bodies still on their frame path, by the cell of their box's lo corner (CSR), each with a
+  // copy of its box, so that a query scans contiguous memory. A body that moves has its entry
+  // emptied (lo > hi), which no box overlaps.
+  struct Entry {
+    double lo[3], hi[3];
+    uint32_t body;
+  };
+  std::vector<uint32_t> cell_start_;
+  std::vector<Entry> entries_;
+  std::vector<uint32_t> entry_of_;          // body -> its index in entries_, or kNone
+  static constexpr uint32_t kNone = ~uint32_t{0};
+  // Bodies that changed velocity this frame (and boxes larger than a cell): listed, with their
+  // current box, in every cell that box overlaps; an older listing of the same body is stale.
   std::vector<uint32_t> moved_version_;
   struct Node {
+    double lo[3], hi[3];
     uint32_t body, version;
     int32_t next;
   };
-  std::vector<int32_t> dyn_head_;           // per cell: moved bodies overlapping it (linked)
+  std::vector<int32_t> dyn_head_;           // per cell: first node, or -1
   std::vector<size_t> dyn_touched_;         // cells whose dyn_head_ is set, for the reset
   std::vector<Node> dyn_nodes_;
-  std::vector<uint32_t> stamp_;
+  std::vector<uint32_t> stamp_;             // dedup of the moved bodies within one query
   uint32_t stamp_now_ = 0;
 };
 

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <new>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <utility>
 
@@ -27,6 +28,8 @@ size_t ImpactQueue::PairHash::operator()(const PairKey& k) const {
   return static_cast<size_t>(mix(k.a * 0x9e3779b97f4a7c15ULL ^ mix(k.b)));
 }
 
+size_t ImpactQueue::BodyHash::operator()(uint64_t k) const { return static_cast<size_t>(mix(k)); }
+
 void ImpactQueue::push(uint64_t a, uint64_t b, const Impact& impact) {
   if (a == b) throw InvalidArgument("ImpactQueue::push: a pair needs two bodies, got " + std::to_string(a) + " twice");
   if (!std::isfinite(impact.time)) {
@@ -46,9 +49,8 @@ void ImpactQueue::push(uint64_t a, uint64_t b, const Impact& impact) {
   }
   const PairKey key{item.a, item.b};
 
-  const auto found = by_pair_.find(key);
-  if (found != by_pair_.end()) {  // replace: no allocation, cannot fail
-    const size_t slot = found->second;
+  if (const uint32_t* found = by_pair_.find(key)) {  // replace: no allocation, cannot fail
+    const size_t slot = *found;
     const bool earlier = before(item, nodes_[slot].item);
     nodes_[slot].item = item;
     if (earlier) {
@@ -59,35 +61,21 @@ void ImpactQueue::push(uint64_t a, uint64_t b, const Impact& impact) {
     return;
   }
 
-  // Everything that can allocate happens before the heap changes, and is undone on failure.
-  // (Geometric growth: reserve(size + 1) would reallocate on every push.)
+  // Everything that can allocate happens before the queue changes (geometric growth:
+  // reserve(size + 1) would reallocate on every push); the inserts below cannot throw.
+  if (nodes_.size() >= (kNil >> 1)) throw std::length_error("ImpactQueue::push: too many pending impacts");
   if (nodes_.size() == nodes_.capacity()) nodes_.reserve(std::max<size_t>(16, 2 * nodes_.capacity()));
   if (heap_.size() == heap_.capacity()) heap_.reserve(std::max<size_t>(16, 2 * heap_.capacity()));
-  const size_t slot = nodes_.size();
-  const auto inserted = by_pair_.emplace(key, slot).first;
-  BodyList* la = nullptr;
-  BodyList* lb = nullptr;
-  try {
-    la = &by_body_[item.a];
-    la->partners.push_back(item.b);
-    lb = &by_body_[item.b];
-    lb->partners.push_back(item.a);
-  } catch (...) {
-    by_pair_.erase(inserted);
-    // A list created just now holds no pending impact: drop it again. (A stale partner left in
-    // an older list is harmless: lists are filtered against by_pair_.)
-    for (const uint64_t body : {item.a, item.b}) {
-      const auto it = by_body_.find(body);
-      if (it != by_body_.end() && it->second.live == 0) by_body_.erase(it);
-    }
-    throw;
-  }
-  ++la->live;
-  ++lb->live;
-  if (la->partners.size() > 2 * la->live + 8) compactPartners(item.a, *la);
-  if (lb->partners.size() > 2 * lb->live + 8) compactPartners(item.b, *lb);
-  nodes_.push_back(Node{item, heap_.size()});
+  by_pair_.reserve(by_pair_.size() + 1);
+  by_body_.reserve(by_body_.size() + 2);
+  const uint32_t slot = static_cast<uint32_t>(nodes_.size());
+  by_pair_.insert(key, slot);
+  nodes_.push_back(Node{});
+  nodes_.back().item = item;
+  nodes_.back().heap_pos = heap_.size();
   heap_.push_back(slot);
+  linkEnd(slot, 0);
+  linkEnd(slot, 1);
   siftUp(heap_.size() - 1);
 }
 
@@ -111,38 +99,32 @@ std::vector<QueuedImpact> ImpactQueue::popUntil(double t) {
 }
 
 size_t ImpactQueue::invalidate(uint64_t body) {
-  const auto it = by_body_.find(body);
-  if (it == by_body_.end()) return 0;
-  // removeSlot updates (and finally erases) this body's list: iterate over a moved-out copy.
-  const std::vector<uint64_t> partners = std::move(it->second.partners);
-  it->second.partners.clear();
   size_t removed = 0;
-  for (const uint64_t p : partners) {
-    const auto f = by_pair_.find(body < p ? PairKey{body, p} : PairKey{p, body});
-    if (f == by_pair_.end()) continue;  // stale or repeated partner
-    removeSlot(f->second);
+  // removeSlot unlinks the head (and drops the body with its last impact): take it again.
+  while (const BodyList* list = by_body_.find(body)) {
+    removeSlot(list->head >> 1);
     ++removed;
   }
   return removed;
 }
 
 bool ImpactQueue::erase(uint64_t a, uint64_t b) {
-  const auto f = by_pair_.find(a < b ? PairKey{a, b} : PairKey{b, a});
-  if (f == by_pair_.end()) return false;
-  removeSlot(f->second);
+  const uint32_t* f = by_pair_.find(a < b ? PairKey{a, b} : PairKey{b, a});
+  if (f == nullptr) return false;
+  removeSlot(*f);
   return true;
 }
 
 bool ImpactQueue::contains(uint64_t a, uint64_t b) const { return find(a, b) != nullptr; }
 
 const QueuedImpact* ImpactQueue::find(uint64_t a, uint64_t b) const {
-  const auto f = by_pair_.find(a < b ? PairKey{a, b} : PairKey{b, a});
-  return f == by_pair_.end() ? nullptr : &nodes_[f->second].item;
+  const uint32_t* f = by_pair_.find(a < b ? PairKey{a, b} : PairKey{b, a});
+  return f == nullptr ? nullptr : &nodes_[*f].item;
 }
 
 size_t ImpactQueue::count(uint64_t body) const {
-  const auto it = by_body_.find(body);
-  return it == by_body_.end() ? 0 : it->second.live;
+  const BodyList* list = by_body_.find(body);
+  return list == nullptr ? 0 : list->live;
 }
 
 void ImpactQueue::clear() {
@@ -163,14 +145,8 @@ std::vector<QueuedImpact> ImpactQueue::sorted() const {
 }
 
 size_t ImpactQueue::memoryBytes() const {
-  size_t bytes = nodes_.capacity() * sizeof(Node) + heap_.capacity() * sizeof(size_t);
-  // Node-based hash maps: one node (value + next pointer + cached hash) per element, plus buckets.
-  bytes += by_pair_.size() * (sizeof(std::pair<const PairKey, size_t>) + 2 * sizeof(void*)) +
-           by_pair_.bucket_count() * sizeof(void*);
-  bytes += by_body_.size() * (sizeof(std::pair<const uint64_t, BodyList>) + 2 * sizeof(void*)) +
-           by_body_.bucket_count() * sizeof(void*);
-  for (const auto& kv : by_body_) bytes += kv.second.partners.capacity() * sizeof(uint64_t);
-  return bytes;
+  return nodes_.capacity() * sizeof(Node) + heap_.capacity() * sizeof(size_t) + by_pair_.memoryBytes() +
+         by_body_.memoryBytes();
 }
 
 void ImpactQueue::siftUp(size_t pos) {
@@ -198,9 +174,51 @@ void ImpactQueue::siftDown(size_t pos) {
   place(pos, slot);
 }
 
-void ImpactQueue::removeSlot(size_t slot) {
-  const QueuedImpact gone = nodes_[slot].item;
-  by_pair_.erase(PairKey{gone.a, gone.b});
+void ImpactQueue::linkEnd(uint32_t slot, int end) {
+  Node& node = nodes_[slot];
+  BodyList& list = by_body_.insert(end ? node.item.b : node.item.a, BodyList{});  // reserved: no throw
+  const uint32_t link = slot * 2 + end;
+  node.next[end] = list.head;
+  node.prev[end] = kNil;
+  if (list.head != kNil) prevOf(list.head) = link;
+  list.head = link;
+  ++list.live;
+}
+
+void ImpactQueue::unlinkEnd(uint32_t slot, int end) {
+  Node& node = nodes_[slot];
+  const uint64_t body = end ? node.item.b : node.item.a;
+  BodyList& list = *by_body_.find(body);
+  const uint32_t p = node.prev[end], n = node.next[end];
+  if (p != kNil) {
+    nextOf(p) = n;
+  } else {
+    list.head = n;
+  }
+  if (n != kNil) prevOf(n) = p;
+  if (--list.live == 0) by_body_.erase(body);
+}
+
+void ImpactQueue::relinkMoved(uint32_t to) {
+  Node& node = nodes_[to];
+  for (int end = 0; end < 2; ++end) {
+    const uint32_t link = to * 2 + end;
+    if (node.prev[end] != kNil) {
+      nextOf(node.prev[end]) = link;
+    } else {
+      by_body_.find(end ? node.item.b : node.item.a)->head = link;
+    }
+    if (node.next[end] != kNil) prevOf(node.next[end]) = link;
+  }
+  heap_[node.heap_pos] = to;
+  *by_pair_.find(PairKey{node.item.a, node.item.b}) = to;
+}
+
+void ImpactQueue::removeSlot(size_t slot_index) {
+  const uint32_t slot = static_cast<uint32_t>(slot_index);
+  by_pair_.erase(PairKey{nodes_[slot].item.a, nodes_[slot].item.b});
+  unlinkEnd(slot, 0);
+  unlinkEnd(slot, 1);
 
   // Out of the heap: the last heap element fills the hole and moves up or down.
   const size_t pos = nodes_[slot].heap_pos;
@@ -218,55 +236,24 @@ void ImpactQueue::removeSlot(size_t slot) {
   }
 
   // Keep the slots dense: the last slot moves into this one.
-  const size_t last_slot = nodes_.size() - 1;
+  const uint32_t last_slot = static_cast<uint32_t>(nodes_.size() - 1);
   if (slot != last_slot) {
     nodes_[slot] = nodes_[last_slot];
-    heap_[nodes_[slot].heap_pos] = slot;
-    by_pair_.find(PairKey{nodes_[slot].item.a, nodes_[slot].item.b})->second = slot;
+    relinkMoved(slot);
   }
   nodes_.pop_back();
-  if (nodes_.capacity() > 64 && nodes_.size() < nodes_.capacity() / 4) {
-    // Give memory back after a burst. The copies may throw bad_alloc: then keep the old buffers.
-    try {
+
+  // Give memory back after a burst (amortised O(1): only once the size fell to 1/4 of the
+  // capacity, 1/8 for the hash maps). The copies may throw bad_alloc: then keep the old buffers.
+  try {
+    if (nodes_.capacity() > 64 && nodes_.size() < nodes_.capacity() / 4) {
       std::vector<Node>(nodes_.begin(), nodes_.end()).swap(nodes_);
       std::vector<size_t>(heap_.begin(), heap_.end()).swap(heap_);
-    } catch (const std::bad_alloc&) {
     }
-  }
-
-  dropPartner(gone.a);
-  dropPartner(gone.b);
-
-  // Hash tables never shrink their bucket arrays by themselves: after a burst, rehash down
-  // (amortised O(1): only once the size fell to 1/8 of the buckets).
-  try {
-    if (by_pair_.bucket_count() > 64 && by_pair_.size() < by_pair_.bucket_count() / 8) by_pair_.rehash(0);
-    if (by_body_.bucket_count() > 64 && by_body_.size() < by_body_.bucket_count() / 8) by_body_.rehash(0);
+    by_pair_.shrinkIfSparse();
+    by_body_.shrinkIfSparse();
   } catch (const std::bad_alloc&) {
   }
-}
-
-void ImpactQueue::dropPartner(uint64_t body) {
-  const auto it = by_body_.find(body);
-  if (it == by_body_.end()) return;  // cannot happen: every pending impact is counted
-  BodyList& list = it->second;
-  if (--list.live == 0) {
-    by_body_.erase(it);
-  } else if (list.partners.size() > 4 * list.live + 8) {
-    compactPartners(body, list);
-  }
-}
-
-void ImpactQueue::compactPartners(uint64_t body, BodyList& list) const {
-  auto& p = list.partners;
-  std::sort(p.begin(), p.end());
-  p.erase(std::unique(p.begin(), p.end()), p.end());
-  p.erase(std::remove_if(p.begin(), p.end(),
-                         [&](uint64_t q) {
-                           return by_pair_.count(body < q ? PairKey{body, q} : PairKey{q, body}) == 0;
-                         }),
-          p.end());
-  if (p.capacity() > 2 * p.size() + 16) p.shrink_to_fit();
 }
 
 }  // namespace vadop

@@ -11,6 +11,7 @@
 #include <limits>
 #include <map>
 #include <random>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -282,6 +283,75 @@ TEST(ImpactQueue, MemoryFollowsThePendingImpactsNotTheHistory) {
   q.clear();
   EXPECT_TRUE(q.empty());
   EXPECT_EQ(q.count(3), 0u);
+}
+
+}  // namespace
+}  // namespace vadop
+
+namespace vadop {
+namespace {
+
+// The queue's hash map against std::unordered_map: keys from a small range collide in long
+// probe runs (and wrap around the end of the array), so erase's backward shift is exercised.
+struct WeakHash {  // 7 home slots at the very end of the array, whatever its size
+  size_t operator()(uint64_t k) const { return ~static_cast<size_t>(k % 7); }
+};
+template <class Hash>
+void checkFlatMapAgainstStd(uint64_t seed, uint64_t key_range) {
+  std::mt19937_64 rng(seed);
+  std::uniform_int_distribution<uint64_t> key(0, key_range - 1);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  detail::FlatMap<uint64_t, uint64_t, Hash> map;
+  std::unordered_map<uint64_t, uint64_t> ref;
+  for (int step = 0; step < 40000; ++step) {
+    const uint64_t k = key(rng);
+    const double r = u01(rng);
+    if (r < 0.5) {
+      const uint64_t v = rng();
+      const uint64_t got = map.insert(k, v);
+      const uint64_t want = ref.emplace(k, v).first->second;
+      ASSERT_EQ(got, want) << "insert " << k;
+    } else if (r < 0.9) {
+      ASSERT_EQ(map.erase(k), ref.erase(k) == 1) << "erase " << k;
+    } else {
+      map.shrinkIfSparse();
+    }
+    ASSERT_EQ(map.size(), ref.size());
+    const uint64_t probe = key(rng);
+    const uint64_t* f = map.find(probe);
+    const auto it = ref.find(probe);
+    ASSERT_EQ(f != nullptr, it != ref.end()) << "find " << probe;
+    if (f) ASSERT_EQ(*f, it->second);
+  }
+  for (const auto& [k, v] : ref) {
+    const uint64_t* f = map.find(k);
+    ASSERT_TRUE(f != nullptr) << k;
+    EXPECT_EQ(*f, v);
+  }
+}
+
+struct MixHash {
+  size_t operator()(uint64_t k) const { return static_cast<size_t>(k * 0x9e3779b97f4a7c15ULL >> 7); }
+};
+
+TEST(FlatMap, MatchesStdUnorderedMapUnderRandomInsertEraseAndShrink) {
+  checkFlatMapAgainstStd<WeakHash>(1, 60);     // collisions: long runs, wrap-around
+  checkFlatMapAgainstStd<MixHash>(2, 50);      // dense
+  checkFlatMapAgainstStd<MixHash>(3, 20000);   // growth to thousands, then shrinking
+}
+
+TEST(FlatMap, ShrinksWhenSparseAndReserveMakesInsertAllocationFree) {
+  detail::FlatMap<uint64_t, uint64_t, MixHash> map;
+  for (uint64_t k = 0; k < 10000; ++k) map.insert(k, k);
+  const size_t big = map.capacity();
+  for (uint64_t k = 10; k < 10000; ++k) ASSERT_TRUE(map.erase(k));
+  map.shrinkIfSparse();
+  EXPECT_LT(map.capacity(), big / 100);
+  for (uint64_t k = 0; k < 10; ++k) ASSERT_EQ(*map.find(k), k);
+  map.reserve(500);
+  const size_t cap = map.capacity();
+  for (uint64_t k = 10; k < 500; ++k) map.insert(k, k);
+  EXPECT_EQ(map.capacity(), cap);
 }
 
 }  // namespace

@@ -11,16 +11,18 @@
 // Eager invalidation over an indexed binary heap: invalidate(body) removes that body's
 // impacts at once, so size() is exact and memory is O(pending impacts), whatever the number
 // of pushes, pops and invalidations so far. push, pop, erase: O(log n); invalidate: O(k log n)
-// for k pending impacts of the body (amortised). It does not compute impacts (World and the
+// for k pending impacts of the body. Each impact sits in the pending lists of its two bodies
+// (intrusive, doubly linked), and pairs and bodies are found through open-addressing hash
+// maps: no allocation per impact or per body once the arrays have grown. It does not compute impacts (World and the
 // narrow phase do) and is not thread-safe. Bad input throws vadop::InvalidArgument and leaves
 // the queue unchanged.
 #pragma once
 
+#include "vadop/detail/flat_map.h"
 #include "vadop/time_of_impact.h"
 
 #include <cstddef>
 #include <cstdint>
-#include <unordered_map>
 #include <vector>
 
 namespace vadop {
@@ -76,13 +78,20 @@ class ImpactQueue {
   struct PairHash {
     size_t operator()(const PairKey& k) const;
   };
+  struct BodyHash {
+    size_t operator()(uint64_t k) const;
+  };
+  // A link names one end of a node: slot * 2 + end, where end 0 is the node's body a and end 1
+  // its body b. Each node is in two lists, the pending impacts of a and those of b.
+  static constexpr uint32_t kNil = ~uint32_t{0};
   struct Node {
     QueuedImpact item;
     size_t heap_pos = 0;
+    uint32_t next[2] = {kNil, kNil}, prev[2] = {kNil, kNil};
   };
   struct BodyList {
-    std::vector<uint64_t> partners;  // may hold stale or repeated partners; filtered lazily
-    size_t live = 0;                 // pending impacts of this body
+    uint32_t head = kNil;  // link of its first pending impact
+    uint32_t live = 0;     // number of pending impacts
   };
 
   static bool before(const QueuedImpact& x, const QueuedImpact& y) {
@@ -95,18 +104,23 @@ class ImpactQueue {
     heap_[pos] = slot;
     nodes_[slot].heap_pos = pos;
   }
+  uint64_t bodyOf(uint32_t link) const { return (link & 1) ? nodes_[link >> 1].item.b : nodes_[link >> 1].item.a; }
+  uint32_t& nextOf(uint32_t link) { return nodes_[link >> 1].next[link & 1]; }
+  uint32_t& prevOf(uint32_t link) { return nodes_[link >> 1].prev[link & 1]; }
   void siftUp(size_t pos);
   void siftDown(size_t pos);
+  void linkEnd(uint32_t slot, int end);    // into its body's list (by_body_ has room for it)
+  void unlinkEnd(uint32_t slot, int end);  // out of it; drops the body at zero
+  // The node moved from slot `from` to slot `to`: repoint its neighbours and list heads.
+  void relinkMoved(uint32_t to);
   // Removes the impact in `slot` from the heap, the pair map and the body lists, and keeps
   // the slots dense (the last slot moves into the hole).
   void removeSlot(size_t slot);
-  void dropPartner(uint64_t body);  // one pending impact of `body` is gone
-  void compactPartners(uint64_t body, BodyList& list) const;
 
   std::vector<Node> nodes_;        // dense: nodes_.size() == heap_.size()
   std::vector<size_t> heap_;       // slot indices, a binary min-heap under before()
-  std::unordered_map<PairKey, size_t, PairHash> by_pair_;
-  std::unordered_map<uint64_t, BodyList> by_body_;
+  detail::FlatMap<PairKey, uint32_t, PairHash> by_pair_;  // pair -> slot
+  detail::FlatMap<uint64_t, BodyList, BodyHash> by_body_;  // bodies with pending impacts
 };
 
 }  // namespace vadop
