@@ -54,9 +54,9 @@ VadopGridBroadPhase::VadopGridBroadPhase(const VadopConfig& config, double cell_
 }
 
 size_t VadopGridBroadPhase::memoryBytes() const {
-  size_t bytes = axes_.capacity() * sizeof(std::vector<uint32_t>) + dirty_flag_.capacity() +
+  size_t bytes = axis_bits_.capacity() * sizeof(uint64_t) + axis_count_.capacity() * sizeof(uint16_t) +
+                 scratch_axes_.capacity() * sizeof(uint32_t) + dirty_flag_.capacity() +
                  dirty_.capacity() * sizeof(BodyId);
-  for (const auto& a : axes_) bytes += a.capacity() * sizeof(uint32_t);
   bytes += (slot_body_.capacity() + slot_of_.capacity() + offset_.capacity()) * sizeof(uint32_t) +
            box_.capacity() * sizeof(double) + bits_.capacity() * sizeof(uint64_t) +
            rank_.capacity() * sizeof(uint16_t) + intervals_.capacity() * sizeof(Interval) +
@@ -75,8 +75,13 @@ std::vector<VadopGridBroadPhase::AxisSpan> VadopGridBroadPhase::volume(BodyId id
   std::vector<AxisSpan> out;
   const uint32_t s = id < slot_of_.size() ? slot_of_[id] : kNoSlot;
   if (s == kNoSlot) return out;
-  const uint32_t count = static_cast<uint32_t>(axes_[id].size());
-  for (uint32_t i = 0; i < count; ++i) out.push_back({axes_[id][i], intervals_[offset_[s] + i]});
+  uint32_t i = 0;
+  for (size_t w = 0; w < words_; ++w) {
+    for (uint64_t bits = axis_bits_[id * words_ + w]; bits != 0; bits &= bits - 1) {
+      const uint32_t k = static_cast<uint32_t>(64 * w + __builtin_ctzll(bits));
+      out.push_back({k, intervals_[offset_[s] + i++]});
+    }
+  }
   const uint32_t m = static_cast<uint32_t>(pool_->size());
   for (uint32_t k = 0; k < 3; ++k) out.push_back({m + k, Interval{box_[6 * s + k], box_[6 * s + 3 + k]}});
   return out;
@@ -91,12 +96,13 @@ Eigen::Vector3d VadopGridBroadPhase::axisDirection(uint32_t axis) const {
 }
 
 void VadopGridBroadPhase::onAdd(BodyId id) {
-  if (axes_.size() <= id) {
-    axes_.resize(id + 1);
+  if (axis_count_.size() <= id) {
+    axis_bits_.resize((id + 1) * words_, 0);
+    axis_count_.resize(id + 1, 0);
     dirty_flag_.resize(id + 1, 0);
     slot_of_.resize(id + 1, kNoSlot);
   }
-  axes_[id].clear();
+  clearAxes(id);
   slot_of_[id] = kNoSlot;
   if (!dirty_flag_[id]) {
     dirty_flag_[id] = 1;
@@ -111,8 +117,13 @@ void VadopGridBroadPhase::onSetMotion(BodyId id) {
   }
 }
 
+void VadopGridBroadPhase::clearAxes(BodyId id) {
+  std::fill_n(&axis_bits_[id * words_], words_, 0);
+  axis_count_[id] = 0;
+}
+
 void VadopGridBroadPhase::onRemove(BodyId id) {
-  axes_[id].clear();
+  clearAxes(id);
   slot_of_[id] = kNoSlot;
   // A stale entry in dirty_ is harmless: the body is re-selected when the id is reused.
 }
@@ -247,8 +258,17 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
     if (id >= b.size() || !dirty_flag_[id]) continue;
     dirty_flag_[id] = 0;
     if (!b[id].alive) continue;
-    if (updateAxes(b[id].motion, b[id].shape->bounding_radius, frame, *pool_, config_, zones_, axes_[id])) {
+    std::vector<uint32_t>& axes = scratch_axes_;
+    axes.clear();
+    uint64_t* bits = &axis_bits_[id * words_];
+    for (size_t w = 0; w < words_; ++w) {
+      for (uint64_t x = bits[w]; x != 0; x &= x - 1) axes.push_back(static_cast<uint32_t>(64 * w + __builtin_ctzll(x)));
+    }
+    if (updateAxes(b[id].motion, b[id].shape->bounding_radius, frame, *pool_, config_, zones_, axes)) {
       ++stats_.reinserted;
+      std::fill_n(bits, words_, 0);
+      for (uint32_t k : axes) bits[k / 64] |= uint64_t{1} << (k % 64);
+      axis_count_[id] = static_cast<uint16_t>(axes.size());
     }
   }
   dirty_.clear();
@@ -258,13 +278,13 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
   const size_t slots = size();
   size_t total_axes = 0;
   for (BodyId id = 0; id < b.size(); ++id) {
-    if (b[id].alive) total_axes += axes_[id].size();
+    if (b[id].alive) total_axes += axis_count_[id];
   }
   slot_body_.resize(slots);
   offset_.resize(slots);
   box_.resize(6 * slots);
   intervals_.resize(total_axes);
-  bits_.assign(words_ * slots, 0);
+  bits_.resize(words_ * slots);
   rank_.assign(words_ * slots, 0);
   std::fill(slot_of_.begin(), slot_of_.end(), kNoSlot);
   std::vector<double>& extent = scratch_extent_;
@@ -290,9 +310,12 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
     extent[s] = ext;
     offset_[s] = next_interval;
     uint64_t* bits = &bits_[words_ * s];
-    for (uint32_t k : axes_[id]) {
-      intervals_[next_interval++] = swept.project(pool_->axis(static_cast<int>(k)));
-      bits[k / 64] |= uint64_t{1} << (k % 64);
+    for (size_t w = 0; w < words_; ++w) {
+      bits[w] = axis_bits_[id * words_ + w];
+      for (uint64_t x = bits[w]; x != 0; x &= x - 1) {
+        const int k = static_cast<int>(64 * w + __builtin_ctzll(x));
+        intervals_[next_interval++] = swept.project(pool_->axis(k));
+      }
     }
     uint16_t* rank = &rank_[words_ * s];
     for (size_t w = 1; w < words_; ++w) rank[w] = static_cast<uint16_t>(rank[w - 1] + __builtin_popcountll(bits[w - 1]));

@@ -66,6 +66,7 @@ class VadopGridBroadPhase : public BroadPhase {
   struct Cell {
     int32_t x, y, z;
   };
+  void clearAxes(BodyId id);
   void buildGrid(double cell_size);
   uint32_t cellIndex(const Cell& c);  // find or insert in the hash table
   bool overlapOnShared(uint32_t a, uint32_t b);
@@ -78,8 +79,11 @@ class VadopGridBroadPhase : public BroadPhase {
   double cell_size_ = 0.0;
   size_t words_ = 1;  // 64-bit words of an axis bitset
 
-  // Persistent per body (indexed by BodyId): its axis set, and whether its motion changed.
-  std::vector<std::vector<uint32_t>> axes_;
+  // Persistent per body (indexed by BodyId): its axis set as a bitset (words_ per body, flat:
+  // the per-frame pass reads it sequentially), its size, and whether its motion changed.
+  std::vector<uint64_t> axis_bits_;
+  std::vector<uint16_t> axis_count_;
+  std::vector<uint32_t> scratch_axes_;  // updateAxes works on a list
   std::vector<uint8_t> dirty_flag_;
   std::vector<BodyId> dirty_;
 
