@@ -12,10 +12,6 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 
-// Relative widening of every interval: the support and dot products below are accurate to a
-// few ulps of the magnitudes involved; 1e-12 of them is far above that and far below any
-// length a user cares about.
-constexpr double kRoundingWiden = 1e-12;
 
 }  // namespace
 
@@ -143,9 +139,11 @@ SweptBody::SweptBody(const Shape& shape, const Motion& motion, double t0, double
   } else {
     spin_axis_.setZero();
   }
+  translating_sphere_ = shape.type == ShapeType::kSphere && !motion.hasPivot() && chord_ == 0.0;
+  radius_ = shape.radius + shape.margin;
 }
 
-Interval SweptBody::project(const Eigen::Vector3d& a) const {
+Interval SweptBody::projectGeneral(const Eigen::Vector3d& a) const {
   double up, down;
   if (shape_->type == ShapeType::kSphere) {
     // Orientation does not matter and |a| = 1 (to rounding, which the widening below covers).
@@ -165,13 +163,7 @@ Interval SweptBody::project(const Eigen::Vector3d& a) const {
   // Only the component of a point orthogonal to the spin axis moves, and only the part of the
   // axis orthogonal to the spin axis sees it: hence |a x w_hat|.
   const double rot = chord_ > 0.0 ? core_radius_ * chord_ * a.cross(spin_axis_).norm() : 0.0;
-  Interval iv;
-  iv.lo = std::min(c0, c1) - down - rot;
-  iv.hi = std::max(c0, c1) + up + rot;
-  const double widen = kRoundingWiden * (1.0 + std::max(std::abs(iv.lo), std::abs(iv.hi)));
-  iv.lo -= widen;
-  iv.hi += widen;
-  return iv;
+  return widened(std::min(c0, c1) - down - rot, std::max(c0, c1) + up + rot);
 }
 
 Interval sweptInterval(const Shape& shape, const Motion& motion, double t0, double t1,

@@ -10,6 +10,8 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -85,9 +87,28 @@ Interval sweptInterval(const Shape& shape, const Motion& motion, double t0, doub
 class SweptBody {
  public:
   SweptBody(const Shape& shape, const Motion& motion, double t0, double t1);
-  Interval project(const Eigen::Vector3d& axis) const;
+  Interval project(const Eigen::Vector3d& axis) const {
+    // A sphere that only translates (the common case of the broad phase's per-frame pass):
+    // the general formula below with zero shift and rotation terms, inline.
+    if (translating_sphere_) return widened(std::min(axis.dot(p0_), axis.dot(p1_)) - radius_,
+                                            std::max(axis.dot(p0_), axis.dot(p1_)) + radius_);
+    return projectGeneral(axis);
+  }
+
+  // Relative widening of every interval: the support and dot products are accurate to a few
+  // ulps of the magnitudes involved; 1e-12 of them is far above that and far below any length
+  // a user cares about.
+  static constexpr double kRoundingWiden = 1e-12;
 
  private:
+  static Interval widened(double lo, double hi) {
+    const double widen = kRoundingWiden * (1.0 + std::max(std::abs(lo), std::abs(hi)));
+    return Interval{lo - widen, hi + widen};
+  }
+  Interval projectGeneral(const Eigen::Vector3d& axis) const;
+
+  bool translating_sphere_ = false;  // sphere, no pivot, no rotation
+  double radius_ = 0.0;              // radius + margin, when translating_sphere_
   const Shape* shape_;
   Eigen::Matrix3d rotation_mid_t_;  // R(t_mid)^T: fixed frame -> body frame
   Eigen::Vector3d p0_, p1_;         // pivot (the body origin unless Motion::pivot_offset) at t0, t1
