@@ -42,10 +42,15 @@ inline uint64_t mix(uint64_t k) {
 
 }  // namespace
 
-VadopGridBroadPhase::VadopGridBroadPhase(const VadopConfig& config, double cell_size) : config_(config) {
+VadopGridBroadPhase::VadopGridBroadPhase(const VadopConfig& config, double cell_size, double incremental)
+    : config_(config) {
   if (!std::isfinite(cell_size) || cell_size < 0.0) {
     throw InvalidArgument("cell_size must be finite and >= 0 (0 = automatic), got " + formatNumber(cell_size));
   }
+  if (!(incremental >= 0.0 && incremental <= 1.0)) {
+    throw InvalidArgument("incremental must be in [0, 1] (0 = off), got " + formatNumber(incremental));
+  }
+  incremental_ = incremental;
   pool_ = makeAxisPool(config.axes);
   phi_ = validateVadopConfig(config_, *pool_);
   zones_ = axisZones(config_, phi_);
@@ -61,6 +66,7 @@ size_t VadopGridBroadPhase::memoryBytes() const {
            box_.capacity() * sizeof(double) + bits_.capacity() * sizeof(uint64_t) +
            rank_.capacity() * sizeof(uint16_t) + intervals_.capacity() * sizeof(Interval) +
            lo_cell_.capacity() * sizeof(int32_t);
+  bytes += fat_.memoryBytes() + fat_ids_.capacity() * sizeof(BodyId) + fat_boxes_.capacity() * sizeof(double);
   bytes += table_key_.capacity() * sizeof(Cell) + table_cell_.capacity() * sizeof(uint32_t) +
            cells_.capacity() * sizeof(Cell) +
            cell_entries_.capacity() * sizeof(CellEntry) +
@@ -124,6 +130,7 @@ void VadopGridBroadPhase::clearAxes(BodyId id) {
 
 void VadopGridBroadPhase::onRemove(BodyId id) {
   clearAxes(id);
+  fat_.remove(id);
   slot_of_[id] = kNoSlot;
   // A stale entry in dirty_ is harmless: the body is re-selected when the id is reused.
 }
@@ -334,6 +341,12 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
     return;
   }
 
+  // 2b. Incremental mode, while the scene is slow enough.
+  if (incremental_ > 0.0 && computeFromFatBoxes(frame, out)) {
+    stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
+    return;
+  }
+
   // 3. Cell size, unless configured: the candidate (a multiple of the median box extent) with
   //    the least estimated cost, kIncidenceCost per (body, cell) incidence I(h) plus one per
   //    box test, about I^2 / (2 C) for C = min(I, volume / h^3) occupied cells. Large cells
@@ -416,6 +429,132 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
     }
   }
   stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
+}
+
+// Incremental mode. A body's fat box holds its swept box of this frame and, at constant velocity,
+// those of the frames to come up to kFatFrames frames or kFatReach times its half-extent ahead,
+// padded by kFatPad of its half-extent. While a body's swept box stays inside its fat box, its
+// pairs of overlapping fat boxes (FatBoxPairs) stay valid, and every pair of overlapping swept
+// boxes is among them (swept inside fat on both sides): the candidates are exactly those of the
+// full path, found by testing the kept pairs. Bodies that left their fat boxes (new velocity,
+// or simply far enough along) get new ones; when that is more than the fraction `incremental`
+// of the bodies in a frame, the full path is cheaper and takes over.
+namespace {
+constexpr double kFatFrames = 32.0;
+constexpr double kFatReach = 3.0;
+constexpr double kFatPad = 0.1;
+}  // namespace
+
+double VadopGridBroadPhase::fatLead(uint32_t s, double frame) const {
+  const double* t = &box_[6 * s];
+  const double half = 0.5 * std::max({t[3] - t[0], t[4] - t[1], t[5] - t[2]});
+  const double speed = bodies()[slot_body_[s]].motion.linear_velocity.norm();
+  return speed > 0.0 ? std::min(kFatFrames * frame, kFatReach * half / speed) : kFatFrames * frame;
+}
+
+double VadopGridBroadPhase::expectedEscapeRate(double frame) const {
+  const size_t slots = slot_body_.size();
+  if (slots == 0 || !(frame > 0.0)) return 0.0;
+  const size_t stride = std::max<size_t>(1, slots / kSample);
+  double rate = 0.0;
+  size_t sampled = 0;
+  for (size_t s = 0; s < slots; s += stride, ++sampled) {
+    rate += 1.0 / std::max(1.0, fatLead(static_cast<uint32_t>(s), frame) / frame);
+  }
+  return rate / static_cast<double>(sampled);
+}
+
+void VadopGridBroadPhase::appendFatBox(uint32_t s, double frame) {
+  const double* t = &box_[6 * s];
+  const Eigen::Vector3d& v = bodies()[slot_body_[s]].motion.linear_velocity;
+  const double half = 0.5 * std::max({t[3] - t[0], t[4] - t[1], t[5] - t[2]});
+  const double ahead = v.norm() > 0.0 ? fatLead(s, frame) : 0.0;
+  const double pad = kFatPad * half;
+  for (int k = 0; k < 3; ++k) fat_boxes_.push_back(t[k] + std::min(0.0, v[k] * ahead) - pad);
+  for (int k = 0; k < 3; ++k) fat_boxes_.push_back(t[3 + k] + std::max(0.0, v[k] * ahead) + pad);
+}
+
+bool VadopGridBroadPhase::computeFromFatBoxes(double frame, std::vector<Pair>& out) {
+  const size_t slots = slot_body_.size();
+  fat_ids_.clear();
+  fat_boxes_.clear();
+  if (!fat_valid_) {
+    if (retry_wait_ > 0) {
+      --retry_wait_;
+      return false;
+    }
+    // Worth building? At constant velocity a body leaves its fat box after about its lead time
+    // in frames: estimate the share of bodies leaving per frame on a sample, and stay with the
+    // full path (asking again in a few frames) while it is over half the allowed fraction.
+    if (incremental_ < 1.0 && expectedEscapeRate(frame) > 0.5 * incremental_) {
+      retry_wait_ = 8;
+      return false;
+    }
+    // Build from scratch: cells twice the median fat box (or as configured), within the key
+    // range of FatBoxPairs.
+    std::vector<double>& extent = scratch_extent_;
+    extent.resize(slots);
+    double max_abs = 0.0;
+    for (uint32_t s = 0; s < slots; ++s) {
+      fat_ids_.push_back(slot_body_[s]);
+      appendFatBox(s, frame);
+      const double* f = &fat_boxes_[6 * static_cast<size_t>(s)];
+      extent[s] = std::max({f[3] - f[0], f[4] - f[1], f[5] - f[2]});
+      for (int k = 0; k < 6; ++k) max_abs = std::max(max_abs, std::abs(f[k]));
+    }
+    const size_t mid = slots / 2;
+    std::nth_element(extent.begin(), extent.begin() + static_cast<long>(mid), extent.end());
+    const double h = cell_size_ > 0.0 ? cell_size_ : 2.0 * extent[mid];
+    fat_.reset(std::max({h, max_abs / (1 << 19), 1e-9}));
+    fat_.update(fat_ids_, fat_boxes_);
+    fat_valid_ = true;
+    streak_ = 0;
+    stats_.fat_rebuilt = true;
+  } else {
+    for (uint32_t s = 0; s < slots; ++s) {
+      if (!fat_.contains(slot_body_[s], &box_[6 * s])) {
+        fat_ids_.push_back(slot_body_[s]);
+        appendFatBox(s, frame);
+      }
+    }
+    if (static_cast<double>(fat_ids_.size()) > incremental_ * static_cast<double>(slots)) {
+      fat_valid_ = false;
+      backoff_ = std::min(64, 2 * backoff_);
+      retry_wait_ = backoff_;
+      return false;
+    }
+    fat_.update(fat_ids_, fat_boxes_);
+    if (++streak_ >= 8) backoff_ = 1;
+    if (fat_.wasteful()) {
+      fat_valid_ = false;  // rebuilt at the next update (this frame's pairs are still exact)
+      retry_wait_ = 0;
+    }
+  }
+  stats_.incremental = true;
+  stats_.cell_size = fat_.cellSize();
+  stats_.escaped = fat_ids_.size();
+  stats_.fat_pairs = fat_.pairs();
+  stats_.large_bodies = fat_.large().size();
+
+  for (uint32_t s = 0; s < slots; ++s) {
+    const BodyId id = slot_body_[s];
+    for (const BodyId j : fat_.partners(id)) {
+      if (j > id) testPair(s, slot_of_[j], out);
+    }
+  }
+  if (!fat_.large().empty()) {
+    std::vector<uint8_t>& is_large = scratch_large_;
+    is_large.assign(slots, 0);
+    for (BodyId l : fat_.large()) is_large[slot_of_[l]] = 1;
+    for (BodyId l : fat_.large()) {
+      const uint32_t sl = slot_of_[l];
+      for (uint32_t s = 0; s < slots; ++s) {
+        if (s == sl || (is_large[s] && s < sl)) continue;
+        testPair(sl, s, out);
+      }
+    }
+  }
+  return true;
 }
 
 }  // namespace vadop

@@ -188,8 +188,10 @@ struct RunConfig {
 };
 
 struct RunTotals {
-  size_t frames = 0, pairs = 0, reinserted = 0;
+  size_t frames = 0, pairs = 0, reinserted = 0, incremental = 0;
 };
+size_t usedIncrementalMode(const SweepPruneBroadPhase&) { return 0; }
+size_t usedIncrementalMode(const VadopGridBroadPhase& bp) { return bp.stats().incremental ? 1 : 0; }
 
 template <class BP>
 RunTotals runScenario(const RunConfig& rc, std::unique_ptr<BP> bp, uint64_t seed, int frames, bool check_bounds) {
@@ -286,6 +288,7 @@ RunTotals runScenario(const RunConfig& rc, std::unique_ptr<BP> bp, uint64_t seed
     totals.frames++;
     totals.pairs += got.size();
     totals.reinserted += bp->stats().reinserted;
+    totals.incremental += usedIncrementalMode(*bp);
     t += dt;
   }
   return totals;
@@ -309,15 +312,20 @@ std::vector<RunConfig> configs() {
   SceneParams crowded;
   crowded.n = 120;
   crowded.box = 4.0;
-  auto grid = [](int m, double phi_deg, SlowAxisRule rule, double cell) {
+  auto grid = [](int m, double phi_deg, SlowAxisRule rule, double cell,
+                 double incremental = VadopGridBroadPhase::kDefaultIncremental) {
     return [=] {
       VadopConfig c;
       c.axes = m;
       c.phi_deg = phi_deg;
       c.slow_rule = rule;
-      return std::make_unique<VadopGridBroadPhase>(c, cell);
+      return std::make_unique<VadopGridBroadPhase>(c, cell, incremental);
     };
   };
+  // A slow scene (no fast bodies): the incremental mode keeps its fat boxes for many frames.
+  SceneParams slow;
+  slow.fast_fraction = 0.0;
+  slow.n = 100;
   const auto none = nullptr;
   out.push_back({"vadop m=3", vadop(3, 0, SlowAxisRule::kFixedZone), none, mixed});
   out.push_back({"vadop m=7", vadop(7, 0, SlowAxisRule::kFixedZone), none, mixed});
@@ -335,6 +343,13 @@ std::vector<RunConfig> configs() {
   out.push_back({"grid m=100 spheres", nullptr, grid(100, 0, SlowAxisRule::kAllAxes, 0.0), spheres});
   out.push_back({"grid m=16 tiny cells", nullptr, grid(16, 25, SlowAxisRule::kFixedZone, 0.05), mixed});
   out.push_back({"grid m=32 one cell", nullptr, grid(32, 25, SlowAxisRule::kFixedZone, 1000.0), mixed});
+  // Incremental mode: never off (every body that leaves its fat box is re-fattened, however
+  // many), off, and on a slow scene where it stays on.
+  out.push_back({"grid m=16 incremental always", nullptr, grid(16, 25, SlowAxisRule::kFixedZone, 0.0, 1.0), mixed});
+  out.push_back({"grid m=16 incremental always spheres", nullptr,
+                 grid(16, 0, SlowAxisRule::kFixedZone, 0.0, 1.0), spheres});
+  out.push_back({"grid m=16 incremental off", nullptr, grid(16, 25, SlowAxisRule::kFixedZone, 0.0, 0.0), mixed});
+  out.push_back({"grid m=16 slow scene", nullptr, grid(16, 25, SlowAxisRule::kFixedZone, 0.0), slow});
   return out;
 }
 
@@ -347,6 +362,7 @@ TEST(BroadPhaseProperty, CandidatesEqualOracleAndAreComplete) {
   for (size_t c = 0; c < cs.size(); ++c) {
     // Several seeds, each a short life of its own scene.
     int done = 0;
+    size_t config_frames = 0, incremental_frames = 0;
     for (uint64_t seed = 1; done < per_config; ++seed) {
       const int len = std::min(100, per_config - done);
       const uint64_t s = seed * 7919 + c;
@@ -355,8 +371,15 @@ TEST(BroadPhaseProperty, CandidatesEqualOracleAndAreComplete) {
                                      : runScenario(cs[c], cs[c].make_grid(), s, len, bounds);
       if (::testing::Test::HasFailure()) return;
       frames += r.frames;
+      config_frames += r.frames;
+      incremental_frames += r.incremental;
       done += len;
     }
+    // The grid's two paths were both exercised where meant to be.
+    const std::string& label = cs[c].label;
+    if (label.find("incremental always") != std::string::npos) EXPECT_EQ(incremental_frames, config_frames) << label;
+    if (label.find("incremental off") != std::string::npos) EXPECT_EQ(incremental_frames, 0u) << label;
+    if (label.find("slow scene") != std::string::npos) EXPECT_GT(incremental_frames, config_frames / 2) << label;
   }
   RecordProperty("frames", static_cast<int>(frames));
   std::printf("checked %zu frames over %zu configurations\n", frames, cs.size());

@@ -11,6 +11,7 @@
 
 #include "vadop/axis_pool.h"
 #include "vadop/broad_phase.h"
+#include "vadop/fat_box_pairs.h"
 #include "vadop/sweep_prune.h"
 #include "vadop/vadop.h"
 
@@ -23,9 +24,15 @@ namespace vadop {
 class VadopGridBroadPhase : public BroadPhase {
  public:
   // cell_size (m): 0 chooses it each frame from the bodies' swept boxes (0.5 to 3 times the
-  // median box, by an estimated cost; see computePairs). Throws vadop::InvalidArgument for a bad configuration
-  // (validateVadopConfig) or a cell size that is negative or not finite.
-  explicit VadopGridBroadPhase(const VadopConfig& config, double cell_size = 0.0);
+  // median box, by an estimated cost; see computePairs).
+  // incremental: the incremental mode for slow scenes (fat boxes kept from frame to frame, see
+  // computePairs) is used while at most this fraction of the bodies leave their fat boxes in a
+  // frame; 0 turns it off, 1 uses it whatever the scene (for tests).
+  // Throws vadop::InvalidArgument for a bad configuration (validateVadopConfig), a cell size
+  // that is negative or not finite, or `incremental` outside [0, 1].
+  static constexpr double kDefaultIncremental = 0.25;
+  explicit VadopGridBroadPhase(const VadopConfig& config, double cell_size = 0.0,
+                               double incremental = kDefaultIncremental);
 
   std::string name() const override { return "vadop"; }
   size_t memoryBytes() const override;
@@ -50,6 +57,10 @@ class VadopGridBroadPhase : public BroadPhase {
     size_t overlap_tests = 0;   // shared-axis tests (after the AABB and duplicate checks)
     size_t reinserted = 0;      // bodies whose axis set changed (or new) in the last update
     double cell_size = 0;       // of the last update (m)
+    bool incremental = false;   // the last update used the fat boxes (else the full rebuild)
+    bool fat_rebuilt = false;   // ... and had to build them from scratch
+    size_t escaped = 0;         // bodies given new fat boxes in the last incremental update
+    size_t fat_pairs = 0;       // pairs of overlapping fat boxes kept
     double update_seconds = 0;  // c_u: axis selection, intervals and boxes
     double sort_seconds = 0;    // c_s: grid and pair tests
   };
@@ -67,6 +78,10 @@ class VadopGridBroadPhase : public BroadPhase {
     int32_t x, y, z;
   };
   void clearAxes(BodyId id);
+  bool computeFromFatBoxes(double frame, std::vector<Pair>& out);
+  void appendFatBox(uint32_t slot, double frame);
+  double fatLead(uint32_t slot, double frame) const;  // how far ahead (s) the fat box reaches
+  double expectedEscapeRate(double frame) const;
   void buildGrid(double cell_size);
   uint32_t cellIndex(const Cell& c);  // find or insert in the hash table
   bool overlapOnShared(uint32_t a, uint32_t b);
@@ -112,6 +127,16 @@ class VadopGridBroadPhase : public BroadPhase {
   std::vector<uint32_t> entry_cell_, entry_slot_;
   std::vector<uint32_t> large_;
   std::vector<double> scratch_extent_;
+
+  // Incremental mode: the fat boxes and their pairs, and when to (re)build them. After a
+  // frame where too many bodies left their fat boxes, the full path runs for backoff_ frames
+  // (doubling up to 64) before the next attempt: a fast scene pays for few attempts.
+  double incremental_ = 0.0;
+  FatBoxPairs fat_;
+  bool fat_valid_ = false;
+  int retry_wait_ = 0, backoff_ = 1, streak_ = 0;
+  std::vector<BodyId> fat_ids_;
+  std::vector<double> fat_boxes_;
   std::vector<uint8_t> scratch_large_;
   Stats stats_;
 };
