@@ -28,6 +28,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 COLORS = {
     "vadop": "tab:red",
+    "vadop_rebuild": "salmon",
     "vadop_sap": "tab:olive",
     "kdop": "tab:purple",
     "sap": "tab:orange",
@@ -65,9 +66,9 @@ def load(paths):
 
 def label(row, many_phi):
     s = row["method"]
-    if row["method"] in ("vadop", "vadop_sap", "kdop") and row.get("m") is not None:
+    if row["method"] in ("vadop", "vadop_rebuild", "vadop_sap", "kdop") and row.get("m") is not None:
         s += f" m={row['m']}"
-    if row["method"] in ("vadop", "vadop_sap") and many_phi and row.get("phi") is not None:
+    if row["method"] in ("vadop", "vadop_rebuild", "vadop_sap") and many_phi and row.get("phi") is not None:
         s += f" phi={row['phi']:g}"
     return s
 

@@ -171,7 +171,7 @@ void applyPreset(Options& o, const std::string& p) {
     o.phi = {25.0};
     o.frames = 10;
     o.max_seconds = 60;
-    o.methods = split("vadop,sap,fcl_refit,fcl_rebuild,bullet,fcl_discrete_refit,fcl_discrete_rebuild");
+    o.methods = split("vadop,vadop_rebuild,sap,fcl_refit,fcl_rebuild,bullet,fcl_discrete_refit,fcl_discrete_rebuild");
   } else {
     usage("unknown preset '" + p + "' (quick, medium, full)");
   }
