@@ -5,8 +5,10 @@
 // Why not the per-axis lists of sweep_prune.h: in a world of constant density the n intervals
 // of one axis crowd into a length that grows like n^(1/3), so each list holds ~n^(5/3)
 // overlapping pairs to maintain, of which only O(n) are candidates (README, "Broad phase").
-// The grid finds the O(n) nearby pairs in O(n) per frame; VADOP then prunes them. Rebuilt each
-// frame (no incremental state but the axis sets); it does not compute contacts, not thread-safe.
+// The grid finds the O(n) nearby pairs in O(n) per frame; VADOP then prunes them. The grid is
+// rebuilt each frame, except in slow scenes: there the pairs of overlapping "fat" boxes
+// (fat_box_pairs.h) are kept from frame to frame and only bodies that leave their fat boxes are
+// re-gridded (incremental mode; same candidates). It does not compute contacts, not thread-safe.
 #pragma once
 
 #include "vadop/axis_pool.h"
