@@ -185,12 +185,7 @@ void RequeryGrid::build(const std::vector<Box>& boxes, double half) {
   entry_of_.resize(n);
   for (size_t i = 0; i < n; ++i) {
     const uint32_t e = fill[cell_of[i]]++;
-    Entry& en = entries_[e];
-    for (int k = 0; k < 3; ++k) {
-      en.lo[k] = boxes[i].lo[k];
-      en.hi[k] = boxes[i].hi[k];
-    }
-    en.body = static_cast<uint32_t>(i);
+    entries_[e] = Entry{boxes[i], static_cast<uint32_t>(i)};
     entry_of_[i] = e;
   }
   moved_version_.resize(n, 0);
@@ -212,16 +207,16 @@ void RequeryGrid::build(const std::vector<Box>& boxes, double half) {
 
 void RequeryGrid::moved(uint32_t id, const Box& box) {
   if (entry_of_[id] != kNone) {  // off its frame path: empty its static entry
-    Entry& en = entries_[entry_of_[id]];
-    en.lo[0] = std::numeric_limits<double>::infinity();
-    en.hi[0] = -std::numeric_limits<double>::infinity();
+    Box& gone = entries_[entry_of_[id]].box;
+    gone.lo.x() = std::numeric_limits<double>::infinity();
+    gone.hi.x() = -std::numeric_limits<double>::infinity();
     entry_of_[id] = kNone;
   }
   const uint32_t version = ++moved_version_[id];
   const int x0 = cellOf(box.lo.x()), x1 = cellOf(box.hi.x());
   const int y0 = cellOf(box.lo.y()), y1 = cellOf(box.hi.y());
   const int z0 = cellOf(box.lo.z()), z1 = cellOf(box.hi.z());
-  Node node{{box.lo.x(), box.lo.y(), box.lo.z()}, {box.hi.x(), box.hi.y(), box.hi.z()}, id, version, -1};
+  Node node{box, id, version, -1};
   for (int z = z0; z <= z1; ++z)
     for (int y = y0; y <= y1; ++y)
       for (int x = x0; x <= x1; ++x) {
@@ -232,14 +227,6 @@ void RequeryGrid::moved(uint32_t id, const Box& box) {
         dyn_head_[c] = static_cast<int32_t>(dyn_nodes_.size() - 1);
       }
 }
-
-namespace {
-template <class T>
-bool overlapsBox(const T& e, const Box& b) {
-  return e.lo[0] <= b.hi.x() && b.lo.x() <= e.hi[0] && e.lo[1] <= b.hi.y() && b.lo.y() <= e.hi[1] &&
-         e.lo[2] <= b.hi.z() && b.lo.z() <= e.hi[2];
-}
-}  // namespace
 
 void RequeryGrid::query(uint32_t id, const Box& box, std::vector<uint32_t>& out) {
   out.clear();
@@ -255,7 +242,7 @@ void RequeryGrid::query(uint32_t id, const Box& box, std::vector<uint32_t>& out)
         const Entry* e = entries_.data() + cell_start_[row + x0];
         const Entry* end = entries_.data() + cell_start_[row + x1 + 1];
         for (; e != end; ++e) {
-          if (overlapsBox(*e, box) && e->body != id) out.push_back(e->body);
+          if (overlaps(e->box, box) && e->body != id) out.push_back(e->body);
         }
       }
   }
@@ -274,7 +261,7 @@ void RequeryGrid::query(uint32_t id, const Box& box, std::vector<uint32_t>& out)
         for (int x = x0; x <= x1; ++x)
           for (int32_t k = dyn_head_[index(x, y, z)]; k >= 0; k = dyn_nodes_[k].next) {
             const Node& node = dyn_nodes_[k];
-            if (!overlapsBox(node, box) || node.version != moved_version_[node.body] ||
+            if (!overlaps(node.box, box) || node.version != moved_version_[node.body] ||
                 stamp_[node.body] == stamp_now_) {
               continue;
             }

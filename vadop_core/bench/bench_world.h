@@ -96,7 +96,7 @@ class RequeryGrid {
   // copy of its box, so that a query scans contiguous memory. A body that moves has its entry
   // emptied (lo > hi), which no box overlaps.
   struct Entry {
-    double lo[3], hi[3];
+    Box box;
     uint32_t body;
   };
   std::vector<uint32_t> cell_start_;
@@ -107,7 +107,7 @@ class RequeryGrid {
   // current box, in every cell that box overlaps; an older listing of the same body is stale.
   std::vector<uint32_t> moved_version_;
   struct Node {
-    double lo[3], hi[3];
+    Box box;
     uint32_t body, version;
     int32_t next;
   };

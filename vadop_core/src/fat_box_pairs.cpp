@@ -1,6 +1,7 @@
 #include "vadop/fat_box_pairs.h"
 
 #include "vadop/error.h"
+#include "grid_cells.h"
 
 #include <algorithm>
 #include <cmath>
@@ -11,31 +12,24 @@ namespace {
 // Cell coordinates are packed into 21 bits each.
 constexpr int32_t kKeyRange = 1 << 20;
 
-inline int32_t floorToInt(double x) {  // |x| < 2^31 checked by the caller
-  const int32_t i = static_cast<int32_t>(x);
-  return i - static_cast<int32_t>(x < static_cast<double>(i));
-}
-
 inline bool boxesOverlap(const double* a, const double* b) {
   return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
 }
 
 }  // namespace
 
-size_t FatBoxPairs::KeyHash::operator()(uint64_t k) const {
-  k ^= k >> 33;
-  k *= 0xff51afd7ed558ccdull;
-  k ^= k >> 33;
-  return static_cast<size_t>(k);
-}
+size_t FatBoxPairs::KeyHash::operator()(uint64_t k) const { return static_cast<size_t>(detail::mixCellKey(k)); }
 
 uint64_t FatBoxPairs::key(int32_t x, int32_t y, int32_t z) {
   const auto field = [](int32_t v) { return static_cast<uint64_t>(v + kKeyRange) & 0x1fffff; };
   return field(x) | field(y) << 21 | field(z) << 42;
 }
 
-void FatBoxPairs::reset(double h) {
+void FatBoxPairs::reset(double h, double max_abs) {
   if (!(std::isfinite(h) && h > 0.0)) throw InvalidArgument("FatBoxPairs: cell size must be finite and > 0, got " + formatNumber(h));
+  // Coarser cells when coordinates reach that far, so that boxes stay within the key range
+  // (with a factor 2 to spare) instead of all becoming large.
+  if (std::isfinite(max_abs)) h = std::max(h, 2.0 * std::abs(max_abs) / kKeyRange);
   h_ = h;
   inv_h_ = 1.0 / h;
   std::fill(state_.begin(), state_.end(), kNone);
@@ -69,8 +63,8 @@ bool FatBoxPairs::cellRange(const double* box, int32_t lo[3], int32_t hi[3]) con
   for (int k = 0; k < 3; ++k) {
     const double a = box[k] * inv_h_, b = box[3 + k] * inv_h_;
     if (!(a > -kKeyRange + 1 && b < kKeyRange - 1)) return false;  // also NaN
-    lo[k] = floorToInt(a);
-    hi[k] = floorToInt(b);
+    lo[k] = detail::floorToInt(a);
+    hi[k] = detail::floorToInt(b);
     count *= static_cast<size_t>(hi[k] - lo[k] + 1);
     if (count > kMaxCells) return false;
   }

@@ -1,6 +1,7 @@
 #include "vadop/vadop_grid.h"
 
 #include "vadop/error.h"
+#include "grid_cells.h"
 #include "popcount.h"
 
 #include <algorithm>
@@ -33,13 +34,6 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // Cell coordinates stay well inside int32.
 constexpr double kMaxCellCoordinate = 1 << 29;
 
-inline uint64_t mix(uint64_t k) {
-  k ^= k >> 33;
-  k *= 0xff51afd7ed558ccdull;
-  k ^= k >> 33;
-  return k;
-}
-
 }  // namespace
 
 VadopGridBroadPhase::VadopGridBroadPhase(const VadopConfig& config, double cell_size, double incremental)
@@ -59,8 +53,7 @@ VadopGridBroadPhase::VadopGridBroadPhase(const VadopConfig& config, double cell_
 }
 
 size_t VadopGridBroadPhase::memoryBytes() const {
-  size_t bytes = axis_bits_.capacity() * sizeof(uint64_t) + axis_count_.capacity() * sizeof(uint16_t) +
-                 scratch_axes_.capacity() * sizeof(uint32_t) + dirty_flag_.capacity() +
+  size_t bytes = axis_bits_.capacity() * sizeof(uint64_t) + scratch_axes_.capacity() * sizeof(uint32_t) + dirty_flag_.capacity() +
                  dirty_.capacity() * sizeof(BodyId);
   bytes += (slot_body_.capacity() + slot_of_.capacity() + offset_.capacity()) * sizeof(uint32_t) +
            box_.capacity() * sizeof(double) + bits_.capacity() * sizeof(uint64_t) +
@@ -82,12 +75,8 @@ std::vector<VadopGridBroadPhase::AxisSpan> VadopGridBroadPhase::volume(BodyId id
   const uint32_t s = id < slot_of_.size() ? slot_of_[id] : kNoSlot;
   if (s == kNoSlot) return out;
   uint32_t i = 0;
-  for (size_t w = 0; w < words_; ++w) {
-    for (uint64_t bits = axis_bits_[id * words_ + w]; bits != 0; bits &= bits - 1) {
-      const uint32_t k = static_cast<uint32_t>(64 * w + __builtin_ctzll(bits));
-      out.push_back({k, intervals_[offset_[s] + i++]});
-    }
-  }
+  detail::forEachSetBit(&axis_bits_[id * words_], words_,
+                        [&](uint32_t k) { out.push_back({k, intervals_[offset_[s] + i++]}); });
   const uint32_t m = static_cast<uint32_t>(pool_->size());
   for (uint32_t k = 0; k < 3; ++k) out.push_back({m + k, Interval{box_[6 * s + k], box_[6 * s + 3 + k]}});
   return out;
@@ -102,9 +91,8 @@ Eigen::Vector3d VadopGridBroadPhase::axisDirection(uint32_t axis) const {
 }
 
 void VadopGridBroadPhase::onAdd(BodyId id) {
-  if (axis_count_.size() <= id) {
+  if (dirty_flag_.size() <= id) {
     axis_bits_.resize((id + 1) * words_, 0);
-    axis_count_.resize(id + 1, 0);
     dirty_flag_.resize(id + 1, 0);
     slot_of_.resize(id + 1, kNoSlot);
   }
@@ -123,10 +111,7 @@ void VadopGridBroadPhase::onSetMotion(BodyId id) {
   }
 }
 
-void VadopGridBroadPhase::clearAxes(BodyId id) {
-  std::fill_n(&axis_bits_[id * words_], words_, 0);
-  axis_count_[id] = 0;
-}
+void VadopGridBroadPhase::clearAxes(BodyId id) { std::fill_n(&axis_bits_[id * words_], words_, 0); }
 
 void VadopGridBroadPhase::onRemove(BodyId id) {
   clearAxes(id);
@@ -136,7 +121,7 @@ void VadopGridBroadPhase::onRemove(BodyId id) {
 }
 
 uint32_t VadopGridBroadPhase::cellIndex(const Cell& c) {
-  const uint64_t h = mix((static_cast<uint64_t>(static_cast<uint32_t>(c.x)) * 0x9e3779b1u) ^
+  const uint64_t h = detail::mixCellKey((static_cast<uint64_t>(static_cast<uint32_t>(c.x)) * 0x9e3779b1u) ^
                          (static_cast<uint64_t>(static_cast<uint32_t>(c.y)) << 21) ^
                          (static_cast<uint64_t>(static_cast<uint32_t>(c.z)) << 42));
   for (size_t i = h & table_mask_;; i = (i + 1) & table_mask_) {
@@ -181,16 +166,36 @@ void VadopGridBroadPhase::testPair(uint32_t a, uint32_t b, std::vector<Pair>& ou
   if (overlapOnShared(a, b)) out.push_back(makePair(slot_body_[a], slot_body_[b]));
 }
 
+VADOP_POPCNT_CLONES
+size_t VadopGridBroadPhase::countAliveAxes() const {
+  const auto& b = bodies();
+  size_t n = 0;
+  for (BodyId id = 0; id < b.size(); ++id) {
+    if (!b[id].alive) continue;
+    for (size_t w = 0; w < words_; ++w) n += static_cast<size_t>(__builtin_popcountll(axis_bits_[id * words_ + w]));
+  }
+  return n;
+}
+
+void VadopGridBroadPhase::testLargeAgainstAll(const std::vector<uint32_t>& large, std::vector<Pair>& out) {
+  if (large.empty()) return;
+  const uint32_t slots = static_cast<uint32_t>(slot_body_.size());
+  std::vector<uint8_t>& is_large = scratch_large_;
+  is_large.assign(slots, 0);
+  for (uint32_t s : large) is_large[s] = 1;
+  for (uint32_t l : large) {
+    for (uint32_t s = 0; s < slots; ++s) {
+      if (s == l || (is_large[s] && s < l)) continue;  // a pair of two large bodies once
+      testPair(l, s, out);
+    }
+  }
+}
+
 void VadopGridBroadPhase::buildGrid(double h) {
   const size_t slots = slot_body_.size();
   const double inv = 1.0 / h;
-  // floor() without the libm call (x86-64 has no inline rounding before SSE4.1): truncate, then
-  // step down for negatives. Exact: |v * inv| < 2^29 by the choice of h (kMaxCellCoordinate).
-  auto cellOf = [inv](double v) {
-    const double x = v * inv;
-    const int32_t i = static_cast<int32_t>(x);
-    return i - static_cast<int32_t>(x < static_cast<double>(i));
-  };
+  // Exact: |v * inv| < 2^29 by the choice of h (kMaxCellCoordinate).
+  auto cellOf = [inv](double v) { return detail::floorToInt(v * inv); };
   lo_cell_.resize(3 * slots);
   entry_cell_.clear();
   entry_slot_.clear();
@@ -274,14 +279,11 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
     std::vector<uint32_t>& axes = scratch_axes_;
     axes.clear();
     uint64_t* bits = &axis_bits_[id * words_];
-    for (size_t w = 0; w < words_; ++w) {
-      for (uint64_t x = bits[w]; x != 0; x &= x - 1) axes.push_back(static_cast<uint32_t>(64 * w + __builtin_ctzll(x)));
-    }
+    detail::forEachSetBit(bits, words_, [&](uint32_t k) { axes.push_back(k); });
     if (updateAxes(b[id].motion, b[id].shape->bounding_radius, frame, *pool_, config_, zones_, axes)) {
       ++stats_.reinserted;
       std::fill_n(bits, words_, 0);
       for (uint32_t k : axes) bits[k / 64] |= uint64_t{1} << (k % 64);
-      axis_count_[id] = static_cast<uint16_t>(axes.size());
     }
   }
   dirty_.clear();
@@ -289,10 +291,7 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
   // 2. Per alive body, in id order: swept AABB and intervals on its pool axes. Sized first and
   //    written in place: this loop runs over every body every frame.
   const size_t slots = size();
-  size_t total_axes = 0;
-  for (BodyId id = 0; id < b.size(); ++id) {
-    if (b[id].alive) total_axes += axis_count_[id];
-  }
+  const size_t total_axes = countAliveAxes();
   slot_body_.resize(slots);
   offset_.resize(slots);
   box_.resize(6 * slots);
@@ -323,13 +322,10 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
     extent[s] = ext;
     offset_[s] = next_interval;
     uint64_t* bits = &bits_[words_ * s];
-    for (size_t w = 0; w < words_; ++w) {
-      bits[w] = axis_bits_[id * words_ + w];
-      for (uint64_t x = bits[w]; x != 0; x &= x - 1) {
-        const int k = static_cast<int>(64 * w + __builtin_ctzll(x));
-        intervals_[next_interval++] = swept.project(pool_->axis(k));
-      }
-    }
+    std::copy_n(&axis_bits_[id * words_], words_, bits);
+    detail::forEachSetBit(bits, words_, [&](uint32_t k) {
+      intervals_[next_interval++] = swept.project(pool_->axis(static_cast<int>(k)));
+    });
     uint16_t* rank = &rank_[words_ * s];
     for (size_t w = 1; w < words_; ++w) rank[w] = static_cast<uint16_t>(rank[w - 1] + __builtin_popcountll(bits[w - 1]));
     ++s;
@@ -416,18 +412,8 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
       for (CellEntry* y = x + 1; y < last && y->box[0] <= x->box[3]; ++y) test(*x, *y, cell);
     }
   }
-  // 5. Bodies too large for the grid: against every other body, each pair once.
-  std::vector<uint8_t>& is_large = scratch_large_;
-  if (!large_.empty()) {
-    is_large.assign(slots, 0);
-    for (uint32_t s : large_) is_large[s] = 1;
-    for (uint32_t l : large_) {
-      for (uint32_t s = 0; s < slots; ++s) {
-        if (s == l || (is_large[s] && s < l)) continue;
-        testPair(l, s, out);
-      }
-    }
-  }
+  // 5. Bodies too large for the grid: against every other body.
+  testLargeAgainstAll(large_, out);
   stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
 }
 
@@ -443,14 +429,14 @@ namespace {
 constexpr double kFatFrames = 32.0;
 constexpr double kFatReach = 3.0;
 constexpr double kFatPad = 0.1;
-}  // namespace
 
-double VadopGridBroadPhase::fatLead(uint32_t s, double frame) const {
-  const double* t = &box_[6 * s];
-  const double half = 0.5 * std::max({t[3] - t[0], t[4] - t[1], t[5] - t[2]});
-  const double speed = bodies()[slot_body_[s]].motion.linear_velocity.norm();
+// Half the largest extent of a slot's swept box, and how far ahead in time (s) its fat box
+// reaches at `speed`.
+double halfExtent(const double* box) { return 0.5 * std::max({box[3] - box[0], box[4] - box[1], box[5] - box[2]}); }
+double fatLead(double half, double speed, double frame) {
   return speed > 0.0 ? std::min(kFatFrames * frame, kFatReach * half / speed) : kFatFrames * frame;
 }
+}  // namespace
 
 double VadopGridBroadPhase::expectedEscapeRate(double frame) const {
   const size_t slots = slot_body_.size();
@@ -459,7 +445,8 @@ double VadopGridBroadPhase::expectedEscapeRate(double frame) const {
   double rate = 0.0;
   size_t sampled = 0;
   for (size_t s = 0; s < slots; s += stride, ++sampled) {
-    rate += 1.0 / std::max(1.0, fatLead(static_cast<uint32_t>(s), frame) / frame);
+    const double speed = bodies()[slot_body_[s]].motion.linear_velocity.norm();
+    rate += 1.0 / std::max(1.0, fatLead(halfExtent(&box_[6 * s]), speed, frame) / frame);
   }
   return rate / static_cast<double>(sampled);
 }
@@ -467,8 +454,8 @@ double VadopGridBroadPhase::expectedEscapeRate(double frame) const {
 void VadopGridBroadPhase::appendFatBox(uint32_t s, double frame) {
   const double* t = &box_[6 * s];
   const Eigen::Vector3d& v = bodies()[slot_body_[s]].motion.linear_velocity;
-  const double half = 0.5 * std::max({t[3] - t[0], t[4] - t[1], t[5] - t[2]});
-  const double ahead = v.norm() > 0.0 ? fatLead(s, frame) : 0.0;
+  const double half = halfExtent(t);
+  const double ahead = fatLead(half, v.norm(), frame);  // v = 0: no lead to add
   const double pad = kFatPad * half;
   for (int k = 0; k < 3; ++k) fat_boxes_.push_back(t[k] + std::min(0.0, v[k] * ahead) - pad);
   for (int k = 0; k < 3; ++k) fat_boxes_.push_back(t[3 + k] + std::max(0.0, v[k] * ahead) + pad);
@@ -505,7 +492,7 @@ bool VadopGridBroadPhase::computeFromFatBoxes(double frame, std::vector<Pair>& o
     const size_t mid = slots / 2;
     std::nth_element(extent.begin(), extent.begin() + static_cast<long>(mid), extent.end());
     const double h = cell_size_ > 0.0 ? cell_size_ : 2.0 * extent[mid];
-    fat_.reset(std::max({h, max_abs / (1 << 19), 1e-9}));
+    fat_.reset(std::max(h, 1e-9), max_abs);
     fat_.update(fat_ids_, fat_boxes_);
     fat_valid_ = true;
     streak_ = 0;
@@ -542,18 +529,9 @@ bool VadopGridBroadPhase::computeFromFatBoxes(double frame, std::vector<Pair>& o
       if (j > id) testPair(s, slot_of_[j], out);
     }
   }
-  if (!fat_.large().empty()) {
-    std::vector<uint8_t>& is_large = scratch_large_;
-    is_large.assign(slots, 0);
-    for (BodyId l : fat_.large()) is_large[slot_of_[l]] = 1;
-    for (BodyId l : fat_.large()) {
-      const uint32_t sl = slot_of_[l];
-      for (uint32_t s = 0; s < slots; ++s) {
-        if (s == sl || (is_large[s] && s < sl)) continue;
-        testPair(sl, s, out);
-      }
-    }
-  }
+  large_.clear();
+  for (BodyId l : fat_.large()) large_.push_back(slot_of_[l]);
+  testLargeAgainstAll(large_, out);
   return true;
 }
 

@@ -21,8 +21,9 @@ class FatBoxPairs {
   // partner lists, and the caller tests it against every body.
   static constexpr size_t kMaxCells = 256;
 
-  // Forgets every body; the next update() uses cell size h (> 0, finite).
-  void reset(double h);
+  // Forgets every body; the next update() uses cell size h (> 0, finite), or coarser cells if
+  // box coordinates reach max_abs (their largest magnitude), so that cells stay in the key range.
+  void reset(double h, double max_abs = 0.0);
   double cellSize() const { return h_; }
 
   bool has(BodyId id) const { return id < state_.size() && state_[id] != kNone; }

@@ -80,9 +80,11 @@ class VadopGridBroadPhase : public BroadPhase {
     int32_t x, y, z;
   };
   void clearAxes(BodyId id);
+  size_t countAliveAxes() const;  // total size of the alive bodies' axis sets
+  // Each slot of `large` (ascending not required) against every other slot, each pair once.
+  void testLargeAgainstAll(const std::vector<uint32_t>& large, std::vector<Pair>& out);
   bool computeFromFatBoxes(double frame, std::vector<Pair>& out);
   void appendFatBox(uint32_t slot, double frame);
-  double fatLead(uint32_t slot, double frame) const;  // how far ahead (s) the fat box reaches
   double expectedEscapeRate(double frame) const;
   void buildGrid(double cell_size);
   uint32_t cellIndex(const Cell& c);  // find or insert in the hash table
@@ -97,9 +99,8 @@ class VadopGridBroadPhase : public BroadPhase {
   size_t words_ = 1;  // 64-bit words of an axis bitset
 
   // Persistent per body (indexed by BodyId): its axis set as a bitset (words_ per body, flat:
-  // the per-frame pass reads it sequentially), its size, and whether its motion changed.
+  // the per-frame pass reads it sequentially), and whether its motion changed.
   std::vector<uint64_t> axis_bits_;
-  std::vector<uint16_t> axis_count_;
   std::vector<uint32_t> scratch_axes_;  // updateAxes works on a list
   std::vector<uint8_t> dirty_flag_;
   std::vector<BodyId> dirty_;
@@ -127,7 +128,7 @@ class VadopGridBroadPhase : public BroadPhase {
   };
   std::vector<CellEntry> cell_entries_;
   std::vector<uint32_t> entry_cell_, entry_slot_;
-  std::vector<uint32_t> large_;
+  std::vector<uint32_t> large_;      // slots of the bodies too large for the grid (either path)
   std::vector<double> scratch_extent_;
 
   // Incremental mode: the fat boxes and their pairs, and when to (re)build them. After a
