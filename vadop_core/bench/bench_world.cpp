@@ -368,7 +368,45 @@ void ContinuousWorld::setMotion(uint32_t i, const Eigen::Vector3d& v, double tc)
   m.t_ref = tc;
   m.linear_velocity = v;
   bp_->setMotion(i, m);  // takes effect at the next frame's update()
-  if (mode_ == RequeryMode::kGrid) grid_.moved(i, sweptBox(m, broad_shape_->bounding_radius, tc, frame_t1_));
+  if (mode_ == RequeryMode::kGrid) {
+    grid_.moved(i, sweptBox(m, broad_shape_->bounding_radius, tc, frame_t1_));
+    if (!moved_flag_[i]) {
+      moved_flag_[i] = 1;
+      moved_since_build_.push_back(i);
+    }
+  }
+}
+
+void ContinuousWorld::prepareRequeryGrid(int f) {
+  // At the frame's first event no body has changed yet this frame, so a body's remaining path
+  // is its frame path. Slow scenes keep the grid for several frames: a body that has not
+  // changed velocity since the build is still on the path whose box was listed (the box of its
+  // motion over all those frames); the bodies that have changed are listed anew with the box
+  // of this frame. Rebuilt when the lead runs out or a quarter of the bodies have changed.
+  const double t0 = f * dt_, t1 = (f + 1) * dt_;
+  const double rb = broad_shape_->bounding_radius;
+  if (f >= grid_first_frame_ && f < grid_last_frame_ && moved_since_build_.size() <= n_ / 4) {
+    for (uint32_t i : moved_since_build_) grid_.moved(i, sweptBox(motions_[i], rb, t0, t1));
+    return;
+  }
+  // Lead: as many frames as keep a typical box within one radius of its frame box (1 in fast
+  // scenes: rebuilt every frame), at most kMaxGridFrames.
+  constexpr int kMaxGridFrames = 16;
+  std::vector<double> speeds;
+  const size_t stride = std::max<size_t>(1, n_ / 1024);
+  for (size_t i = 0; i < n_; i += stride) speeds.push_back(motions_[i].linear_velocity.norm());
+  std::nth_element(speeds.begin(), speeds.begin() + speeds.size() / 2, speeds.end());
+  const double step = speeds.empty() ? 0.0 : speeds[speeds.size() / 2] * dt_;
+  const int lead = step > 0.0 ? std::clamp(static_cast<int>(scene_.params.radius / step), 1, kMaxGridFrames)
+                              : kMaxGridFrames;
+  grid_first_frame_ = f;
+  grid_last_frame_ = f + lead;
+  const double t_end = grid_last_frame_ * dt_;  // the end of frame f + lead - 1, as runFrame computes it
+  boxes_.resize(n_);
+  for (uint32_t i = 0; i < n_; ++i) boxes_[i] = sweptBox(motions_[i], rb, t0, t_end);
+  grid_.build(boxes_, scene_.half);
+  for (uint32_t i : moved_since_build_) moved_flag_[i] = 0;
+  moved_since_build_.clear();
 }
 
 void ContinuousWorld::requery(uint32_t i, double tc, double t1, std::vector<uint32_t>& out) {
@@ -419,6 +457,7 @@ void ContinuousWorld::runFrame(int f, FrameStats& st, std::vector<LoggedImpact>*
   double test_in_loop = 0.0;
   for (uint32_t i = 0; i < n_; ++i) predictWall(i, t0, t1);
   grid_built_ = false;
+  if (moved_flag_.size() != n_) moved_flag_.assign(n_, 0);
   const size_t max_events = 64 * static_cast<size_t>(n_) + 10000;
   size_t events = 0;
   uint32_t changed[2];
@@ -427,13 +466,8 @@ void ContinuousWorld::runFrame(int f, FrameStats& st, std::vector<LoggedImpact>*
     if (++events > max_events) throw std::runtime_error("runaway response loop in frame " + std::to_string(f));
     const double tc = q.impact.time;
     if (mode_ == RequeryMode::kGrid && !grid_built_) {
-      // Lazily, at the first event of the frame: no body has changed yet, so every remaining
-      // path is the frame path.
       const auto g0 = Clock::now();
-      boxes_.resize(n_);
-      const double rb = broad_shape_->bounding_radius;
-      for (uint32_t i = 0; i < n_; ++i) boxes_[i] = sweptBox(motions_[i], rb, t0, t1);
-      grid_.build(boxes_, scene_.half);
+      prepareRequeryGrid(f);
       grid_built_ = true;
       st.requery_s += seconds(g0, Clock::now());
     }

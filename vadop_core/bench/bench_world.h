@@ -18,8 +18,10 @@
 // with one structure shared by every method (the result does not depend on the method):
 // RequeryGrid, a uniform grid over the axis-aligned box of each body's remaining path (the
 // frame's swept box for a body that has not changed, the box of its new path over [tc, t1]
-// for one that has). A body's remaining path always lies inside its box, so the grid query is
-// complete; the ground-truth run (brute force) instead scans every body with the exact
+// for one that has). In slow scenes the grid is kept for up to 16 frames: the boxes then hold
+// each body's path over all of them, and the bodies that changed velocity since the build are
+// listed anew each frame. A body's remaining path always lies inside its box, so the grid
+// query is complete; the ground-truth run (brute force) instead scans every body with the exact
 // swept-capsule test (RequeryMode::kScan), and the per-frame impact lists of both must match
 // (vadop_bench checks this for every method and exits non-zero on a miss).
 #pragma once
@@ -179,7 +181,12 @@ class ContinuousWorld {
   std::vector<vadop::Motion> motions_;
   vadop::ImpactQueue queue_;
   RequeryGrid grid_;
-  bool grid_built_ = false;
+  void prepareRequeryGrid(int f);
+  bool grid_built_ = false;             // prepared for this frame
+  int grid_first_frame_ = 0, grid_last_frame_ = 0;  // the grid holds the paths of these frames
+                                                    // (last excluded)
+  std::vector<uint8_t> moved_flag_;     // changed velocity since the grid was built
+  std::vector<uint32_t> moved_since_build_;
   std::vector<Box> boxes_;
   std::vector<uint32_t> scratch_;
   double frame_t1_ = 0;

@@ -57,6 +57,7 @@ void BroadPhase::remove(BodyId id) {
 void BroadPhase::setMotion(BodyId id, const Motion& motion) {
   requireKnown(id, "setMotion");
   if (!isValidMotion(motion)) validateMotion(motion, "setMotion: body " + std::to_string(id));
+  onMotionChanging(id);
   bodies_[id].motion = motion;
   onSetMotion(id);
 }

@@ -74,9 +74,17 @@ std::vector<VadopGridBroadPhase::AxisSpan> VadopGridBroadPhase::volume(BodyId id
   std::vector<AxisSpan> out;
   const uint32_t s = id < slot_of_.size() ? slot_of_[id] : kNoSlot;
   if (s == kNoSlot) return out;
-  uint32_t i = 0;
-  detail::forEachSetBit(&axis_bits_[id * words_], words_,
-                        [&](uint32_t k) { out.push_back({k, intervals_[offset_[s] + i++]}); });
+  if (interval_ready_[s]) {
+    uint32_t i = 0;
+    detail::forEachSetBit(&bits_[words_ * s], words_,
+                          [&](uint32_t k) { out.push_back({k, intervals_[offset_[s] + i++]}); });
+  } else {  // lazy and not needed by the update; the motion is unchanged since (onMotionChanging)
+    const Body& body = bodies()[id];
+    const SweptBody swept(*body.shape, body.motion, frame_t0_, frame_t1_);
+    detail::forEachSetBit(&bits_[words_ * s], words_, [&](uint32_t k) {
+      out.push_back({k, swept.project(pool_->axis(static_cast<int>(k)))});
+    });
+  }
   const uint32_t m = static_cast<uint32_t>(pool_->size());
   for (uint32_t k = 0; k < 3; ++k) out.push_back({m + k, Interval{box_[6 * s + k], box_[6 * s + 3 + k]}});
   return out;
@@ -109,6 +117,21 @@ void VadopGridBroadPhase::onSetMotion(BodyId id) {
     dirty_flag_[id] = 1;
     dirty_.push_back(id);
   }
+}
+
+void VadopGridBroadPhase::onMotionChanging(BodyId id) {
+  // volume() reports the last update's intervals: compute a lazy slot's before its motion goes.
+  const uint32_t s = id < slot_of_.size() ? slot_of_[id] : kNoSlot;
+  if (s != kNoSlot) requireIntervals(s);
+}
+
+void VadopGridBroadPhase::projectSlot(uint32_t s) {
+  const Body& body = bodies()[slot_body_[s]];
+  const SweptBody swept(*body.shape, body.motion, frame_t0_, frame_t1_);
+  Interval* out = &intervals_[offset_[s]];
+  detail::forEachSetBit(&bits_[words_ * s], words_,
+                        [&](uint32_t k) { *out++ = swept.project(pool_->axis(static_cast<int>(k))); });
+  interval_ready_[s] = 1;
 }
 
 void VadopGridBroadPhase::clearAxes(BodyId id) { std::fill_n(&axis_bits_[id * words_], words_, 0); }
@@ -163,6 +186,8 @@ void VadopGridBroadPhase::testPair(uint32_t a, uint32_t b, std::vector<Pair>& ou
   const double* x = &box_[6 * a];
   const double* y = &box_[6 * b];
   if (x[0] > y[3] || y[0] > x[3] || x[1] > y[4] || y[1] > x[4] || x[2] > y[5] || y[2] > x[5]) return;
+  requireIntervals(a);
+  requireIntervals(b);
   if (overlapOnShared(a, b)) out.push_back(makePair(slot_body_[a], slot_body_[b]));
 }
 
@@ -296,6 +321,11 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
   offset_.resize(slots);
   box_.resize(6 * slots);
   intervals_.resize(total_axes);
+  frame_t0_ = t0;
+  frame_t1_ = t1;
+  // Lazy intervals when the incremental mode will be tried (filled for all if it declines).
+  const bool lazy = incremental_ > 0.0 && (fat_valid_ || retry_wait_ == 0);
+  interval_ready_.assign(slots, lazy ? 0 : 1);
   bits_.resize(words_ * slots);
   rank_.assign(words_ * slots, 0);
   std::fill(slot_of_.begin(), slot_of_.end(), kNoSlot);
@@ -323,14 +353,18 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
     offset_[s] = next_interval;
     uint64_t* bits = &bits_[words_ * s];
     std::copy_n(&axis_bits_[id * words_], words_, bits);
-    detail::forEachSetBit(bits, words_, [&](uint32_t k) {
-      intervals_[next_interval++] = swept.project(pool_->axis(static_cast<int>(k)));
-    });
+    if (lazy) {
+      for (size_t w = 0; w < words_; ++w) next_interval += static_cast<uint32_t>(__builtin_popcountll(bits[w]));
+    } else {
+      detail::forEachSetBit(bits, words_, [&](uint32_t k) {
+        intervals_[next_interval++] = swept.project(pool_->axis(static_cast<int>(k)));
+      });
+    }
     uint16_t* rank = &rank_[words_ * s];
     for (size_t w = 1; w < words_; ++w) rank[w] = static_cast<uint16_t>(rank[w - 1] + __builtin_popcountll(bits[w - 1]));
     ++s;
   }
-  const auto grid_from = Clock::now();
+  auto grid_from = Clock::now();
   stats_.update_seconds = std::chrono::duration<double>(grid_from - start).count();
   if (slots < 2) {
     stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
@@ -341,6 +375,12 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
   if (incremental_ > 0.0 && computeFromFatBoxes(frame, out)) {
     stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
     return;
+  }
+  if (lazy) {  // declined: the full path tests most slots
+    const auto project_from = Clock::now();
+    for (uint32_t slot = 0; slot < slots; ++slot) requireIntervals(slot);
+    grid_from = Clock::now();
+    stats_.update_seconds += std::chrono::duration<double>(grid_from - project_from).count();
   }
 
   // 3. Cell size, unless configured: the candidate (a multiple of the median box extent) with

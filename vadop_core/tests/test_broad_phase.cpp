@@ -550,6 +550,44 @@ TEST(VadopGrid, SeparatedPairIsPrunedAndTouchingPairIsKept) {
   EXPECT_TRUE(side.pairs().empty());
 }
 
+TEST(VadopGrid, LazyIntervalsReportTheUpdatesVolumeAfterSetMotion) {
+  // In the incremental mode a frame computes a body's pool-axis intervals only when a kept pair
+  // needs them. volume() must still report those of the last update, also for a body whose
+  // motion changed since: compare with the same calls on an engine that computes them all.
+  VadopGridBroadPhase lazy(VadopConfig{}, 0.0, 1.0), eager(VadopConfig{}, 0.0, 0.0);
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-40.0, 40.0), w(-3.0, 3.0);
+  std::vector<BodyId> ids;
+  for (int i = 0; i < 200; ++i) {
+    const Motion m = linear({u(rng), u(rng), u(rng)}, {w(rng), w(rng), w(rng)});
+    ids.push_back(lazy.add(makeSphere(0.5), m));
+    ASSERT_EQ(eager.add(makeSphere(0.5), m), ids.back());
+  }
+  const double dt = 1.0 / 30.0;
+  for (int f = 0; f < 4; ++f) {
+    lazy.update(f * dt, (f + 1) * dt);
+    eager.update(f * dt, (f + 1) * dt);
+    ASSERT_TRUE(lazy.stats().incremental);
+    ASSERT_FALSE(eager.stats().incremental);
+    ASSERT_EQ(lazy.pairs(), eager.pairs());
+    for (int k = 0; k < 20; ++k) {  // new motions after the update, before volume()
+      const BodyId id = ids[(f * 37 + k * 11) % ids.size()];
+      const Motion m = linear(lazy.motion(id).positionAt((f + 1) * dt), {w(rng), w(rng), w(rng)});
+      lazy.setMotion(id, m);
+      eager.setMotion(id, m);
+    }
+    for (BodyId id : ids) {
+      const auto a = lazy.volume(id), b = eager.volume(id);
+      ASSERT_EQ(a.size(), b.size()) << "body " << id << " frame " << f;
+      for (size_t k = 0; k < a.size(); ++k) {
+        ASSERT_EQ(a[k].axis, b[k].axis);
+        ASSERT_EQ(a[k].interval.lo, b[k].interval.lo) << "body " << id << " axis " << a[k].axis << " frame " << f;
+        ASSERT_EQ(a[k].interval.hi, b[k].interval.hi);
+      }
+    }
+  }
+}
+
 TEST(VadopGrid, LargeBodiesAndFarCoordinatesAreStillExact) {
   // A 1 km wall among 1 m cells is too large for the grid: it must still meet its neighbours;
   // bodies 1e12 m out force coarser cells, so that cell coordinates cannot overflow.

@@ -51,6 +51,9 @@ class BroadPhase {
   virtual void onAdd(BodyId id) = 0;
   virtual void onRemove(BodyId id) = 0;  // bodies_[id] still holds the shape and motion
   virtual void onSetMotion(BodyId id) = 0;
+  // Called after validation, before bodies_[id].motion is replaced (state that derives from the
+  // old motion can still be computed).
+  virtual void onMotionChanging(BodyId) {}
   virtual void computePairs(double t0, double t1, std::vector<Pair>& out) = 0;
 
   const std::vector<Body>& bodies() const { return bodies_; }

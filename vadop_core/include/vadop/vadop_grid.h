@@ -63,7 +63,8 @@ class VadopGridBroadPhase : public BroadPhase {
     bool fat_rebuilt = false;   // ... and had to build them from scratch
     size_t escaped = 0;         // bodies given new fat boxes in the last incremental update
     size_t fat_pairs = 0;       // pairs of overlapping fat boxes kept
-    double update_seconds = 0;  // c_u: axis selection, intervals and boxes
+    double update_seconds = 0;  // c_u: axis selection, intervals and boxes (incremental mode:
+                                // the intervals needed are computed on demand, in c_s)
     double sort_seconds = 0;    // c_s: grid and pair tests
   };
   const Stats& stats() const { return stats_; }
@@ -72,6 +73,7 @@ class VadopGridBroadPhase : public BroadPhase {
   void onAdd(BodyId id) override;
   void onRemove(BodyId id) override;
   void onSetMotion(BodyId id) override;
+  void onMotionChanging(BodyId id) override;
   void computePairs(double t0, double t1, std::vector<Pair>& out) override;
 
  private:
@@ -89,6 +91,11 @@ class VadopGridBroadPhase : public BroadPhase {
   void buildGrid(double cell_size);
   uint32_t cellIndex(const Cell& c);  // find or insert in the hash table
   bool overlapOnShared(uint32_t a, uint32_t b);
+  // The slot's pool-axis intervals, computed on first use in a lazy frame (see intervals_).
+  void projectSlot(uint32_t s);
+  void requireIntervals(uint32_t s) {
+    if (!interval_ready_[s]) projectSlot(s);
+  }
   void testPair(uint32_t a, uint32_t b, std::vector<Pair>& out);
 
   std::unique_ptr<AxisPool> pool_;
@@ -112,7 +119,12 @@ class VadopGridBroadPhase : public BroadPhase {
   std::vector<uint64_t> bits_;         // words_ per slot
   std::vector<uint16_t> rank_;         // words_ per slot: entries before each word
   std::vector<uint32_t> offset_;       // first interval of the slot
-  std::vector<Interval> intervals_;    // all slots' pool-axis intervals
+  // All slots' pool-axis intervals. When the incremental mode may run, a frame computes them
+  // lazily: only the slots of kept pairs whose boxes overlap need them (a few percent of the
+  // bodies in a slow scene); interval_ready_ says which are set.
+  std::vector<Interval> intervals_;
+  std::vector<uint8_t> interval_ready_;
+  double frame_t0_ = 0.0, frame_t1_ = 0.0;  // of the last update
   std::vector<int32_t> lo_cell_;       // 3 per slot: cell of the box's lo corner
 
   // Grid of the frame: cells in a hash table, bodies per cell by counting sort.
