@@ -389,7 +389,7 @@ void ContinuousWorld::prepareRequeryGrid(int f) {
     for (uint32_t i : moved_since_build_) grid_.moved(i, sweptBox(motions_[i], rb, t0, t1));
     return;
   }
-  // Lead: as many frames as keep a typical box within one radius of its frame box (1 in fast
+  // Lead: as many frames as keep a typical box within two radii of its frame box (1 in fast
   // scenes: rebuilt every frame), at most kMaxGridFrames.
   constexpr int kMaxGridFrames = 16;
   std::vector<double> speeds;
@@ -397,8 +397,8 @@ void ContinuousWorld::prepareRequeryGrid(int f) {
   for (size_t i = 0; i < n_; i += stride) speeds.push_back(motions_[i].linear_velocity.norm());
   std::nth_element(speeds.begin(), speeds.begin() + speeds.size() / 2, speeds.end());
   const double step = speeds.empty() ? 0.0 : speeds[speeds.size() / 2] * dt_;
-  const int lead = step > 0.0 ? std::clamp(static_cast<int>(scene_.params.radius / step), 1, kMaxGridFrames)
-                              : kMaxGridFrames;
+  const double frames = step > 0.0 ? 2.0 * scene_.params.radius / step : kMaxGridFrames;
+  const int lead = std::max(1, static_cast<int>(std::min<double>(frames, kMaxGridFrames)));
   grid_first_frame_ = f;
   grid_last_frame_ = f + lead;
   const double t_end = grid_last_frame_ * dt_;  // the end of frame f + lead - 1, as runFrame computes it
