@@ -27,6 +27,9 @@ constexpr size_t kMaxCellsPerBody = 256;
 // how many bodies the estimate looks at.
 constexpr double kIncidenceCost = 8.0;
 constexpr size_t kSample = 1024;
+// The grid indexes its cells directly (an array over the occupied range) while that range
+// holds at most this many cells per body (4 bytes each), else through a hash table.
+constexpr double kDenseCellsPerBody = 8.0;
 // Cells with more bodies than this are swept along x rather than tested pair by pair.
 constexpr uint32_t kSweepMin = 8;
 constexpr uint32_t kEmpty = ~uint32_t{0};
@@ -61,7 +64,7 @@ size_t VadopGridBroadPhase::memoryBytes() const {
            lo_cell_.capacity() * sizeof(int32_t);
   bytes += fat_.memoryBytes() + fat_ids_.capacity() * sizeof(BodyId) + fat_boxes_.capacity() * sizeof(double);
   bytes += table_key_.capacity() * sizeof(Cell) + table_cell_.capacity() * sizeof(uint32_t) +
-           cells_.capacity() * sizeof(Cell) +
+           cells_.capacity() * sizeof(Cell) + dense_cell_.capacity() * sizeof(uint32_t) +
            cell_entries_.capacity() * sizeof(CellEntry) +
            (cell_start_.capacity() + entry_cell_.capacity() + entry_slot_.capacity() +
             large_.capacity()) *
@@ -226,26 +229,57 @@ void VadopGridBroadPhase::buildGrid(double h) {
   entry_slot_.clear();
   large_.clear();
   cells_.clear();
-  // Size the table for the incidences first: one pass over the cell ranges.
+  // Size the table for the incidences first: one pass over the cell ranges, which also finds
+  // the range of cells occupied by the grid's bodies.
   size_t incidences = 0;
+  int32_t cmin[3] = {INT32_MAX, INT32_MAX, INT32_MAX}, cmax[3] = {INT32_MIN, INT32_MIN, INT32_MIN};
   for (uint32_t s = 0; s < slots; ++s) {
     const double* b = &box_[6 * s];
     size_t count = 1;
+    int32_t hi[3];
     for (int k = 0; k < 3; ++k) {
       lo_cell_[3 * s + k] = cellOf(b[k]);
-      count *= static_cast<size_t>(cellOf(b[3 + k]) - lo_cell_[3 * s + k] + 1);
+      hi[k] = cellOf(b[3 + k]);
+      count *= static_cast<size_t>(hi[k] - lo_cell_[3 * s + k] + 1);
     }
     if (count > kMaxCellsPerBody) {
       large_.push_back(s);
     } else {
       incidences += count;
+      for (int k = 0; k < 3; ++k) {
+        cmin[k] = std::min(cmin[k], lo_cell_[3 * s + k]);
+        cmax[k] = std::max(cmax[k], hi[k]);
+      }
     }
   }
-  size_t capacity = 16;
-  while (capacity < 2 * incidences) capacity *= 2;
-  table_key_.resize(capacity);
-  table_cell_.assign(capacity, kEmpty);
-  table_mask_ = capacity - 1;
+  // Cells found by direct index into an array over that range when it is not much larger than
+  // the number of bodies (a bounded, filled world: one read, no hashing or probing), else by
+  // the hash table (sparse or unbounded worlds).
+  double range = 1.0;
+  for (int k = 0; k < 3; ++k) range *= cmax[k] >= cmin[k] ? static_cast<double>(cmax[k]) - cmin[k] + 1.0 : 0.0;
+  const bool dense = range <= kDenseCellsPerBody * static_cast<double>(slots) + 64.0;
+  if (dense) {
+    for (int k = 0; k < 3; ++k) {
+      dense_min_[k] = cmin[k];
+      dense_dim_[k] = cmax[k] >= cmin[k] ? cmax[k] - cmin[k] + 1 : 0;
+    }
+    if (dense_cell_.size() < static_cast<size_t>(range)) dense_cell_.resize(static_cast<size_t>(range), kEmpty);
+  } else {
+    size_t capacity = 16;
+    while (capacity < 2 * incidences) capacity *= 2;
+    table_key_.resize(capacity);
+    table_cell_.assign(capacity, kEmpty);
+    table_mask_ = capacity - 1;
+  }
+  auto cellAt = [&](int32_t x, int32_t y, int32_t z) -> uint32_t {
+    if (!dense) return cellIndex(Cell{x, y, z});
+    uint32_t& cell = dense_cell_[denseIndex(x, y, z)];
+    if (cell == kEmpty) {
+      cell = static_cast<uint32_t>(cells_.size());
+      cells_.push_back(Cell{x, y, z});
+    }
+    return cell;
+  };
   entry_cell_.reserve(incidences);
   entry_slot_.reserve(incidences);
   size_t next_large = 0;
@@ -260,11 +294,14 @@ void VadopGridBroadPhase::buildGrid(double h) {
     for (int32_t z = lo[2]; z <= hz; ++z) {
       for (int32_t y = lo[1]; y <= hy; ++y) {
         for (int32_t x = lo[0]; x <= hx; ++x) {
-          entry_cell_.push_back(cellIndex(Cell{x, y, z}));
+          entry_cell_.push_back(cellAt(x, y, z));
           entry_slot_.push_back(s);
         }
       }
     }
+  }
+  if (dense) {  // left all empty for the next frame
+    for (const Cell& c : cells_) dense_cell_[denseIndex(c.x, c.y, c.z)] = kEmpty;
   }
   // Counting sort of the incidences by cell.
   cell_start_.assign(cells_.size() + 1, 0);

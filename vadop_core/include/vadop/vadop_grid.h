@@ -131,6 +131,15 @@ class VadopGridBroadPhase : public BroadPhase {
   std::vector<Cell> table_key_;
   std::vector<uint32_t> table_cell_;  // cell index, or kEmpty
   size_t table_mask_ = 0;
+  // ... or, when the occupied range of cells is small (a bounded, filled world), an array over
+  // that range: cell index or kEmpty (all kEmpty between frames).
+  std::vector<uint32_t> dense_cell_;
+  int32_t dense_min_[3] = {0, 0, 0}, dense_dim_[3] = {0, 0, 0};
+  size_t denseIndex(int32_t x, int32_t y, int32_t z) const {
+    return (static_cast<size_t>(z - dense_min_[2]) * static_cast<size_t>(dense_dim_[1]) +
+            static_cast<size_t>(y - dense_min_[1])) * static_cast<size_t>(dense_dim_[0]) +
+           static_cast<size_t>(x - dense_min_[0]);
+  }
   std::vector<Cell> cells_;
   std::vector<uint32_t> cell_start_;
   struct CellEntry {  // one (body, cell) incidence, in cell order
