@@ -123,10 +123,13 @@ Scene makeScene(const SceneParams& p) {
   return s;
 }
 
-Box sweptBox(const vadop::Motion& m, double r, double ta, double tb) {
-  const Eigen::Vector3d a = m.positionAt(ta), b = m.positionAt(tb);
+Box segmentBox(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double r) {
   const double pad = r + 1e-9;
   return Box{a.cwiseMin(b).array() - pad, a.cwiseMax(b).array() + pad};
+}
+
+Box sweptBox(const vadop::Motion& m, double r, double ta, double tb) {
+  return segmentBox(m.positionAt(ta), m.positionAt(tb), r);
 }
 
 double threadCpuSeconds() {
@@ -367,10 +370,14 @@ void ContinuousWorld::predictPair(uint32_t a, uint32_t b, double ts, double t1) 
   queue_.push(a, b, imp);
 }
 
+Box ContinuousWorld::pathBox(uint32_t i, double ta, double tb) const {
+  return segmentBox(kin_[i].at(ta), kin_[i].at(tb), broad_shape_->bounding_radius);
+}
+
 void ContinuousWorld::predictWall(uint32_t i, double ts, double t1) {
-  const vadop::Motion& m = motions_[i];
-  const Eigen::Vector3d p = m.positionAt(ts);
-  const Eigen::Vector3d& v = m.linear_velocity;
+  const Kinematics& m = kin_[i];
+  const Eigen::Vector3d p = m.at(ts);
+  const Eigen::Vector3d& v = m.v;
   double best = std::numeric_limits<double>::infinity();
   int axis = -1;
   for (int k = 0; k < 3; ++k) {
@@ -393,7 +400,7 @@ void ContinuousWorld::predictWall(uint32_t i, double ts, double t1) {
   imp.time = ts + best;
   imp.normal = Eigen::Vector3d::Zero();
   imp.normal[axis] = v[axis] > 0 ? 1.0 : -1.0;
-  imp.point = m.positionAt(imp.time);
+  imp.point = m.at(imp.time);
   queue_.push(i, n_ + i, imp);
 }
 
@@ -405,7 +412,7 @@ void ContinuousWorld::setMotion(uint32_t i, const Eigen::Vector3d& v, double tc)
   kin_[i] = Kinematics{m.position, m.t_ref, m.linear_velocity};
   bp_->setMotion(i, m);  // takes effect at the next frame's update()
   if (mode_ == RequeryMode::kGrid) {
-    grid_.moved(i, sweptBox(m, broad_shape_->bounding_radius, tc, frame_t1_));
+    grid_.moved(i, pathBox(i, tc, frame_t1_));
     if (!moved_flag_[i]) {
       moved_flag_[i] = 1;
       moved_since_build_.push_back(i);
@@ -420,9 +427,8 @@ void ContinuousWorld::prepareRequeryGrid(int f) {
   // motion over all those frames); the bodies that have changed are listed anew with the box
   // of this frame. Rebuilt when the lead runs out or a quarter of the bodies have changed.
   const double t0 = f * dt_, t1 = (f + 1) * dt_;
-  const double rb = broad_shape_->bounding_radius;
   if (f >= grid_first_frame_ && f < grid_last_frame_ && moved_since_build_.size() <= n_ / 4) {
-    for (uint32_t i : moved_since_build_) grid_.moved(i, sweptBox(motions_[i], rb, t0, t1));
+    for (uint32_t i : moved_since_build_) grid_.moved(i, pathBox(i, t0, t1));
     return;
   }
   // Lead: as many frames as keep a typical box within two radii of its frame box (1 in fast
@@ -439,7 +445,7 @@ void ContinuousWorld::prepareRequeryGrid(int f) {
   grid_last_frame_ = f + lead;
   const double t_end = grid_last_frame_ * dt_;  // the end of frame f + lead - 1, as runFrame computes it
   boxes_.resize(n_);
-  for (uint32_t i = 0; i < n_; ++i) boxes_[i] = sweptBox(motions_[i], rb, t0, t_end);
+  for (uint32_t i = 0; i < n_; ++i) boxes_[i] = pathBox(i, t0, t_end);
   grid_.build(boxes_, scene_.half);
   for (uint32_t i : moved_since_build_) moved_flag_[i] = 0;
   moved_since_build_.clear();
@@ -449,7 +455,7 @@ void ContinuousWorld::requery(uint32_t i, double tc, double t1, std::vector<uint
   out.clear();
   const double rb = broad_shape_->bounding_radius;
   if (mode_ == RequeryMode::kGrid) {
-    grid_.query(i, sweptBox(motions_[i], rb, tc, t1), out);
+    grid_.query(i, pathBox(i, tc, t1), out);
     return;
   }
   // Exhaustive: the exact swept-capsule test of BruteForceBroadPhase against every body.

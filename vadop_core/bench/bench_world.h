@@ -73,6 +73,8 @@ struct Box {
   Eigen::Vector3d lo, hi;
 };
 Box sweptBox(const vadop::Motion& m, double r, double ta, double tb);
+// The same for a sphere of radius `r` whose centre moves from a to b in a straight line.
+Box segmentBox(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double r);
 inline bool overlaps(const Box& a, const Box& b) {
   return (a.lo.array() <= b.hi.array()).all() && (b.lo.array() <= a.hi.array()).all();
 }
@@ -193,7 +195,11 @@ class ContinuousWorld {
     Eigen::Vector3d p;
     double t_ref;
     Eigen::Vector3d v;
+    // = vadop::Motion::positionAt (the bodies only translate), the same arithmetic.
+    Eigen::Vector3d at(double t) const { return p + v * (t - t_ref); }
   };
+  // sweptBox(motions_[i], broad radius, ta, tb) from the compact copy (the same box).
+  Box pathBox(uint32_t i, double ta, double tb) const;
   std::vector<Kinematics> kin_;
   vadop::ImpactQueue queue_;
   RequeryGrid grid_;
