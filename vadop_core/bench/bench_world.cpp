@@ -157,21 +157,22 @@ int RequeryGrid::cellOf(double x) const {
 
 void RequeryGrid::build(const std::vector<Box>& boxes, double half) {
   const size_t n = boxes.size();
+  std::vector<double> ext(n);
+  for (size_t i = 0; i < n; ++i) ext[i] = (boxes[i].hi - boxes[i].lo).maxCoeff();
   const double side = 2.0 * half + 4.0;
   origin_ = -half - 2.0;
-  // Cells as large as 98% of the boxes (estimated on a sample), so that a box listed by its lo
-  // corner is found one cell below the query's range, and about one body per cell. The few
-  // larger boxes (bodies much faster than the rest) are wide.
-  std::vector<double> ext;
-  const size_t stride = std::max<size_t>(1, n / 4096);
-  for (size_t i = 0; i < n; i += stride) ext.push_back((boxes[i].hi - boxes[i].lo).maxCoeff());
+  // Cells at least as large as 98% of the boxes (such a box spans at most 2 cells per axis,
+  // so a query only looks one cell below its own range) and about one body per cell. The
+  // few larger boxes (bodies much faster than the rest) are listed in every cell they
+  // overlap, like the bodies that change velocity during the frame.
   double typical = 0.0;
-  if (!ext.empty()) {
-    const size_t k = std::min(ext.size() - 1, static_cast<size_t>(0.98 * ext.size()));
-    std::nth_element(ext.begin(), ext.begin() + static_cast<long>(k), ext.end());
-    typical = ext[k];
+  if (n > 0) {
+    std::vector<double> e = ext;
+    const size_t k = std::min(n - 1, static_cast<size_t>(0.98 * n));
+    std::nth_element(e.begin(), e.begin() + k, e.end());
+    typical = e[k];
   }
-  reach_ = h_ = std::max(typical, side / std::max(1.0, std::cbrt(static_cast<double>(n))));
+  h_ = std::max(typical, side / std::max(1.0, std::cbrt(static_cast<double>(n))));
   inv_h_ = 1.0 / h_;
   g_ = std::max(1, static_cast<int>(std::ceil(side / h_)) + 1);
   const size_t cells = static_cast<size_t>(g_) * g_ * g_;
@@ -190,67 +191,54 @@ void RequeryGrid::build(const std::vector<Box>& boxes, double half) {
     entries_[e] = Entry{boxes[i], static_cast<uint32_t>(i)};
     entry_of_[i] = e;
   }
-  node_first_.assign(n, 0);
-  node_count_.assign(n, 0);
+  moved_version_.resize(n, 0);
   if (dyn_head_.size() != cells) {
     dyn_head_.assign(cells, -1);
-    wide_head_.assign(cells, -1);
   } else {
-    for (size_t c : dyn_touched_) dyn_head_[c] = wide_head_[c] = -1;
+    for (size_t c : dyn_touched_) dyn_head_[c] = -1;
   }
   dyn_touched_.clear();
   dyn_nodes_.clear();
-  any_wide_ = false;
   if (stamp_.size() != n) {
     stamp_.assign(n, 0);
     stamp_now_ = 0;
   }
   for (size_t i = 0; i < n; ++i) {
-    if ((boxes[i].hi - boxes[i].lo).maxCoeff() > reach_) moved(static_cast<uint32_t>(i), boxes[i]);
+    if (ext[i] > h_) moved(static_cast<uint32_t>(i), boxes[i]);
   }
-}
-
-void RequeryGrid::listNode(std::vector<int32_t>& head, size_t cell, const Node& node) {
-  if (dyn_head_[cell] < 0 && wide_head_[cell] < 0) dyn_touched_.push_back(cell);
-  dyn_nodes_.push_back(node);
-  dyn_nodes_.back().next = head[cell];
-  head[cell] = static_cast<int32_t>(dyn_nodes_.size() - 1);
 }
 
 void RequeryGrid::moved(uint32_t id, const Box& box) {
-  // Off its previous path: empty that listing (lo > hi overlaps no box).
-  auto empty = [](Box& gone) {
+  if (entry_of_[id] != kNone) {  // off its frame path: empty its static entry
+    Box& gone = entries_[entry_of_[id]].box;
     gone.lo.x() = std::numeric_limits<double>::infinity();
     gone.hi.x() = -std::numeric_limits<double>::infinity();
-  };
-  if (entry_of_[id] != kNone) {
-    empty(entries_[entry_of_[id]].box);
     entry_of_[id] = kNone;
   }
-  for (uint32_t k = 0; k < node_count_[id]; ++k) empty(dyn_nodes_[node_first_[id] + k].box);
-  node_first_[id] = static_cast<uint32_t>(dyn_nodes_.size());
-  const int x0 = cellOf(box.lo.x()), y0 = cellOf(box.lo.y()), z0 = cellOf(box.lo.z());
-  const Node node{box, id, -1};
-  if ((box.hi - box.lo).maxCoeff() <= reach_) {
-    listNode(dyn_head_, index(x0, y0, z0), node);
-  } else {
-    any_wide_ = true;
-    const int x1 = cellOf(box.hi.x()), y1 = cellOf(box.hi.y()), z1 = cellOf(box.hi.z());
-    for (int z = z0; z <= z1; ++z)
-      for (int y = y0; y <= y1; ++y)
-        for (int x = x0; x <= x1; ++x) listNode(wide_head_, index(x, y, z), node);
-  }
-  node_count_[id] = static_cast<uint32_t>(dyn_nodes_.size()) - node_first_[id];
+  const uint32_t version = ++moved_version_[id];
+  const int x0 = cellOf(box.lo.x()), x1 = cellOf(box.hi.x());
+  const int y0 = cellOf(box.lo.y()), y1 = cellOf(box.hi.y());
+  const int z0 = cellOf(box.lo.z()), z1 = cellOf(box.hi.z());
+  Node node{box, id, version, -1};
+  for (int z = z0; z <= z1; ++z)
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) {
+        const size_t c = index(x, y, z);
+        if (dyn_head_[c] < 0) dyn_touched_.push_back(c);
+        node.next = dyn_head_[c];
+        dyn_nodes_.push_back(node);
+        dyn_head_[c] = static_cast<int32_t>(dyn_nodes_.size() - 1);
+      }
 }
 
 void RequeryGrid::query(uint32_t id, const Box& box, std::vector<uint32_t>& out) {
   out.clear();
-  // Boxes listed once, by lo corner (the build's entries, the moved bodies' nodes).
+  // Bodies still on their frame path: each has one entry, in the cell of its box's lo corner,
+  // which lies within one cell size below the query box if the boxes overlap.
   {
-    const int x0 = cellOf(box.lo.x() - reach_), x1 = cellOf(box.hi.x());
-    const int y0 = cellOf(box.lo.y() - reach_), y1 = cellOf(box.hi.y());
-    const int z0 = cellOf(box.lo.z() - reach_), z1 = cellOf(box.hi.z());
-    const bool any_dyn = !dyn_nodes_.empty();
+    const int x0 = cellOf(box.lo.x() - h_), x1 = cellOf(box.hi.x());
+    const int y0 = cellOf(box.lo.y() - h_), y1 = cellOf(box.hi.y());
+    const int z0 = cellOf(box.lo.z() - h_), z1 = cellOf(box.hi.z());
     for (int z = z0; z <= z1; ++z)
       for (int y = y0; y <= y1; ++y) {
         const size_t row = index(0, y, z);
@@ -259,16 +247,10 @@ void RequeryGrid::query(uint32_t id, const Box& box, std::vector<uint32_t>& out)
         for (; e != end; ++e) {
           if (overlaps(e->box, box) && e->body != id) out.push_back(e->body);
         }
-        if (!any_dyn) continue;
-        for (int x = x0; x <= x1; ++x)
-          for (int32_t k = dyn_head_[row + x]; k >= 0; k = dyn_nodes_[k].next) {
-            const Node& node = dyn_nodes_[k];
-            if (overlaps(node.box, box) && node.body != id) out.push_back(node.body);
-          }
       }
   }
-  // Wide boxes, listed in every cell they overlap: deduplicated.
-  if (any_wide_) {
+  // Bodies that changed velocity this frame: possibly listed in several cells, so deduplicated.
+  if (!dyn_nodes_.empty()) {
     if (++stamp_now_ == 0) {
       std::fill(stamp_.begin(), stamp_.end(), 0);
       stamp_now_ = 1;
@@ -280,9 +262,12 @@ void RequeryGrid::query(uint32_t id, const Box& box, std::vector<uint32_t>& out)
     for (int z = z0; z <= z1; ++z)
       for (int y = y0; y <= y1; ++y)
         for (int x = x0; x <= x1; ++x)
-          for (int32_t k = wide_head_[index(x, y, z)]; k >= 0; k = dyn_nodes_[k].next) {
+          for (int32_t k = dyn_head_[index(x, y, z)]; k >= 0; k = dyn_nodes_[k].next) {
             const Node& node = dyn_nodes_[k];
-            if (!overlaps(node.box, box) || stamp_[node.body] == stamp_now_) continue;
+            if (!overlaps(node.box, box) || node.version != moved_version_[node.body] ||
+                stamp_[node.body] == stamp_now_) {
+              continue;
+            }
             stamp_[node.body] = stamp_now_;
             out.push_back(node.body);
           }
@@ -291,8 +276,8 @@ void RequeryGrid::query(uint32_t id, const Box& box, std::vector<uint32_t>& out)
 
 size_t RequeryGrid::memoryBytes() const {
   return cell_start_.capacity() * 4 + entries_.capacity() * sizeof(Entry) + entry_of_.capacity() * 4 +
-         (dyn_head_.capacity() + wide_head_.capacity()) * 4 + dyn_touched_.capacity() * sizeof(size_t) +
-         dyn_nodes_.capacity() * sizeof(Node) + (node_first_.capacity() + node_count_.capacity() + stamp_.capacity()) * 4;
+         moved_version_.capacity() * 4 + dyn_head_.capacity() * 4 + dyn_touched_.capacity() * sizeof(size_t) +
+         dyn_nodes_.capacity() * sizeof(Node) + stamp_.capacity() * 4;
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -82,7 +82,7 @@ inline bool overlaps(const Box& a, const Box& b) {
 // Uniform grid over the boxes of the bodies' remaining paths (see the file comment).
 class RequeryGrid {
  public:
-  // Rebuilds from the boxes (one per body, every body alive) inside [-half, half]^3 (+ 2).
+  // Rebuilds from the frame's swept boxes (one per body, every body alive).
   void build(const std::vector<Box>& boxes, double half);
   // Body `id` has a new remaining path with box `box`.
   void moved(uint32_t id, const Box& box);
@@ -94,14 +94,11 @@ class RequeryGrid {
   int cellOf(double x) const;
   size_t index(int x, int y, int z) const { return (static_cast<size_t>(z) * g_ + y) * g_ + x; }
 
-  // Cells of size h_. A box no larger than reach_ on every axis is listed once, in the cell of
-  // its lo corner, which lies within reach_ below the query box if the boxes overlap; a larger
-  // box is listed in every cell it overlaps ("wide"). (reach_ = h_: smaller cells, tried with
-  // reach_ = 2 h_, scanned fewer boxes in more rows and were no faster.)
-  double origin_ = 0.0, h_ = 1.0, inv_h_ = 1.0, reach_ = 1.0;
+  double origin_ = 0.0, h_ = 1.0, inv_h_ = 1.0;
   int g_ = 1;
-  // Boxes of the build, by lo-corner cell (CSR), each with its body, so that a query scans
-  // contiguous memory. A body that moves has its entry emptied (lo > hi), which no box overlaps.
+  // Bodies still on their frame path, by the cell of their box's lo corner (CSR), each with a
+  // copy of its box, so that a query scans contiguous memory. A body that moves has its entry
+  // emptied (lo > hi), which no box overlaps.
   struct Entry {
     Box box;
     uint32_t body;
@@ -110,22 +107,19 @@ class RequeryGrid {
   std::vector<Entry> entries_;
   std::vector<uint32_t> entry_of_;          // body -> its index in entries_, or kNone
   static constexpr uint32_t kNone = ~uint32_t{0};
-  // Bodies moved since the build, and wide boxes: linked lists per cell, lo-corner listing in
-  // dyn_head_, every overlapped cell in wide_head_ (deduplicated by the query). A body's nodes
-  // are contiguous (first, count); moving it again empties them, so no stale box can match.
+  // Bodies that changed velocity this frame (and boxes larger than a cell): listed, with their
+  // current box, in every cell that box overlaps; an older listing of the same body is stale.
+  std::vector<uint32_t> moved_version_;
   struct Node {
     Box box;
-    uint32_t body;
+    uint32_t body, version;
     int32_t next;
   };
-  void listNode(std::vector<int32_t>& head, size_t cell, const Node& node);
-  std::vector<int32_t> dyn_head_, wide_head_;  // per cell: first node, or -1
-  std::vector<size_t> dyn_touched_;            // cells whose heads are set, for the reset
+  std::vector<int32_t> dyn_head_;           // per cell: first node, or -1
+  std::vector<size_t> dyn_touched_;         // cells whose dyn_head_ is set, for the reset
   std::vector<Node> dyn_nodes_;
-  std::vector<uint32_t> node_first_, node_count_;  // body -> its nodes (count 0: none)
-  std::vector<uint32_t> stamp_;                // dedup of the wide bodies within one query
+  std::vector<uint32_t> stamp_;             // dedup of the moved bodies within one query
   uint32_t stamp_now_ = 0;
-  bool any_wide_ = false;
 };
 
 enum class RequeryMode { kGrid, kScan };

@@ -1,6 +1,6 @@
 // RequeryGrid (the bench world's mid-frame re-query structure) against a brute-force loop over
 // the current boxes: after a build, under repeated moves (boxes that fit a cell and wide ones,
-// far outside the box of the build too), every query must return exactly the bodies whose
+// far outside the box of the build too; stale listings of a body moved twice), every query must return exactly the bodies whose
 // current box overlaps, each once, never the querying body.
 #include "bench_world.h"
 
