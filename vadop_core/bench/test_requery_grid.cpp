@@ -1,7 +1,7 @@
 // RequeryGrid (the bench world's mid-frame re-query structure) against a brute-force loop over
-// the current boxes: after a build, under repeated moves (boxes that fit a cell and wide ones,
-// far outside the box of the build too; stale listings of a body moved twice), every query must return exactly the bodies whose
-// current box overlaps, each once, never the querying body.
+// the current boxes: after a build and under repeated moves (small boxes and wide ones, some far
+// outside the box of the build, bodies moved again so that their old listings are stale), every
+// query must return exactly the bodies whose current box overlaps, each once, never its own.
 #include "bench_world.h"
 
 #include <gtest/gtest.h>
