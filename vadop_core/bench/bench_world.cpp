@@ -314,8 +314,13 @@ ContinuousWorld::ContinuousWorld(const Scene& scene, const std::vector<vadop::Mo
   scene_.position.clear();
   scene_.velocity.clear();
   if (bp_->size() != 0) throw std::logic_error("ContinuousWorld: the broad phase must be empty");
+  if (motions_.size() != n_) throw std::invalid_argument("ContinuousWorld: one motion per sphere needed");
   kin_.resize(n_);
-  for (uint32_t i = 0; i < n_; ++i) kin_[i] = Kinematics{motions_[i].position, motions_[i].t_ref, motions_[i].linear_velocity};
+  for (uint32_t i = 0; i < n_; ++i) {
+    // The spheres only translate: the compact copy (and mayTouch) hold no rotation.
+    if (motions_[i].isRotating()) throw std::invalid_argument("ContinuousWorld: body " + std::to_string(i) + " rotates");
+    kin_[i] = Kinematics{motions_[i].position, motions_[i].t_ref, motions_[i].linear_velocity};
+  }
   for (uint32_t i = 0; i < n_; ++i) {
     if (bp_->add(broad_shape_, motions_[i]) != i) throw std::logic_error("ContinuousWorld: unexpected body id");
   }

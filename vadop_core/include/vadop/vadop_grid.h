@@ -120,8 +120,8 @@ class VadopGridBroadPhase : public BroadPhase {
   std::vector<uint16_t> rank_;         // words_ per slot: entries before each word
   std::vector<uint32_t> offset_;       // first interval of the slot
   // All slots' pool-axis intervals. When the incremental mode may run, a frame computes them
-  // lazily: only the slots of kept pairs whose boxes overlap need them (a few percent of the
-  // bodies in a slow scene); interval_ready_ says which are set.
+  // lazily: only the slots of kept pairs whose boxes overlap need them; interval_ready_ says
+  // which are set (all of them, in a frame of the full path).
   std::vector<Interval> intervals_;
   std::vector<uint8_t> interval_ready_;
   double frame_t0_ = 0.0, frame_t1_ = 0.0;  // of the last update
