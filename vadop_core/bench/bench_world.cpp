@@ -316,6 +316,7 @@ ContinuousWorld::ContinuousWorld(const Scene& scene, const std::vector<vadop::Mo
   if (bp_->size() != 0) throw std::logic_error("ContinuousWorld: the broad phase must be empty");
   if (motions_.size() != n_) throw std::invalid_argument("ContinuousWorld: one motion per sphere needed");
   kin_.resize(n_);
+  moved_flag_.assign(n_, 0);
   for (uint32_t i = 0; i < n_; ++i) {
     // The spheres only translate: the compact copy (and mayTouch) hold no rotation.
     if (motions_[i].isRotating()) throw std::invalid_argument("ContinuousWorld: body " + std::to_string(i) + " rotates");
@@ -489,7 +490,6 @@ void ContinuousWorld::runFrame(int f, FrameStats& st, std::vector<LoggedImpact>*
   double test_in_loop = 0.0;
   for (uint32_t i = 0; i < n_; ++i) predictWall(i, t0, t1);
   grid_built_ = false;
-  if (moved_flag_.size() != n_) moved_flag_.assign(n_, 0);
   const size_t max_events = 64 * static_cast<size_t>(n_) + 10000;
   size_t events = 0;
   uint32_t changed[2];

@@ -72,6 +72,14 @@ size_t VadopGridBroadPhase::memoryBytes() const {
   return bytes;
 }
 
+template <class F>
+void VadopGridBroadPhase::forEachProjected(uint32_t s, F&& f) const {
+  const Body& body = bodies()[slot_body_[s]];
+  const SweptBody swept(*body.shape, body.motion, frame_t0_, frame_t1_);
+  detail::forEachSetBit(&bits_[words_ * s], words_,
+                        [&](uint32_t k) { f(k, swept.project(pool_->axis(static_cast<int>(k)))); });
+}
+
 std::vector<VadopGridBroadPhase::AxisSpan> VadopGridBroadPhase::volume(BodyId id) const {
   requireKnown(id, "volume");
   std::vector<AxisSpan> out;
@@ -82,11 +90,7 @@ std::vector<VadopGridBroadPhase::AxisSpan> VadopGridBroadPhase::volume(BodyId id
     detail::forEachSetBit(&bits_[words_ * s], words_,
                           [&](uint32_t k) { out.push_back({k, intervals_[offset_[s] + i++]}); });
   } else {  // lazy and not needed by the update; the motion is unchanged since (onMotionChanging)
-    const Body& body = bodies()[id];
-    const SweptBody swept(*body.shape, body.motion, frame_t0_, frame_t1_);
-    detail::forEachSetBit(&bits_[words_ * s], words_, [&](uint32_t k) {
-      out.push_back({k, swept.project(pool_->axis(static_cast<int>(k)))});
-    });
+    forEachProjected(s, [&](uint32_t k, const Interval& iv) { out.push_back({k, iv}); });
   }
   const uint32_t m = static_cast<uint32_t>(pool_->size());
   for (uint32_t k = 0; k < 3; ++k) out.push_back({m + k, Interval{box_[6 * s + k], box_[6 * s + 3 + k]}});
@@ -129,11 +133,8 @@ void VadopGridBroadPhase::onMotionChanging(BodyId id) {
 }
 
 void VadopGridBroadPhase::projectSlot(uint32_t s) {
-  const Body& body = bodies()[slot_body_[s]];
-  const SweptBody swept(*body.shape, body.motion, frame_t0_, frame_t1_);
   Interval* out = &intervals_[offset_[s]];
-  detail::forEachSetBit(&bits_[words_ * s], words_,
-                        [&](uint32_t k) { *out++ = swept.project(pool_->axis(static_cast<int>(k))); });
+  forEachProjected(s, [&](uint32_t, const Interval& iv) { *out++ = iv; });
   interval_ready_[s] = 1;
 }
 
@@ -390,15 +391,13 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
     offset_[s] = next_interval;
     uint64_t* bits = &bits_[words_ * s];
     std::copy_n(&axis_bits_[id * words_], words_, bits);
-    if (lazy) {
-      for (size_t w = 0; w < words_; ++w) next_interval += static_cast<uint32_t>(__builtin_popcountll(bits[w]));
-    } else {
-      detail::forEachSetBit(bits, words_, [&](uint32_t k) {
-        intervals_[next_interval++] = swept.project(pool_->axis(static_cast<int>(k)));
-      });
-    }
     uint16_t* rank = &rank_[words_ * s];
     for (size_t w = 1; w < words_; ++w) rank[w] = static_cast<uint16_t>(rank[w - 1] + __builtin_popcountll(bits[w - 1]));
+    if (!lazy) {
+      Interval* iv = &intervals_[next_interval];
+      detail::forEachSetBit(bits, words_, [&](uint32_t k) { *iv++ = swept.project(pool_->axis(static_cast<int>(k))); });
+    }
+    next_interval += rank[words_ - 1] + static_cast<uint32_t>(__builtin_popcountll(bits[words_ - 1]));
     ++s;
   }
   auto grid_from = Clock::now();

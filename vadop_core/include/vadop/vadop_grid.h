@@ -91,6 +91,10 @@ class VadopGridBroadPhase : public BroadPhase {
   void buildGrid(double cell_size);
   uint32_t cellIndex(const Cell& c);  // find or insert in the hash table
   bool overlapOnShared(uint32_t a, uint32_t b);
+  // f(axis, interval) for each pool axis of slot s: its body's swept volume over the last
+  // update's frame, projected now (the body's motion must be the update's).
+  template <class F>
+  void forEachProjected(uint32_t s, F&& f) const;
   // The slot's pool-axis intervals, computed on first use in a lazy frame (see intervals_).
   void projectSlot(uint32_t s);
   void requireIntervals(uint32_t s) {
