@@ -155,6 +155,17 @@ int RequeryGrid::cellOf(double x) const {
   return static_cast<int>(c);
 }
 
+RequeryGrid::FloatBox RequeryGrid::toFloat(const Box& b) {
+  // Conversion to float is monotone (x <= y implies float(x) <= float(y)), so boxes that
+  // overlap in double still overlap in float: the rounding can add answers, never drop one.
+  FloatBox f;
+  for (int k = 0; k < 3; ++k) {
+    f.lo[k] = static_cast<float>(b.lo[k]);
+    f.hi[k] = static_cast<float>(b.hi[k]);
+  }
+  return f;
+}
+
 void RequeryGrid::build(const std::vector<Box>& boxes, double half) {
   const size_t n = boxes.size();
   std::vector<double> ext(n);
@@ -188,7 +199,7 @@ void RequeryGrid::build(const std::vector<Box>& boxes, double half) {
   entry_of_.resize(n);
   for (size_t i = 0; i < n; ++i) {
     const uint32_t e = fill[cell_of[i]]++;
-    entries_[e] = Entry{boxes[i], static_cast<uint32_t>(i)};
+    entries_[e] = Entry{toFloat(boxes[i]), static_cast<uint32_t>(i)};
     entry_of_[i] = e;
   }
   moved_version_.resize(n, 0);
@@ -210,16 +221,16 @@ void RequeryGrid::build(const std::vector<Box>& boxes, double half) {
 
 void RequeryGrid::moved(uint32_t id, const Box& box) {
   if (entry_of_[id] != kNone) {  // off its frame path: empty its static entry
-    Box& gone = entries_[entry_of_[id]].box;
-    gone.lo.x() = std::numeric_limits<double>::infinity();
-    gone.hi.x() = -std::numeric_limits<double>::infinity();
+    FloatBox& gone = entries_[entry_of_[id]].box;
+    gone.lo[0] = std::numeric_limits<float>::infinity();
+    gone.hi[0] = -std::numeric_limits<float>::infinity();
     entry_of_[id] = kNone;
   }
   const uint32_t version = ++moved_version_[id];
   const int x0 = cellOf(box.lo.x()), x1 = cellOf(box.hi.x());
   const int y0 = cellOf(box.lo.y()), y1 = cellOf(box.hi.y());
   const int z0 = cellOf(box.lo.z()), z1 = cellOf(box.hi.z());
-  Node node{box, id, version, -1};
+  Node node{toFloat(box), id, version, -1};
   for (int z = z0; z <= z1; ++z)
     for (int y = y0; y <= y1; ++y)
       for (int x = x0; x <= x1; ++x) {
@@ -233,6 +244,7 @@ void RequeryGrid::moved(uint32_t id, const Box& box) {
 
 void RequeryGrid::query(uint32_t id, const Box& box, std::vector<uint32_t>& out) {
   out.clear();
+  const FloatBox q = toFloat(box);
   // Bodies still on their frame path: each has one entry, in the cell of its box's lo corner,
   // which lies within one cell size below the query box if the boxes overlap.
   {
@@ -245,7 +257,7 @@ void RequeryGrid::query(uint32_t id, const Box& box, std::vector<uint32_t>& out)
         const Entry* e = entries_.data() + cell_start_[row + x0];
         const Entry* end = entries_.data() + cell_start_[row + x1 + 1];
         for (; e != end; ++e) {
-          if (overlaps(e->box, box) && e->body != id) out.push_back(e->body);
+          if (overlaps(e->box, q) && e->body != id) out.push_back(e->body);
         }
       }
   }
@@ -264,7 +276,7 @@ void RequeryGrid::query(uint32_t id, const Box& box, std::vector<uint32_t>& out)
         for (int x = x0; x <= x1; ++x)
           for (int32_t k = dyn_head_[index(x, y, z)]; k >= 0; k = dyn_nodes_[k].next) {
             const Node& node = dyn_nodes_[k];
-            if (!overlaps(node.box, box) || node.version != moved_version_[node.body] ||
+            if (!overlaps(node.box, q) || node.version != moved_version_[node.body] ||
                 stamp_[node.body] == stamp_now_) {
               continue;
             }

@@ -86,7 +86,10 @@ class RequeryGrid {
   void build(const std::vector<Box>& boxes, double half);
   // Body `id` has a new remaining path with box `box`.
   void moved(uint32_t id, const Box& box);
-  // Every body other than `id` whose box overlaps `box`, each once (unordered).
+  // Every body other than `id` whose box overlaps `box`, each once (unordered). The boxes are
+  // held in single precision (half the bytes to scan: the query is memory-bound), so the
+  // answer may also hold bodies whose boxes miss by a rounding (relative 6e-8), never fewer:
+  // the narrow phase drops those.
   void query(uint32_t id, const Box& box, std::vector<uint32_t>& out);
   size_t memoryBytes() const;
 
@@ -99,8 +102,16 @@ class RequeryGrid {
   // Bodies still on their frame path, by the cell of their box's lo corner (CSR), each with a
   // copy of its box, so that a query scans contiguous memory. A body that moves has its entry
   // emptied (lo > hi), which no box overlaps.
+  struct FloatBox {  // a Box in single precision
+    float lo[3], hi[3];
+  };
+  static FloatBox toFloat(const Box& b);
+  static bool overlaps(const FloatBox& a, const FloatBox& b) {
+    return a.lo[0] <= b.hi[0] && b.lo[0] <= a.hi[0] && a.lo[1] <= b.hi[1] && b.lo[1] <= a.hi[1] &&
+           a.lo[2] <= b.hi[2] && b.lo[2] <= a.hi[2];
+  }
   struct Entry {
-    Box box;
+    FloatBox box;
     uint32_t body;
   };
   std::vector<uint32_t> cell_start_;
@@ -111,7 +122,7 @@ class RequeryGrid {
   // current box, in every cell that box overlaps; an older listing of the same body is stale.
   std::vector<uint32_t> moved_version_;
   struct Node {
-    Box box;
+    FloatBox box;
     uint32_t body, version;
     int32_t next;
   };

@@ -1,7 +1,9 @@
 // RequeryGrid (the bench world's mid-frame re-query structure) against a brute-force loop over
 // the current boxes: after a build and under repeated moves (small boxes and wide ones, some far
 // outside the box of the build, bodies moved again so that their old listings are stale), every
-// query must return exactly the bodies whose current box overlaps, each once, never its own.
+// query must return every body whose current box overlaps, each once, never its own, and
+// nothing beyond the bodies whose boxes come within single-precision rounding (the grid holds
+// its boxes as floats).
 #include "bench_world.h"
 
 #include <gtest/gtest.h>
@@ -25,12 +27,20 @@ Box randomBox(std::mt19937_64& rng, double half, double max_extent) {
   return b;
 }
 
-std::vector<uint32_t> bruteForce(const std::vector<Box>& boxes, uint32_t id, const Box& q) {
+// The bodies whose box, grown by `slack` relative to the coordinates, overlaps q.
+std::vector<uint32_t> bruteForce(const std::vector<Box>& boxes, uint32_t id, const Box& q, double slack = 0.0) {
   std::vector<uint32_t> out;
   for (uint32_t k = 0; k < boxes.size(); ++k) {
-    if (k != id && vadop_bench::overlaps(boxes[k], q)) out.push_back(k);
+    Box b = boxes[k];
+    b.lo.array() -= slack * (1.0 + b.lo.array().abs());
+    b.hi.array() += slack * (1.0 + b.hi.array().abs());
+    if (k != id && vadop_bench::overlaps(b, q)) out.push_back(k);
   }
   return out;
+}
+
+bool isSubset(const std::vector<uint32_t>& a, const std::vector<uint32_t>& b) {
+  return std::includes(b.begin(), b.end(), a.begin(), a.end());
 }
 
 TEST(RequeryGrid, QueriesMatchBruteForceUnderMoves) {
@@ -55,12 +65,47 @@ TEST(RequeryGrid, QueriesMatchBruteForceUnderMoves) {
       const Box q = randomBox(rng, half, step % 11 == 0 ? 30.0 : 5.0);
       grid.query(id, q, got);
       std::sort(got.begin(), got.end());
-      ASSERT_EQ(got, bruteForce(boxes, id, q)) << "round " << round << " step " << step;
+      ASSERT_TRUE(std::adjacent_find(got.begin(), got.end()) == got.end()) << "duplicate, step " << step;
+      ASSERT_TRUE(isSubset(bruteForce(boxes, id, q), got)) << "missed a body: round " << round << " step " << step;
+      ASSERT_TRUE(isSubset(got, bruteForce(boxes, id, q, 1e-6))) << "far body: round " << round << " step " << step;
       ++checked;
       found += got.size();
     }
   }
   EXPECT_GT(found, checked);  // the queries were not trivially empty
+}
+
+// Rounding to float must never separate boxes: those that touch the query at a face (in double)
+// or overlap it by far less than a float's resolution are found.
+TEST(RequeryGrid, FindsBoxesTouchingBelowFloatResolution) {
+  const double half = 30.0;
+  std::vector<Box> boxes(3);
+  const Eigen::Vector3d lo(1.1, -7.3, 12.7);
+  boxes[0] = Box{lo, lo + Eigen::Vector3d(2.0, 2.0, 2.0)};
+  boxes[1] = Box{Eigen::Vector3d(20.0, 20.0, 20.0), Eigen::Vector3d(21.0, 21.0, 21.0)};
+  boxes[2] = Box{Eigen::Vector3d(-20.0, -20.0, -20.0), Eigen::Vector3d(-19.0, -19.0, -19.0)};
+  RequeryGrid grid;
+  grid.build(boxes, half);
+  std::vector<uint32_t> got;
+  const double eps = 1e-12;
+  // Query boxes above box 0 from x = its hi (exact face contact) or just inside it, and below
+  // it up to x = its lo or just inside.
+  for (const double x0 : {boxes[0].hi.x(), boxes[0].hi.x() - eps}) {
+    const Box q{Eigen::Vector3d(x0, lo.y() + 0.5, lo.z() + 0.5), Eigen::Vector3d(x0 + 1.0, lo.y() + 1.0, lo.z() + 1.0)};
+    grid.query(2, q, got);
+    EXPECT_EQ(got, std::vector<uint32_t>{0}) << "above, x0 = " << x0;
+  }
+  for (const double x1 : {lo.x(), lo.x() + eps}) {
+    const Box q{Eigen::Vector3d(x1 - 1.0, lo.y() + 0.5, lo.z() + 0.5), Eigen::Vector3d(x1, lo.y() + 1.0, lo.z() + 1.0)};
+    grid.query(2, q, got);
+    EXPECT_EQ(got, std::vector<uint32_t>{0}) << "below, x1 = " << x1;
+  }
+  // The same after box 0 moved (its listing in the moved bodies' lists).
+  boxes[0] = Box{lo + Eigen::Vector3d(0.3, 0.0, 0.0), lo + Eigen::Vector3d(2.3, 2.0, 2.0)};
+  grid.moved(0, boxes[0]);
+  const Box q{Eigen::Vector3d(boxes[0].hi.x(), lo.y(), lo.z()), Eigen::Vector3d(boxes[0].hi.x() + 1.0, lo.y() + 1.0, lo.z() + 1.0)};
+  grid.query(2, q, got);
+  EXPECT_EQ(got, std::vector<uint32_t>{0});
 }
 
 }  // namespace
