@@ -99,9 +99,6 @@ class RequeryGrid {
 
   double origin_ = 0.0, h_ = 1.0, inv_h_ = 1.0;
   int g_ = 1;
-  // Bodies still on their frame path, by the cell of their box's lo corner (CSR), each with a
-  // copy of its box, so that a query scans contiguous memory. A body that moves has its entry
-  // emptied (lo > hi), which no box overlaps.
   struct FloatBox {  // a Box in single precision
     float lo[3], hi[3];
   };
@@ -110,6 +107,9 @@ class RequeryGrid {
     return a.lo[0] <= b.hi[0] && b.lo[0] <= a.hi[0] && a.lo[1] <= b.hi[1] && b.lo[1] <= a.hi[1] &&
            a.lo[2] <= b.hi[2] && b.lo[2] <= a.hi[2];
   }
+  // Bodies still on their frame path, by the cell of their box's lo corner (CSR), each with a
+  // copy of its box, so that a query scans contiguous memory. A body that moves has its entry
+  // emptied (lo > hi), which no box overlaps.
   struct Entry {
     FloatBox box;
     uint32_t body;
