@@ -168,8 +168,7 @@ RequeryGrid::FloatBox RequeryGrid::toFloat(const Box& b) {
 
 void RequeryGrid::build(const std::vector<Box>& boxes, double half) {
   const size_t n = boxes.size();
-  std::vector<double> ext(n);
-  for (size_t i = 0; i < n; ++i) ext[i] = (boxes[i].hi - boxes[i].lo).maxCoeff();
+  auto extent = [&boxes](size_t i) { return (boxes[i].hi - boxes[i].lo).maxCoeff(); };
   const double side = 2.0 * half + 4.0;
   origin_ = -half - 2.0;
   // Cells at least as large as 98% of the boxes (such a box spans at most 2 cells per axis,
@@ -178,7 +177,8 @@ void RequeryGrid::build(const std::vector<Box>& boxes, double half) {
   // overlap, like the bodies that change velocity during the frame.
   double typical = 0.0;
   if (n > 0) {
-    std::vector<double> e = ext;
+    std::vector<double> e(n);
+    for (size_t i = 0; i < n; ++i) e[i] = extent(i);
     const size_t k = std::min(n - 1, static_cast<size_t>(0.98 * n));
     std::nth_element(e.begin(), e.begin() + k, e.end());
     typical = e[k];
@@ -215,7 +215,7 @@ void RequeryGrid::build(const std::vector<Box>& boxes, double half) {
     stamp_now_ = 0;
   }
   for (size_t i = 0; i < n; ++i) {
-    if (ext[i] > h_) moved(static_cast<uint32_t>(i), boxes[i]);
+    if (extent(i) > h_) moved(static_cast<uint32_t>(i), boxes[i]);
   }
 }
 
@@ -456,12 +456,12 @@ void ContinuousWorld::prepareRequeryGrid(int f) {
 
 void ContinuousWorld::requery(uint32_t i, double tc, double t1, std::vector<uint32_t>& out) {
   out.clear();
-  const double rb = broad_shape_->bounding_radius;
   if (mode_ == RequeryMode::kGrid) {
     grid_.query(i, pathBox(i, tc, t1), out);
     return;
   }
   // Exhaustive: the exact swept-capsule test of BruteForceBroadPhase against every body.
+  const double rb = broad_shape_->bounding_radius;
   const Eigen::Vector3d p0 = motions_[i].positionAt(tc), p1 = motions_[i].positionAt(t1);
   const double reach = 2.0 * rb * (1.0 + 1e-12) + 1e-12;
   for (uint32_t k = 0; k < n_; ++k) {
