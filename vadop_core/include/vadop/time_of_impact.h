@@ -1,9 +1,12 @@
 // Continuous narrow phase: the first time two moving shapes touch.
 //
 // Contract (g(t) is the gap between the padded shapes, tol = ToiOptions::tolerance):
-//  - hit == false  =>  g(t) > tol/2 for every t in [t0, t1]      (certified)
+//  - hit == false, undecided == false  =>  g(t) > tol/2 for every t in [t0, t1]   (certified)
 //  - hit == true   =>  g(t) > tol/2 for every t in [t0, time)    (certified)
 //                      and g(time) <= tol                        (up to rounding)
+//  - undecided == true (hit == false): the budget (ToiOptions::max_iterations) ran out before a
+//    verdict: g(t) > tol/2 is certified on [t0, time) only; nothing is known after `time`.
+//    Never reported as a contact (no contact was found), never as clear.
 // So a contact (g <= 0) is never missed and `time` is never later than the first contact.
 // "Touching" means "within tol": when the shapes approach a contact directly, the contact
 // follows `time` by about tol / (closing speed); a pass within tol/2 of touching (a graze)
@@ -27,8 +30,9 @@ namespace vadop {
 
 struct ToiOptions {
   double tolerance = 1e-6;      // m, target gap: hit once the gap is <= tolerance; > 0
-  // Conservative-advancement steps. When they run out before a verdict, the result is a
-  // conservative hit at the last certified time (conservative = true), never a miss.
+  // Budget of distance evaluations (conservative-advancement steps and swept-volume tests).
+  // When it runs out before a verdict the result is `undecided` at the last certified time:
+  // neither a contact nor a miss.
   int max_iterations = 10000;
 };
 
@@ -48,10 +52,9 @@ struct Impact {
   // The gap at `time` (upper bound; <= tolerance on a hit; for overlapping cores an estimate
   // of minus the penetration depth).
   double distance = 0.0;
-  // The hit was declared without resolving the contact (max_iterations ran out, or no
-  // numerical progress was possible): `time` is then only a certified lower bound of the
-  // first contact (the gap is > tolerance/2 before it).
-  bool conservative = false;
+  // No verdict within the budget (max_iterations ran out, or no numerical progress was
+  // possible): hit is false and `time` is only the end of the certified-clear interval.
+  bool undecided = false;
 };
 
 // The first t in [t0, t1] at which a (moving with ma) and b (moving with mb) touch.

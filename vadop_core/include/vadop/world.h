@@ -94,6 +94,10 @@ class World {
   const BroadPhase& broadPhase() const { return *broad_phase_; }
   // Narrow-phase calls made by the last predict (its candidate pairs, after any `only` filter).
   size_t lastCandidateCount() const { return last_candidates_; }
+  // The pairs of the last predict that the narrow phase could not decide within its budget
+  // (Impact::undecided: clear up to impact.time, unknown after), in the order of predict's
+  // result. Not contacts: predict does not return them. The same for every broad phase.
+  const std::vector<WorldImpact>& lastUndecided() const { return last_undecided_; }
 
  private:
   struct Record {
@@ -112,6 +116,7 @@ class World {
   std::unordered_map<std::string, BodyId> by_name_;
   uint64_t next_key_ = 0;
   size_t last_candidates_ = 0;
+  std::vector<WorldImpact> last_undecided_;
 };
 
 }  // namespace vadop
