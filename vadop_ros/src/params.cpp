@@ -262,7 +262,7 @@ void parseObstacles(const XmlRpcValue& list, MonitorParams& out, std::set<std::s
 
 const std::set<std::string>& topLevelKeys() {
   static const std::set<std::string> keys = {
-      "fixed_frame", "rate", "horizon", "padding", "stale_timeout", "axes", "phi_deg",
+      "fixed_frame", "rate", "horizon", "padding", "stale_timeout", "max_stamp_skew", "axes", "phi_deg",
       "self_collision", "ignore_pairs", "bodies", "static_obstacles", "log_impacts",
       "publish_markers",
       // set by diagnostic_updater and dynamic_reconfigure themselves
@@ -325,6 +325,7 @@ MonitorParams parseParams(const XmlRpcValue& root) {
   p.horizon = ranged(member(root, "horizon"), p.horizon, 0.0, 60.0, false, "~horizon");
   p.padding = ranged(member(root, "padding"), p.padding, 0.0, 10.0, false, "~padding");
   p.stale_timeout = ranged(member(root, "stale_timeout"), p.stale_timeout, 0.0, 1e6, true, "~stale_timeout");
+  p.max_stamp_skew = ranged(member(root, "max_stamp_skew"), p.max_stamp_skew, 0.0, 3600.0, true, "~max_stamp_skew");
   const vadop::VadopConfig vadop_defaults;
   p.axes = vadop_defaults.axes;
   p.phi_deg = vadop_defaults.phi_deg;

@@ -66,6 +66,9 @@ struct MonitorParams {
   double horizon = 2.0;         // s, [0, 60]
   double padding = 0.0;         // m, [0, 10]
   double stale_timeout = 0.5;   // s, > 0
+  // s, (0, 3600]: a message stamped further than this from the node's clock (ahead or behind)
+  // is dropped as invalid; see BodyRegistry.
+  double max_stamp_skew = 5.0;
   int axes = 32;                // VADOP pool size (vadop::VadopConfig default)
   double phi_deg = 25.0;        // VADOP zone half-width (vadop::VadopConfig default)
   bool self_collision = false;
