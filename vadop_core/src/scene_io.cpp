@@ -1,6 +1,7 @@
 #include "vadop/scene_io.h"
 
 #include "vadop/error.h"
+#include "vadop/limits.h"
 
 #include <nlohmann/json.hpp>
 
@@ -9,6 +10,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <istream>
 #include <iterator>
 #include <limits>
 #include <map>
@@ -24,17 +26,54 @@ using json = nlohmann::json;
 
 // ------------------------------------------------------------------------------ text helpers
 
-// A JSON value as compact one-line text; ASCII only, so messages stay printable.
-std::string dumpOneLine(const json& v) {
-  return v.dump(-1, ' ', true, json::error_handler_t::replace);
-}
+std::string quoted(const std::string& s) { return messageQuote(s); }
 
-std::string quoted(const std::string& s) { return dumpOneLine(json(s)); }
+// At most this many characters of a value in a "got ..." text, and of a field path.
+constexpr size_t kMaxBriefChars = 60;
+constexpr size_t kMaxPathChars = 100;
+
+// Compact one-line JSON text of v, appended to `out`, stopping once `out` holds more than
+// `limit` characters: a huge value is never serialized whole. Strings and keys are quoted by
+// messageQuote. Recursion is bounded by the parser's depth limit (kMaxSceneDepth).
+void appendBrief(const json& v, std::string& out, size_t limit) {
+  if (out.size() > limit) return;
+  switch (v.type()) {
+    case json::value_t::array: {
+      out += '[';
+      bool first = true;
+      for (const json& e : v) {
+        if (out.size() > limit) return;
+        if (!first) out += ',';
+        first = false;
+        appendBrief(e, out, limit);
+      }
+      out += ']';
+      return;
+    }
+    case json::value_t::object: {
+      out += '{';
+      bool first = true;
+      for (const auto& kv : v.items()) {
+        if (out.size() > limit) return;
+        if (!first) out += ',';
+        first = false;
+        out += messageQuote(kv.key());
+        out += ':';
+        appendBrief(kv.value(), out, limit);
+      }
+      out += '}';
+      return;
+    }
+    case json::value_t::string: out += messageQuote(v.get_ref<const std::string&>()); return;
+    default: out += v.dump(); return;  // a number, boolean or null: short
+  }
+}
 
 // "got ..." text: the value itself, shortened.
 std::string brief(const json& v) {
-  std::string s = dumpOneLine(v);
-  if (s.size() > 60) s = s.substr(0, 57) + "...";
+  std::string s;
+  appendBrief(v, s, kMaxBriefChars);
+  if (s.size() > kMaxBriefChars) s = s.substr(0, kMaxBriefChars - 3) + "...";
   switch (v.type()) {
     case json::value_t::string: return "string " + s;
     case json::value_t::array: return "array " + s;
@@ -50,14 +89,8 @@ std::string bodyLabel(size_t index, const std::string* id) {
   return "body at index " + std::to_string(index);
 }
 
-// Replaces control characters (a parser message can quote raw input) so a message is one line.
-std::string oneLine(std::string s) {
-  for (char& c : s) {
-    const auto u = static_cast<unsigned char>(c);
-    if (u < 0x20 || u == 0x7f) c = ' ';
-  }
-  return s;
-}
+// One printable, bounded line (a parser message can quote raw input).
+std::string oneLine(const std::string& s) { return boundedMessage(s); }
 
 // ------------------------------------------------------------------ parsing with a location
 
@@ -67,31 +100,51 @@ std::string oneLine(std::string s) {
 // A key as a path component: as is when it is a plain name, else JSON-quoted (escaped, and
 // shortened when long), so that the path stays on one line and readable.
 std::string pathKey(const std::string& key) {
-  const bool plain = !key.empty() && key.size() <= 40 && std::all_of(key.begin(), key.end(), [](char c) {
+  const bool plain = !key.empty() && key.size() <= kMaxQuotedChars && std::all_of(key.begin(), key.end(), [](char c) {
     return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
   });
-  if (plain) return key;
-  std::string q = quoted(key);
-  if (q.size() > 60) q = q.substr(0, 56) + "...\"";
-  return q;
+  return plain ? key : quoted(key);
+}
+
+// A field path of at most about kMaxPathChars characters: when longer, its first and last
+// components with "..." between them.
+std::string joinPath(const std::vector<std::string>& parts) {
+  std::string all;
+  for (const std::string& p : parts) all += p;
+  if (all.size() <= kMaxPathChars) return all;
+  std::string head, tail;
+  size_t i = 0, j = parts.size();
+  while (i < j && head.size() + parts[i].size() <= kMaxPathChars / 2) head += parts[i++];
+  while (j > i && tail.size() + parts[j - 1].size() <= kMaxPathChars / 2) tail = parts[--j] + tail;
+  if (head.empty()) head = parts[0].substr(0, kMaxPathChars / 2);  // one long component
+  return head + "..." + tail;
 }
 
 class Locator {
  public:
-  struct DuplicateKey {
+  // Thrown from the parser callback: stops the parse with a message.
+  struct Stop {
     std::string message;
   };
 
   bool operator()(int /*depth*/, json::parse_event_t event, json& parsed) {
     switch (event) {
-      case json::parse_event_t::object_start: frames_.push_back(Frame{false, 0, {}, {}}); break;
-      case json::parse_event_t::array_start: frames_.push_back(Frame{true, 0, {}, {}}); break;
+      case json::parse_event_t::object_start:
+      case json::parse_event_t::array_start:
+        // Checked before the level is opened: nothing deeper is ever built or visited.
+        if (frames_.size() >= static_cast<size_t>(kMaxSceneDepth)) {
+          const std::string at = where();
+          throw Stop{(at.empty() ? std::string("scene") : at) + ": arrays and objects nested deeper than " +
+                     std::to_string(kMaxSceneDepth) + " levels (the limit; a scene needs 6)"};
+        }
+        frames_.push_back(Frame{event == json::parse_event_t::array_start, 0, {}, {}});
+        break;
       case json::parse_event_t::key: {
         Frame& f = frames_.back();
         std::string k = parsed.get<std::string>();
         if (!f.keys.insert(k).second) {
           f.key = std::move(k);
-          throw DuplicateKey{where() + " is given twice (duplicate key)"};
+          throw Stop{where() + " is given twice (duplicate key)"};
         }
         f.key = std::move(k);
         break;
@@ -113,7 +166,8 @@ class Locator {
 
   // "body "b" (index 1): shape.radius", "horizon", "body at index 2", or "" at the top level.
   std::string where() const {
-    std::string label, field;
+    std::string label;
+    std::vector<std::string> field;
     size_t first = 0;
     if (inBody() || (frames_.size() == 2 && isBodiesArray())) {
       const size_t index = frames_[1].index;
@@ -124,13 +178,14 @@ class Locator {
     for (size_t i = first; i < frames_.size(); ++i) {
       const Frame& f = frames_[i];
       if (f.array) {
-        field += "[" + std::to_string(f.index) + "]";
+        field.push_back("[" + std::to_string(f.index) + "]");
       } else if (!f.key.empty() || !f.keys.empty()) {
-        field += (field.empty() ? "" : ".") + pathKey(f.key);
+        field.push_back((field.empty() ? "" : ".") + pathKey(f.key));
       }
     }
-    if (label.empty()) return field;
-    return field.empty() ? label : label + ": " + field;
+    const std::string path = joinPath(field);
+    if (label.empty()) return path;
+    return path.empty() ? label : label + ": " + path;
   }
 
  private:
@@ -152,15 +207,33 @@ class Locator {
 
 json parseJson(const std::string& text) {
   Locator locator;
+  // nlohmann's lexer takes a NUL byte outside a string for the end of the input (inside a
+  // string it is an error anyway), so text after it would be ignored: the text is parsed with
+  // its full length, and a NUL byte where the parser stopped is reported as such.
+  const size_t nul = text.find('\0');
+  json root;
   try {
-    return json::parse(text, std::ref(locator));
-  } catch (const Locator::DuplicateKey& e) {
+    root = json::parse(text.begin(), text.end(), std::ref(locator));
+  } catch (const Locator::Stop& e) {
     throw InvalidArgument(oneLine(e.message));
+  } catch (const json::parse_error& e) {
+    if (nul != std::string::npos && e.byte >= nul + 1) {
+      const std::string at = locator.where();
+      throw InvalidArgument(oneLine((at.empty() ? std::string() : at + ": ") + "malformed JSON at byte " +
+                                    std::to_string(nul + 1) + ": a NUL byte (not allowed in JSON text)"));
+    }
+    std::string msg = e.what();
+    const std::string prefix = "parse error at ";
+    const size_t p = msg.find(prefix);
+    msg = p != std::string::npos ? msg.substr(p + prefix.size()) : msg.substr(msg.find(']') + 1);
+    const std::string at = locator.where();
+    throw InvalidArgument(oneLine((at.empty() ? std::string() : at + ": ") + "malformed JSON at " + msg));
   } catch (const json::out_of_range& e) {
     // 406: a number that overflows a double (JSON itself has no NaN or Inf).
     std::string token = e.what();
     const size_t open = token.find('\''), close = token.rfind('\'');
     token = open != std::string::npos && close > open ? token.substr(open + 1, close - open - 1) : "a number";
+    if (token.size() > kMaxBriefChars) token = token.substr(0, kMaxBriefChars - 3) + "...";
     const std::string at = locator.where();
     throw InvalidArgument(oneLine((at.empty() ? "scene" : at) + " must be finite, got " + token +
                                   " (out of the range of a double)"));
@@ -172,6 +245,11 @@ json parseJson(const std::string& text) {
     const std::string at = locator.where();
     throw InvalidArgument(oneLine((at.empty() ? std::string() : at + ": ") + "malformed JSON at " + msg));
   }
+  if (nul != std::string::npos) {  // the parse ended at the NUL byte: what follows is not JSON
+    throw InvalidArgument("malformed JSON at byte " + std::to_string(nul + 1) +
+                          ": a NUL byte after the scene (trailing text)");
+  }
+  return root;
 }
 
 // ----------------------------------------------------------------------- semantic validation
@@ -228,6 +306,21 @@ class Checker {
     return x;
   }
 
+  // x, failing with rangeError's message ("<field> = <x> is beyond <limit> <unit>") outside the range.
+  double ranged(double x, double limit, const std::string& field, const char* unit) const {
+    const std::string error = rangeError(x, limit, field, unit);
+    if (!error.empty()) failPlain(error);
+    return x;
+  }
+
+  // Each component within `limit`, and, when `norm_too`, the length as well ("|field|").
+  const Eigen::Vector3d& rangedVec(const Eigen::Vector3d& x, double limit, const std::string& field, const char* unit,
+                                   bool norm_too) const {
+    for (int i = 0; i < 3; ++i) ranged(x[i], limit, field + "[" + std::to_string(i) + "]", unit);
+    if (norm_too) ranged(x.norm(), limit, "|" + field + "|", unit);
+    return x;
+  }
+
   const json& array(const json& v, const std::string& field, size_t size, const char* of) const {
     if (!v.is_array() || v.size() != size) {
       fail(field, "must be an array of " + std::to_string(size) + " " + of + ", got " + brief(v));
@@ -242,12 +335,21 @@ class Checker {
     return out;
   }
 
+  // Points of a shape: each coordinate and each |point| within kMaxSize.
   std::vector<Eigen::Vector3d> points(const json& v, const std::string& field) const {
     if (!v.is_array() || v.empty()) fail(field, "must be a non-empty array of [x, y, z] points, got " + brief(v));
     std::vector<Eigen::Vector3d> out;
     out.reserve(v.size());
-    for (size_t i = 0; i < v.size(); ++i) out.push_back(vec3(v[i], field + "[" + std::to_string(i) + "]"));
+    for (size_t i = 0; i < v.size(); ++i) {
+      const std::string f = field + "[" + std::to_string(i) + "]";
+      out.push_back(rangedVec(vec3(v[i], f), kMaxSize, f, "m", true));
+    }
     return out;
+  }
+
+  // A shape dimension: finite, > 0 (or >= 0) and within kMaxSize.
+  double size(const json& v, const std::string& field, bool zero_ok = false) const {
+    return ranged(zero_ok ? nonNegative(v, field) : positive(v, field), kMaxSize, field, "m");
   }
 
  private:
@@ -263,22 +365,22 @@ Shape readShape(const json& v, const Checker& c) {
   const std::string for_type = " for a " + t;
   if (t == "sphere") {
     c.onlyKeys(v, {"type", "radius"}, "shape", for_type);
-    return makeSphere(c.positive(c.required(v, "radius", "shape.radius"), "shape.radius"));
+    return makeSphere(c.size(c.required(v, "radius", "shape.radius"), "shape.radius"));
   }
   if (t == "box") {
     c.onlyKeys(v, {"type", "size"}, "shape", for_type);
     const json& size = c.required(v, "size", "shape.size");
     c.array(size, "shape.size", 3, "numbers");
     Eigen::Vector3d s;
-    for (int i = 0; i < 3; ++i) s[i] = c.positive(size[i], "shape.size[" + std::to_string(i) + "]");
+    for (int i = 0; i < 3; ++i) s[i] = c.size(size[i], "shape.size[" + std::to_string(i) + "]");
     return makeBox(s);
   }
   if (t == "cylinder" || t == "capsule") {
     c.onlyKeys(v, {"type", "radius", "length"}, "shape", for_type);
-    const double r = c.positive(c.required(v, "radius", "shape.radius"), "shape.radius");
+    const double r = c.size(c.required(v, "radius", "shape.radius"), "shape.radius");
     const json& len = c.required(v, "length", "shape.length");
-    if (t == "cylinder") return makeCylinder(r, c.positive(len, "shape.length"));
-    return makeCapsule(r, c.nonNegative(len, "shape.length"));
+    if (t == "cylinder") return makeCylinder(r, c.size(len, "shape.length"));
+    return makeCapsule(r, c.size(len, "shape.length", true));
   }
   if (t == "convex") {
     c.onlyKeys(v, {"type", "points"}, "shape", for_type);
@@ -320,17 +422,13 @@ Eigen::Quaterniond readOrientation(const json& v, const Checker& c) {
   c.array(v, "orientation", 4, "numbers (a quaternion [x, y, z, w])");
   double q[4];
   for (int i = 0; i < 4; ++i) q[i] = c.number(v[i], "orientation[" + std::to_string(i) + "]");
-  // The norm without overflow or underflow: scale by the largest component first.
+  // Normalised scale-safely: divided by the largest |component| first, the norm lies in [1, 2],
+  // so neither [0, 0, 1e200, 1e200] (whose norm overflows) nor [0, 0, 1e-200, 1e-200] (whose
+  // squares underflow) is mistaken for zero. Only a real zero has no direction.
   double scale = 0.0;
   for (const double x : q) scale = std::max(scale, std::abs(x));
-  double norm = 0.0;
-  if (scale > 0.0) {
-    for (double& x : q) x /= scale;
-    norm = scale * std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-  }
-  if (!(norm >= 1e-9)) {
-    c.fail("orientation", "must be a non-zero quaternion [x, y, z, w] (norm >= 1e-9), got " + brief(v));
-  }
+  if (!(scale > 0.0)) c.fail("orientation", "must be a non-zero quaternion [x, y, z, w], got " + brief(v));
+  for (double& x : q) x /= scale;
   return Eigen::Quaterniond(q[3], q[0], q[1], q[2]).normalized();
 }
 
@@ -357,12 +455,17 @@ SceneBody readBody(const json& v, size_t index, std::unordered_map<std::string, 
     if (msg.rfind("body ", 0) == 0) throw;
     c.fail("shape:", msg);
   }
-  const Eigen::Vector3d position = c.vec3(c.required(v, "position", "position"), "position");
+  const Eigen::Vector3d position =
+      c.rangedVec(c.vec3(c.required(v, "position", "position"), "position"), kMaxCoordinate, "position", "m", false);
   Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();
   Eigen::Vector3d linear = Eigen::Vector3d::Zero(), angular = Eigen::Vector3d::Zero();
   if (const auto it = v.find("orientation"); it != v.end()) orientation = readOrientation(*it, c);
-  if (const auto it = v.find("linear_velocity"); it != v.end()) linear = c.vec3(*it, "linear_velocity");
-  if (const auto it = v.find("angular_velocity"); it != v.end()) angular = c.vec3(*it, "angular_velocity");
+  if (const auto it = v.find("linear_velocity"); it != v.end()) {
+    linear = c.rangedVec(c.vec3(*it, "linear_velocity"), kMaxLinearSpeed, "linear_velocity", "m/s", true);
+  }
+  if (const auto it = v.find("angular_velocity"); it != v.end()) {
+    angular = c.rangedVec(c.vec3(*it, "angular_velocity"), kMaxAngularSpeed, "angular_velocity", "rad/s", true);
+  }
   try {
     body.motion = makeMotion(position, orientation, linear, angular, 0.0);
   } catch (const InvalidArgument& e) {
@@ -372,15 +475,13 @@ SceneBody readBody(const json& v, size_t index, std::unordered_map<std::string, 
   return body;
 }
 
-}  // namespace
-
-Scene parseScene(const std::string& json_text) {
+Scene parseSceneUnbounded(const std::string& json_text) {
   const json root = parseJson(json_text);
   if (!root.is_object()) Checker("scene").failPlain("must be a JSON object, got " + brief(root));
   Checker("scene").onlyKeys(root, {"horizon", "bodies"}, "");
   const Checker c("");
   Scene scene;
-  scene.horizon = c.nonNegative(c.required(root, "horizon", "horizon"), "horizon");
+  scene.horizon = c.ranged(c.nonNegative(c.required(root, "horizon", "horizon"), "horizon"), kMaxTime, "horizon", "s");
   const json& bodies = c.required(root, "bodies", "bodies");
   if (!bodies.is_array()) c.fail("bodies", "must be an array of body objects, got " + brief(bodies));
   scene.bodies.reserve(bodies.size());
@@ -389,20 +490,79 @@ Scene parseScene(const std::string& json_text) {
   return scene;
 }
 
-Scene readSceneFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InvalidArgument("cannot open scene file " + quoted(path) + ": " + std::strerror(errno));
+// At most kMaxSceneBytes + 1 bytes of `in`: one more than the limit shows that it is exceeded,
+// whatever the stream is (a regular file, a pipe, /dev/zero).
+std::string readLimited(std::istream& in, const std::string& name) {
   std::string text;
+  std::vector<char> buf(size_t{1} << 16);
   errno = 0;
   try {
-    text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  } catch (const std::ios_base::failure&) {  // libstdc++ throws here for a directory
+    while (text.size() <= kMaxSceneBytes) {
+      in.read(buf.data(), static_cast<std::streamsize>(std::min(buf.size(), kMaxSceneBytes + 1 - text.size())));
+      text.append(buf.data(), static_cast<size_t>(in.gcount()));
+      if (!in) break;
+    }
+  } catch (const std::ios_base::failure&) {  // libstdc++ can throw here for a directory
     in.setstate(std::ios::badbit);
   }
   if (in.bad()) {
-    throw InvalidArgument("cannot read scene file " + quoted(path) + (errno ? std::string(": ") + std::strerror(errno) : ""));
+    throw InvalidArgument(oneLine("cannot read " + name + (errno ? std::string(": ") + std::strerror(errno) : "")));
   }
-  return parseScene(text);
+  if (text.size() > kMaxSceneBytes) {
+    throw InvalidArgument(oneLine(name + " is larger than " + std::to_string(kMaxSceneBytes >> 20) + " MiB (" +
+                                  std::to_string(kMaxSceneBytes) + " bytes), the limit of a scene"));
+  }
+  return text;
+}
+
+}  // namespace
+
+std::string messageQuote(const std::string& s) {
+  // Only a prefix is escaped: a 1 MB id is never serialized whole. (A multi-byte character cut
+  // at the end becomes U+FFFD.)
+  const bool long_input = s.size() > kMaxQuotedChars;
+  const std::string q = json(long_input ? s.substr(0, kMaxQuotedChars) : s)
+                            .dump(-1, ' ', true, json::error_handler_t::replace);
+  std::string inner = q.substr(1, q.size() - 2);
+  // Cut at an escape boundary once it exceeds kMaxQuotedChars characters.
+  size_t end = 0;
+  while (end < inner.size()) {
+    const size_t len = inner[end] != '\\' ? 1 : inner[end + 1] == 'u' ? 6 : 2;
+    if (end + len > kMaxQuotedChars) break;
+    end += len;
+  }
+  const bool cut = long_input || end < inner.size();
+  inner.resize(end);
+  return "\"" + inner + (cut ? "...\"" : "\"");
+}
+
+std::string boundedMessage(const std::string& s, size_t max_bytes) {
+  std::string out = s.size() > max_bytes ? s.substr(0, max_bytes >= 3 ? max_bytes - 3 : 0) + "..." : s;
+  if (out.size() > max_bytes) out.resize(max_bytes);
+  for (char& c : out) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u < 0x20 || u == 0x7f) c = ' ';
+    if (u >= 0x80) c = '?';
+  }
+  return out;
+}
+
+Scene parseScene(const std::string& json_text) {
+  try {
+    return parseSceneUnbounded(json_text);
+  } catch (const InvalidArgument& e) {
+    // Every message is one line of at most kMaxMessageBytes, also one from a make* check.
+    throw InvalidArgument(boundedMessage(e.what()));
+  }
+}
+
+Scene readScene(std::istream& in, const std::string& name) { return parseScene(readLimited(in, name)); }
+
+Scene readSceneFile(const std::string& path) {
+  const std::string name = "scene file " + quoted(path);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InvalidArgument(oneLine("cannot open " + name + ": " + std::strerror(errno)));
+  return readScene(in, name);
 }
 
 void addToWorld(const Scene& scene, World& world) {
@@ -436,6 +596,34 @@ std::string impactsToJsonLines(const std::vector<WorldImpact>& impacts) {
   std::string out;
   for (const WorldImpact& w : impacts) {
     out += impactToJson(w);
+    out += '\n';
+  }
+  return out;
+}
+
+std::string undecidedToJson(const WorldImpact& w) {
+  nlohmann::ordered_json j;
+  j["a"] = w.a;
+  j["b"] = w.b;
+  j["undecided_after"] = w.impact.time + 0.0;
+  return j.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
+}
+
+std::string predictionToJsonLines(const std::vector<WorldImpact>& impacts, const std::vector<WorldImpact>& undecided) {
+  std::vector<std::pair<const WorldImpact*, bool>> all;  // (pair, undecided)
+  all.reserve(impacts.size() + undecided.size());
+  for (const WorldImpact& w : impacts) all.emplace_back(&w, false);
+  for (const WorldImpact& w : undecided) all.emplace_back(&w, true);
+  std::stable_sort(all.begin(), all.end(), [](const auto& x, const auto& y) {
+    const WorldImpact& a = *x.first;
+    const WorldImpact& b = *y.first;
+    if (a.impact.time != b.impact.time) return a.impact.time < b.impact.time;
+    if (a.a_key != b.a_key) return a.a_key < b.a_key;
+    return a.b_key < b.b_key;
+  });
+  std::string out;
+  for (const auto& [w, is_undecided] : all) {
+    out += is_undecided ? undecidedToJson(*w) : impactToJson(*w);
     out += '\n';
   }
   return out;

@@ -3,7 +3,12 @@
 //  - --broadphase vadop|vadop_sap|sap|brute print byte-identical output on random 1,000-body scenes
 //    (and the same as the World API);
 //  - bad input or options: exit status 2, a one-line message naming body and field on stderr,
-//    nothing on stdout; --help: usage, exit 0.
+//    nothing on stdout; --help: usage, exit 0;
+//  - hostile input (issue 13): 80,000 levels of nesting, /dev/zero, a NUL byte, megabyte ids and
+//    keys, values beyond the range of limits.h: exit status 2 with one bounded line, quickly;
+//    quaternions whose norm overflows or underflows are rotations; values at the range's edge work.
+// The tool under test is the one built with these tests (VADOP_PREDICT_BIN), or the one named by
+// the environment variable VADOP_PREDICT_BIN (to show a test failing on another build).
 #include "vadop/scene_io.h"
 #include "vadop/world.h"
 
@@ -16,6 +21,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -76,16 +82,27 @@ std::string shellQuote(const std::string& s) {
 struct ToolRun {
   int status = -1;
   std::string out, err;
+  double seconds = 0.0;  // wall clock
 };
 
-// Runs vadop_predict with `args` (already shell-quoted where needed), stdin from `input_file`.
-ToolRun run(const std::string& args, const std::string& input_file = "/dev/null") {
+std::string toolPath() {
+  const char* env = std::getenv("VADOP_PREDICT_BIN");
+  return env && *env ? env : VADOP_PREDICT_BIN;
+}
+
+// Runs vadop_predict with `args` (already shell-quoted where needed), stdin from `input_file`
+// (through a pipe when `pipe`); `wrapper` (such as "timeout 20") goes before the tool.
+ToolRun run(const std::string& args, const std::string& input_file = "/dev/null", const std::string& wrapper = "",
+            bool pipe = false) {
   TempDir dir;
   const std::string out = dir.file("stdout"), err = dir.file("stderr");
-  const std::string cmd = shellQuote(VADOP_PREDICT_BIN) + " " + args + " < " + shellQuote(input_file) + " > " +
-                          shellQuote(out) + " 2> " + shellQuote(err);
+  const std::string tool = wrapper + " " + shellQuote(toolPath()) + " " + args;
+  const std::string cmd = (pipe ? "cat " + shellQuote(input_file) + " | " + tool : tool + " < " + shellQuote(input_file)) +
+                          " > " + shellQuote(out) + " 2> " + shellQuote(err);
+  const auto start = std::chrono::steady_clock::now();
   const int raw = std::system(cmd.c_str());
   ToolRun r;
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
   r.out = slurp(out);
   r.err = slurp(err);
@@ -261,6 +278,219 @@ TEST(VadopPredict, BadBodyAfterManyContactsPrintsNothing) {
   EXPECT_EQ(r.status, 2);
   EXPECT_EQ(r.out, "");
   EXPECT_NE(r.err.find("body \"last\" (index 1000): shape.size[1]"), std::string::npos) << r.err;
+}
+
+// The longest line vadop_predict may print on stderr, newline included (vadop_predict.cpp).
+constexpr size_t kMaxLineBytes = kMaxMessageBytes + 100;
+
+// Exit status 2, nothing on stdout, one line of at most kMaxLineBytes on stderr holding every needle.
+void expectRejected(const ToolRun& r, const std::string& name, const std::vector<std::string>& needles) {
+  EXPECT_EQ(r.status, 2) << name << ": " << r.err.substr(0, 1000);
+  EXPECT_EQ(r.out.size(), 0u) << name;
+  EXPECT_FALSE(r.err.empty()) << name;
+  EXPECT_LE(r.err.size(), kMaxLineBytes) << name << ": " << r.err.size() << " bytes: " << r.err.substr(0, 1000);
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << name << ": not one line: " << r.err.substr(0, 1000);
+  if (!r.err.empty()) EXPECT_EQ(r.err.back(), '\n') << name;
+  for (const auto& needle : needles) {
+    EXPECT_NE(r.err.find(needle), std::string::npos) << name << ": \"" << needle << "\" not in: " << r.err.substr(0, 1000);
+  }
+}
+
+TEST(VadopPredict, NestingOf80000LevelsIsRejectedWithoutRecursing) {
+  // Issue 13, 3: {"horizon": [[[...]]], "bodies": []}, 160 KB. It overflowed the stack
+  // (segfault) serializing the value into the message.
+  TempDir dir;
+  const size_t n = 80000;
+  const std::string text = R"({"horizon": )" + std::string(n, '[') + std::string(n, ']') + R"(, "bodies": []})";
+  const std::string file = dir.file("deep.json", text);
+  const std::vector<std::string> needles = {"horizon[0][0]", "nested deeper than 64 levels"};
+  expectRejected(run(shellQuote(file), "/dev/null", "timeout 60"), "file", needles);
+  expectRejected(run("-", file, "timeout 60"), "stdin", needles);
+  // The same with objects, inside a body: the path names the body.
+  std::string objects = R"({"horizon": 1, "bodies": [{"id": "a", "shape": )";
+  for (size_t i = 0; i < n; ++i) objects += R"({"k": )";
+  objects += "1" + std::string(n, '}') + "}]}";
+  expectRejected(run(shellQuote(dir.file("deep_objects.json", objects)), "/dev/null", "timeout 60"), "objects",
+                 {"body \"a\" (index 0): shape.k.k.k", "nested deeper than 64 levels"});
+}
+
+TEST(VadopPredict, InputIsReadUpToTheSizeLimitOnly) {
+  // Issue 13, 9: /dev/zero was read until allocation failed (~1 GB, 10 s and more).
+  const ToolRun file = run("/dev/zero", "/dev/null", "timeout 20");
+  expectRejected(file, "/dev/zero", {"/dev/zero", "larger than 64 MiB"});
+  EXPECT_LT(file.seconds, 2.0);
+  const ToolRun in = run("-", "/dev/zero", "timeout 20");
+  expectRejected(in, "stdin from /dev/zero", {"standard input", "larger than 64 MiB"});
+  EXPECT_LT(in.seconds, 2.0);
+  // A pipe, and a regular file, one byte over the limit.
+  TempDir dir;
+  const std::string pad = dir.file("pad");
+  ASSERT_EQ(truncate(pad.c_str(), static_cast<off_t>(kMaxSceneBytes + 1)), 0);
+  expectRejected(run(shellQuote(pad), "/dev/null", "timeout 20"), "limit + 1, file", {"larger than 64 MiB"});
+  expectRejected(run("", pad, "timeout 20", true), "limit + 1, pipe", {"standard input", "larger than 64 MiB"});
+  // A scene of exactly kMaxSceneBytes (padded with spaces) is read, from a file and a pipe.
+  std::string text = R"({"horizon": 1, "bodies": [{"id": "a", "shape": {"type": "sphere", "radius": 1}, "position": [0, 0, 0]},
+                                                   {"id": "b", "shape": {"type": "sphere", "radius": 1}, "position": [1, 0, 0]}]})";
+  text.resize(kMaxSceneBytes, ' ');
+  const std::string full = dir.file("full.json", text);
+  text.clear();
+  text.shrink_to_fit();
+  for (const ToolRun& r : {run(shellQuote(full), "/dev/null", "timeout 20"), run("-", full, "timeout 20", true)}) {
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(r.err, "");
+    EXPECT_EQ(r.out.rfind(R"({"a":"a","b":"b","time":0.0,)", 0), 0u) << r.out;
+  }
+}
+
+TEST(VadopPredict, ANulByteDoesNotEndTheInput) {
+  // Issue 13, 11: {"horizon":2,"bodies":[]}\0garbage was accepted (the parser stopped at the NUL).
+  TempDir dir;
+  const std::string scene = R"({"horizon":2,"bodies":[]})";
+  const std::string garbage = dir.file("garbage.json", scene + std::string(1, '\0') + "garbage");
+  expectRejected(run(shellQuote(garbage)), "file", {"NUL byte", "byte 26"});
+  expectRejected(run("-", garbage), "stdin", {"NUL byte", "byte 26"});
+  expectRejected(run("-", dir.file("nul_end.json", scene + std::string(1, '\0'))), "a trailing NUL", {"NUL byte"});
+  expectRejected(run("-", dir.file("nul_inside.json", R"({"horizon":)" + std::string(1, '\0') + "2}")), "a NUL inside",
+                 {"NUL byte", "byte 12"});
+  // Without the NUL the scene is fine.
+  const ToolRun ok = run("-", dir.file("ok.json", scene + "  \n"));
+  EXPECT_EQ(ok.status, 0) << ok.err;
+  EXPECT_EQ(ok.out, "");
+}
+
+std::string repeat(const std::string& s, size_t n) {
+  std::string out;
+  out.reserve(s.size() * n);
+  for (size_t i = 0; i < n; ++i) out += s;
+  return out;
+}
+
+TEST(VadopPredict, EveryMessageIsOneLineOfBoundedLength) {
+  // Issue 13, 11: 3 MB of unterminated nesting gave a 9 MB message, a 1 MB id a 1 MB one.
+  TempDir dir;
+  const std::string mb(1 << 20, 'x');
+  const std::string sphere = R"("shape": {"type": "sphere", "radius": 1})";
+  std::string long_keys = R"({"horizon": )";
+  for (int i = 0; i < 60; ++i) long_keys += "{\"" + std::string(100000, static_cast<char>('a' + i % 26)) + "\": ";
+  const std::vector<BadRun> cases = {
+      {"3 MB unterminated nesting", "-", R"({"horizon": 1, "bodies": [)" + std::string(3000000, '['),
+       {"bodies[0][0]", "nested deeper than 64 levels"}},
+      {"1 MB id", "-", R"({"horizon": 1, "bodies": [{"id": ")" + mb + R"(", "shape": {"type": "sphere", "radius": -1}, "position": [0, 0, 0]}]})",
+       {"body \"xxxxxxxx", "...\" (index 0): shape.radius", "got -1"}},
+      {"1 MB unknown key", "-", R"({"horizon": 1, "bodies": [{"id": "a", )" + sphere + R"(, "position": [0, 0, 0], ")" + mb + R"(": 1}]})",
+       {"body \"a\" (index 0)", "unknown key \"xxxx"}},
+      {"1 MB duplicate key", "-", R"({"horizon": 1, ")" + mb + R"(": 1, ")" + mb + R"(": 2, "bodies": []})",
+       {"\"xxxx", "given twice"}},
+      {"1 MB string as a number", "-", R"({"horizon": ")" + mb + R"(", "bodies": []})", {"horizon", "must be a number"}},
+      {"1 MB array as a number", "-", R"({"horizon": [1)" + repeat(",1", 1 << 19) + R"(], "bodies": []})",
+       {"horizon", "must be a number", "got array [1,1,1,"}},
+      {"1 MB number that overflows", "-", R"({"horizon": 1)" + std::string(1 << 20, '0') + R"(, "bodies": []})",
+       {"horizon", "finite"}},
+      {"1 MB unterminated string", "-", R"({"horizon": 1, "bodies": [{"id": ")" + mb, {"body at index 0: id", "malformed JSON"}},
+      {"60 levels of 100 KB keys, unterminated", "-", long_keys, {"horizon", "malformed JSON"}},
+      {"a 3,000-byte file name", shellQuote(dir.file("x") + std::string(3000, 'y')), "", {"cannot", "yyyy..."}},
+      {"a 100 KB option value", "--axes " + std::string(100000, '7'), "", {"--axes", "777..."}},
+      {"a 100 KB unknown option", "--" + std::string(100000, 'o'), "", {"unknown option", "ooo..."}},
+  };
+  for (const BadRun& c : cases) {
+    const std::string in = dir.file(std::string("in_") + std::to_string(&c - cases.data()), c.stdin_text);
+    expectRejected(run(c.args, in, "timeout 60"), c.name, c.needles);
+  }
+}
+
+TEST(VadopPredict, QuaternionsAreNormalisedScaleSafely) {
+  // Issue 13, 11: [0, 0, 1e200, 1e200] (its norm overflows) and [0, 0, 1e-200, 1e-200] (its squares
+  // underflow) are the quarter turn about z that [0, 0, 1, 1] is; only a real zero is rejected.
+  TempDir dir;
+  // A 4 m bar along x turned to lie along y touches the ball at y = 1.9 at t = 0.
+  auto scene = [](const std::string& q) {
+    return R"({"horizon": 1, "bodies": [{"id": "bar", "shape": {"type": "box", "size": [4, 0.2, 0.2]}, "position": [0, 0, 0],
+               "orientation": )" + q + R"(}, {"id": "ball", "shape": {"type": "sphere", "radius": 0.1}, "position": [0, 2.05, 0]}]})";
+  };
+  const ToolRun unit = run("-", dir.file("unit.json", scene("[0, 0, 1, 1]")));
+  ASSERT_EQ(unit.status, 0) << unit.err;
+  ASSERT_EQ(lines(unit.out).size(), 1u) << unit.out;
+  EXPECT_EQ(unit.out.rfind(R"({"a":"bar","b":"ball","time":0.0,)", 0), 0u) << unit.out;
+  for (const char* q : {"[0, 0, 1e200, 1e200]", "[0, 0, 1e-200, 1e-200]", "[0, 0, 5e-324, 5e-324]", "[0, 0, 1.7e308, 1.7e308]"}) {
+    const ToolRun r = run("-", dir.file("q.json", scene(q)));
+    EXPECT_EQ(r.status, 0) << q << ": " << r.err;
+    EXPECT_EQ(r.out, unit.out) << q;
+  }
+  expectRejected(run("-", dir.file("zero.json", scene("[0, -0.0, 0, 0]"))), "zero", {"body \"bar\" (index 0)", "orientation", "non-zero"});
+}
+
+TEST(VadopPredict, ValuesBeyondTheRangeAreRejectedNamingTheField) {
+  // Issue 13, 10: two 0.5 m boxes 1 cm apart at x = 1e12 were reported touching (a double there
+  // is exact to 1.2e-4 m only); spheres of radius 1e149 at +-1e150 closing at 1e150 m/s exited 0
+  // with no contact.
+  TempDir dir;
+  auto body = [](const std::string& id, const std::string& shape, const std::string& rest) {
+    return R"({"id": ")" + id + R"(", "shape": )" + shape + ", " + rest + "}";
+  };
+  auto scene = [](const std::string& bodies, const std::string& horizon = "1") {
+    return R"({"horizon": )" + horizon + R"(, "bodies": [)" + bodies + "]}";
+  };
+  const std::string box = R"({"type": "box", "size": [0.5, 0.5, 0.5]})";
+  const std::string ball = R"({"type": "sphere", "radius": 1})";
+  const std::vector<BadRun> cases = {
+      {"boxes at x = 1e12", "-",
+       scene(body("a", box, R"("position": [1e12, 0, 0])") + ", " + body("b", box, R"("position": [1000000000000.51, 0, 0])")),
+       {"body \"a\" (index 0): position[0]", "beyond"}},
+      {"spheres of radius 1e149", "-",
+       scene(body("a", R"({"type": "sphere", "radius": 1e149})", R"("position": [-1e150, 0, 0], "linear_velocity": [1e150, 0, 0])") +
+             ", " + body("b", R"({"type": "sphere", "radius": 1e149})", R"("position": [1e150, 0, 0], "linear_velocity": [-1e150, 0, 0])")),
+       {"body \"a\" (index 0): shape.radius", "beyond"}},
+      {"closing at 1e150 m/s", "-", scene(body("a", ball, R"("position": [0, 0, 0], "linear_velocity": [1e150, 0, 0])")),
+       {"body \"a\" (index 0): linear_velocity[0]", "beyond"}},
+      {"speed by its norm", "-", scene(body("a", ball, R"("position": [0, 0, 0], "linear_velocity": [8000, 8000, 0])")),
+       {"body \"a\" (index 0): |linear_velocity|", "beyond"}},
+      {"spinning at 1e5 rad/s", "-", scene(body("a", ball, R"("position": [0, 0, 0], "angular_velocity": [0, 0, -1e5])")),
+       {"body \"a\" (index 0): angular_velocity[2]", "beyond"}},
+      {"position at -2e7", "-", scene(body("a", ball, R"("position": [0, -2e7, 0])")), {"position[1]", "beyond"}},
+      {"box edge 1e6", "-", scene(body("a", R"({"type": "box", "size": [1, 1e6, 1]})", R"("position": [0, 0, 0])")),
+       {"shape.size[1]", "beyond"}},
+      {"capsule length 2e5", "-", scene(body("a", R"({"type": "capsule", "radius": 1, "length": 2e5})", R"("position": [0, 0, 0])")),
+       {"shape.length", "beyond"}},
+      {"convex point at 1e6", "-",
+       scene(body("a", R"({"type": "convex", "points": [[0, 0, 0], [1, 0, 0], [0, 0, 1e6]]})", R"("position": [0, 0, 0])")),
+       {"shape.points[2][2]", "beyond"}},
+      {"mesh vertex by its norm", "-",
+       scene(body("a", R"({"type": "mesh", "vertices": [[0, 0, 0], [9e4, 9e4, 0], [0, 1, 0]], "triangles": [[0, 1, 2]]})",
+                  R"("position": [0, 0, 0])")),
+       {"|shape.vertices[1]|", "beyond"}},
+      {"horizon 1e8 s", "-", scene("", "1e8"), {"horizon", "beyond"}},
+  };
+  for (const BadRun& c : cases) {
+    expectRejected(run(c.args, dir.file("in_" + std::to_string(&c - cases.data()), c.stdin_text)), c.name, c.needles);
+  }
+}
+
+TEST(VadopPredict, ValuesAtTheEdgeOfTheRangeWork) {
+  TempDir dir;
+  // 0.5 m boxes 1 cm apart at x = 1e7 - 1 (kMaxCoordinate - 1), closing at 0.02 m/s: contact when the gap is
+  // 5e-7 m, at t = (0.01 - 5e-7) / 0.02.
+  const ToolRun boxes = run("-", dir.file("boxes.json", R"({"horizon": 1, "bodies": [
+      {"id": "a", "shape": {"type": "box", "size": [0.5, 0.5, 0.5]}, "position": [9999999, 0, 0], "linear_velocity": [0.01, 0, 0]},
+      {"id": "b", "shape": {"type": "box", "size": [0.5, 0.5, 0.5]}, "position": [9999999.51, 0, 0], "linear_velocity": [-0.01, 0, 0]}]})"));
+  ASSERT_EQ(boxes.status, 0) << boxes.err;
+  ASSERT_EQ(lines(boxes.out).size(), 1u) << boxes.out;
+  const auto j = nlohmann::json::parse(boxes.out);
+  EXPECT_NEAR(j["time"].get<double>(), (0.01 - 5e-7) / 0.02, 1e-6) << boxes.out;
+  EXPECT_NEAR(j["point"][0].get<double>(), 9999999.255, 1e-6) << boxes.out;
+  // Spheres of radius kMaxSize 1.8e6 m apart (surfaces), closing at 2 kMaxLinearSpeed: t = 90 s.
+  const ToolRun spheres = run("-", dir.file("spheres.json", R"({"horizon": 100, "bodies": [
+      {"id": "a", "shape": {"type": "sphere", "radius": 1e5}, "position": [-1e6, 0, 0], "linear_velocity": [1e4, 0, 0]},
+      {"id": "b", "shape": {"type": "sphere", "radius": 1e5}, "position": [1e6, 0, 0], "linear_velocity": [-1e4, 0, 0],
+       "angular_velocity": [0, 0, 1e4]}]})"));
+  ASSERT_EQ(spheres.status, 0) << spheres.err;
+  ASSERT_EQ(lines(spheres.out).size(), 1u) << spheres.out;
+  EXPECT_NEAR(nlohmann::json::parse(spheres.out)["time"].get<double>(), 90.0, 1e-6) << spheres.out;
+  // A horizon of kMaxTime, with bodies at the coordinate limit that never meet.
+  const ToolRun longest = run("-", dir.file("long.json", R"({"horizon": 1e7, "bodies": [
+      {"id": "a", "shape": {"type": "sphere", "radius": 1}, "position": [1e7, -1e7, 1e7]},
+      {"id": "b", "shape": {"type": "sphere", "radius": 1}, "position": [-1e7, 1e7, -1e7]}]})"));
+  EXPECT_EQ(longest.status, 0) << longest.err;
+  EXPECT_EQ(longest.out, "");
 }
 
 TEST(VadopPredict, HelpPrintsUsage) {

@@ -1,23 +1,30 @@
 // vadop_predict: reads a scene (JSON, see scene_io.h), runs the broad and narrow phases over
 // [0, horizon] and prints, one JSON object a line, every pair that comes into contact:
 //   {"a":"<id>","b":"<id>","time":t,"point":[x,y,z],"normal":[x,y,z]}
+// and every pair the narrow phase could not decide within its budget (clear until t, unknown
+// after; not a contact):
+//   {"a":"<id>","b":"<id>","undecided_after":t}
 // a is the body listed first in the input, the normal points from a to b; lines are sorted by
 // time, then by the input order of a, then of b. A pair touching at t = 0 has time 0.
-// Exit status: 0 done (also when nothing touches), 2 bad input or bad options (a one-line
-// message on stderr, nothing on stdout), 1 anything else (I/O error on output, internal error).
+// Exit status: 0 done (also when nothing touches), 2 bad input or bad options (one line of at
+// most kMaxLineBytes on stderr, nothing on stdout), 1 anything else (I/O error on output,
+// internal error). Input is read up to vadop::kMaxSceneBytes (scene_io.h).
 #include "vadop/axis_pool.h"
 #include "vadop/error.h"
 #include "vadop/vadop.h"
 #include "vadop/scene_io.h"
 #include "vadop/world.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <iostream>
 #include <string>
+#include <vector>
 
 namespace {
 
@@ -27,9 +34,11 @@ const char* const kUsage =
     "Predicts every contact between the bodies of a JSON scene within [0, horizon] and prints one\n"
     "JSON object per line, sorted by time then input order:\n"
     "  {\"a\":\"<id>\",\"b\":\"<id>\",\"time\":t,\"point\":[x,y,z],\"normal\":[x,y,z]}\n"
-    "(a = the body listed first, normal from a to b; a pair touching at t = 0 has time 0).\n"
+    "(a = the body listed first, normal from a to b; a pair touching at t = 0 has time 0), and\n"
+    "every pair the narrow phase could not decide (clear until t, unknown after; not a contact):\n"
+    "  {\"a\":\"<id>\",\"b\":\"<id>\",\"undecided_after\":t}\n"
     "\n"
-    "  scene.json         the scene; '-' or none: standard input\n"
+    "  scene.json         the scene (at most 64 MiB); '-' or none: standard input\n"
     "  --broadphase NAME  vadop (default: VADOP volumes on a grid), vadop_sap (VADOP with sweep\n"
     "                     and prune per axis), sap (sweep and prune of AABBs) or brute (all pairs);\n"
     "                     the output does not depend on it\n"
@@ -41,9 +50,21 @@ const char* const kUsage =
     "Exit status: 0 success, 2 bad input or options (message on stderr, nothing on stdout),\n"
     "1 other errors.\n";
 
+// Every message is one line of at most this many bytes (newline included): the library's
+// messages are bounded by vadop::kMaxMessageBytes, "vadop_predict: <file>: " adds at most 100.
+constexpr size_t kMaxLineBytes = vadop::kMaxMessageBytes + 100;
+
 [[noreturn]] void die(int status, const std::string& message) {
-  std::fprintf(stderr, "vadop_predict: %s\n", message.c_str());
+  const std::string line = vadop::boundedMessage("vadop_predict: " + message, kMaxLineBytes - 1) + "\n";
+  std::fputs(line.c_str(), stderr);
   std::exit(status);
+}
+
+// A file name or argument as messages show it: as is when short and printable, else quoted and
+// shortened (vadop::messageQuote).
+std::string shown(const std::string& s) {
+  const bool plain = s.size() <= 64 && std::all_of(s.begin(), s.end(), [](char c) { return c >= 0x20 && c < 0x7f; });
+  return plain ? s : vadop::messageQuote(s);
 }
 
 [[noreturn]] void badOption(const std::string& message) {
@@ -61,7 +82,7 @@ int parseAxes(const std::string& v) {
   char* end = nullptr;
   const long m = std::strtol(v.c_str(), &end, 10);
   if (v.empty() || *end != '\0' || errno != 0 || m < 3 || m > 4096) {
-    badOption("--axes must be an integer in [3, 4096], got '" + v + "'");
+    badOption("--axes must be an integer in [3, 4096], got '" + shown(v) + "'");
   }
   return static_cast<int>(m);
 }
@@ -70,7 +91,7 @@ double parsePhi(const std::string& v) {
   char* end = nullptr;
   const double phi = std::strtod(v.c_str(), &end);
   if (v.empty() || *end != '\0' || !std::isfinite(phi) || phi < 0.0 || phi > 90.0) {
-    badOption("--phi must be a number of degrees in [0, 90] (0 = the pool's covering radius), got '" + v + "'");
+    badOption("--phi must be a number of degrees in [0, 90] (0 = the pool's covering radius), got '" + shown(v) + "'");
   }
   return phi;
 }
@@ -97,9 +118,9 @@ Options parse(int argc, char** argv) {
         arg = arg.substr(0, eq);
         has_value = true;
       }
-      if (arg != "--broadphase" && arg != "--axes" && arg != "--phi") badOption("unknown option " + arg);
+      if (arg != "--broadphase" && arg != "--axes" && arg != "--phi") badOption("unknown option " + shown(arg));
       if (!has_value) {
-        if (i + 1 >= argc) badOption("missing value after " + arg);
+        if (i + 1 >= argc) badOption("missing value after " + shown(arg));
         value = argv[++i];
       }
       if (arg == "--broadphase") {
@@ -115,20 +136,11 @@ Options parse(int argc, char** argv) {
       }
       continue;
     }
-    if (o.input_given) badOption("more than one scene file given ('" + o.input + "' and '" + arg + "')");
+    if (o.input_given) badOption("more than one scene file given ('" + shown(o.input) + "' and '" + shown(arg) + "')");
     o.input = arg;
     o.input_given = true;
   }
   return o;
-}
-
-std::string readStdin() {
-  std::string text;
-  char buf[65536];
-  size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, stdin)) > 0) text.append(buf, n);
-  if (std::ferror(stdin)) die(2, std::string("cannot read standard input: ") + std::strerror(errno));
-  return text;
 }
 
 }  // namespace
@@ -149,13 +161,16 @@ int main(int argc, char** argv) {
                   ", --phi " + std::to_string(o.config.vadop.phi_deg) + "): " + e.what());
       }
     }();
-    const std::string source = o.input == "-" ? "<stdin>" : o.input;
+    const std::string source = o.input == "-" ? "<stdin>" : shown(o.input);
     std::string lines;
     try {
-      const vadop::Scene scene = o.input == "-" ? vadop::parseScene(readStdin()) : vadop::readSceneFile(o.input);
+      // Both read at most vadop::kMaxSceneBytes + 1 bytes (a pipe or /dev/zero included).
+      const vadop::Scene scene =
+          o.input == "-" ? vadop::readScene(std::cin, "standard input") : vadop::readSceneFile(o.input);
       vadop::addToWorld(scene, world);
       // Everything is computed before anything is printed: on an error stdout stays empty.
-      lines = vadop::impactsToJsonLines(world.predict(0.0, scene.horizon));
+      const std::vector<vadop::WorldImpact> contacts = world.predict(0.0, scene.horizon);
+      lines = vadop::predictionToJsonLines(contacts, world.lastUndecided());
     } catch (const vadop::InvalidArgument& e) {
       die(2, source + ": " + e.what());
     }
