@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <functional>
+#include <limits>
 #include <string>
 
 using vadop_ros::MonitorParams;
@@ -184,4 +186,176 @@ TEST(Params, UnknownTopLevelKeysAreListed) {
   const auto unknown = vadop_ros::unknownTopLevelKeys(root);
   ASSERT_EQ(unknown.size(), 1u);
   EXPECT_EQ(unknown[0], "horizn");
+}
+
+// Issue 13, item 2: the start-up range of ~rate is cfg/Monitor.cfg's, [0.1, 1000] Hz (1e-10
+// passed (0, 1000] and aborted the node in ros::Duration(1 / rate); 1e-9 never cycled).
+TEST(Params, RateRangeIsTheReconfigureRange) {
+  EXPECT_EQ(errorOf("rate: 1e-10"), "~rate: must be in [0.1, 1000], got 1e-10");
+  EXPECT_NE(errorOf("rate: 1.0e-9").find("~rate: must be in [0.1, 1000]"), std::string::npos);
+  EXPECT_NE(errorOf("rate: 0.09").find("~rate"), std::string::npos);
+  EXPECT_NE(errorOf("rate: 1000.5").find("~rate"), std::string::npos);
+  EXPECT_DOUBLE_EQ(parseParams(yaml("rate: 0.1")).rate, 0.1);
+  EXPECT_DOUBLE_EQ(parseParams(yaml("rate: 1000")).rate, 1000.0);
+  EXPECT_DOUBLE_EQ(vadop_ros::kMinRate, 0.1);
+  EXPECT_DOUBLE_EQ(vadop_ros::kMaxRate, 1000.0);
+}
+
+// Issue 13, item 2: every topic, parameter and frame name is checked when parsed, with an error
+// naming the parameter (a bad topic name used to abort the node in NodeHandle::subscribe).
+TEST(Params, TopicAndParameterNamesFollowTheRosRules) {
+  EXPECT_EQ(errorOf(R"(
+bodies:
+  - {name: a, odom_topic: /a/odom, shape: {type: sphere, radius: 0.5}}
+  - {name: b, odom_topic: "/a b/odom!", shape: {type: sphere, radius: 0.5}}
+)"),
+            "~bodies[1] (\"b\").odom_topic: must be a valid ROS topic name (a letter or '/' first, then letters, "
+            "digits, '_' and '/'), got \"/a b/odom!\"");
+  EXPECT_NE(errorOf("bodies: [{name: a, twist_topic: 1vel, frame: f, shape: {type: sphere, radius: 1}}]")
+                .find("~bodies[0] (\"a\").twist_topic: must be a valid ROS topic name"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: a, odom_topic: /a-b, shape: {type: sphere, radius: 1}}]")
+                .find("~bodies[0] (\"a\").odom_topic"),
+            std::string::npos);
+  // '~' names: the node's NodeHandle throws on them.
+  EXPECT_NE(errorOf("bodies: [{name: a, odom_topic: ~odom, shape: {type: sphere, radius: 1}}]")
+                .find("~bodies[0] (\"a\").odom_topic: must not be a private (~) topic name"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: a, odom_topic: /a, robot_description: 'my description'}]")
+                .find("~bodies[0] (\"a\").robot_description: must be a valid ROS parameter name"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: a, odom_topic: /a, robot_description: ~robot_description}]")
+                .find("~bodies[0] (\"a\").robot_description: must not be a private (~) parameter name"),
+            std::string::npos);
+  EXPECT_NE(errorOf("static_obstacles: [{name: w, robot_description: 'env?'}]")
+                .find("~static_obstacles[0] (\"w\").robot_description: must be a valid ROS parameter name"),
+            std::string::npos);
+  // Templates: each copy after substitution.
+  EXPECT_NE(errorOf("bodies: [{name: 'a{i}', count: 2, odom_topic: '/a {i}', shape: {type: sphere, radius: 1}}]")
+                .find("~bodies[0] (\"a{i}\").odom_topic (copy 0): must be a valid ROS topic name"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: 'a{i}', count: 2, odom_topic: '{i}/odom', shape: {type: sphere, radius: 1}}]")
+                .find(".odom_topic (copy 0)"),
+            std::string::npos);
+  // Valid names pass: absolute, relative, with digits and underscores.
+  const MonitorParams p = parseParams(yaml(R"(
+bodies:
+  - {name: a, odom_topic: /robot_1/odom, shape: {type: sphere, radius: 1}}
+  - {name: b, odom_topic: robot2/odom_filtered, robot_description: /fleet/robot_description}
+)"));
+  EXPECT_EQ(p.bodies[1].topic, "robot2/odom_filtered");
+}
+
+TEST(Params, FramesFollowTheTf2Rules) {
+  EXPECT_NE(errorOf("fixed_frame: 'od om'").find("~fixed_frame: must be a valid tf frame id"), std::string::npos);
+  EXPECT_NE(errorOf("fixed_frame: 'map!'").find("~fixed_frame: must be a valid tf frame id"), std::string::npos);
+  EXPECT_NE(errorOf("fixed_frame: 'a//b'").find("~fixed_frame: must be a valid tf frame id (no empty segment"),
+            std::string::npos);
+  EXPECT_NE(errorOf("fixed_frame: '/'").find("~fixed_frame: must not be empty"), std::string::npos);
+  EXPECT_EQ(parseParams(yaml("fixed_frame: /map")).fixed_frame, "map");  // tf1 style accepted
+  EXPECT_EQ(parseParams(yaml("fixed_frame: world-2.north")).fixed_frame, "world-2.north");
+  EXPECT_NE(errorOf("bodies: [{name: a, twist_topic: /v, frame: 'base link', shape: {type: sphere, radius: 1}}]")
+                .find("~bodies[0] (\"a\").frame: must be a valid tf frame id"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: a, odom_topic: /a, frame: 'a/', shape: {type: sphere, radius: 1}}]")
+                .find("~bodies[0] (\"a\").frame"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: a, odom_topic: /a, robot_description: d, tf_prefix: 'a b'}]")
+                .find("~bodies[0] (\"a\").tf_prefix: must be a valid tf frame id"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: 'a{i}', count: 3, odom_topic: '/a{i}', robot_description: d, tf_prefix: 'a {i}'}]")
+                .find("~bodies[0] (\"a{i}\").tf_prefix (copy 0)"),
+            std::string::npos);
+  const MonitorParams p = parseParams(yaml(R"(
+bodies:
+  - {name: a, twist_topic: /v, frame: /robot/base_link, shape: {type: sphere, radius: 1}}
+  - {name: b, odom_topic: /b, robot_description: d, tf_prefix: ''}
+  - {name: c, odom_topic: /c, robot_description: d, tf_prefix: /c/}
+)"));
+  EXPECT_EQ(p.bodies[0].frame, "robot/base_link");  // leading '/' removed, as tf2 wants
+  EXPECT_EQ(p.bodies[1].tf_prefix, "");
+  EXPECT_TRUE(p.bodies[1].links_from_tf);
+  EXPECT_EQ(p.bodies[2].tf_prefix, "c");
+}
+
+// Issue 13, item 6: one numerical range (vadop/limits.h) and no NaN/Inf anywhere.
+TEST(Params, StaticPosesWithinMaxCoordinate) {
+  EXPECT_EQ(errorOf("static_obstacles: [{name: w, shape: {type: sphere, radius: 1}, pose: {position: [1e200, 0, 0]}}]"),
+            "~static_obstacles[0] (\"w\").pose.position[0]: must be within 1e+07 m (vadop/limits.h), got 1e+200");
+  EXPECT_NE(errorOf("static_obstacles: [{name: w, shape: {type: sphere, radius: 1}, pose: {position: [0, 0, -1.1e7]}}]")
+                .find("~static_obstacles[0] (\"w\").pose.position[2]: must be within 1e+07 m"),
+            std::string::npos);
+  // UTM-sized coordinates are fine.
+  const MonitorParams p = parseParams(
+      yaml("static_obstacles: [{name: w, shape: {type: sphere, radius: 1}, pose: {position: [1e7, -5.3e6, 0]}}]"));
+  EXPECT_DOUBLE_EQ(p.static_obstacles[0].pose.translation().x(), 1e7);
+  // A quaternion whose norm overflows.
+  EXPECT_NE(errorOf("static_obstacles: [{name: w, shape: {type: sphere, radius: 1}, pose: {orientation: [1e300, 0, 0, 1e300]}}]")
+                .find("~static_obstacles[0] (\"w\").pose.orientation: must have a finite norm"),
+            std::string::npos);
+}
+
+TEST(Params, ShapeDimensionsWithinMaxSize) {
+  const std::string body = "bodies: [{name: a, odom_topic: /a, shape: ";
+  EXPECT_EQ(errorOf(body + "{type: sphere, radius: 1e6}}]"),
+            "~bodies[0] (\"a\").shape.radius: must be within 100000 m (vadop/limits.h), got 1e+06");
+  EXPECT_NE(errorOf(body + "{type: box, size: [1, 1, 2e5]}}]").find("~bodies[0] (\"a\").shape.size[2]: must be within 100000 m"),
+            std::string::npos);
+  EXPECT_NE(errorOf(body + "{type: cylinder, radius: 1, length: 1e300}}]").find("~bodies[0] (\"a\").shape.length: must be within"),
+            std::string::npos);
+  EXPECT_NE(errorOf(body + "{type: capsule, radius: 2e5, length: 0}}]").find(".shape.radius: must be within"),
+            std::string::npos);
+  EXPECT_NE(errorOf(body + "{type: capsule, radius: 1, length: -1}}]").find(".shape.length: must be a number >= 0, got -1"),
+            std::string::npos);
+  EXPECT_NE(errorOf("static_obstacles: [{name: w, shape: {type: box, size: [1e6, 1, 1]}}]")
+                .find("~static_obstacles[0] (\"w\").shape.size[0]: must be within 100000 m"),
+            std::string::npos);
+  EXPECT_NO_THROW(parseParams(yaml(body + "{type: box, size: [1e5, 1e5, 1e5]}}]")));
+  EXPECT_NE(errorOf("padding: 10.5").find("~padding: must be in [0, 10]"), std::string::npos);
+}
+
+TEST(Params, NanAndInfAreRefusedEverywhere) {
+  // .nan as YAML (the test's reader turns it into a double NaN, as rosparam does).
+  EXPECT_NE(errorOf("rate: .nan").find("~rate: must be a finite number"), std::string::npos);
+  EXPECT_NE(errorOf("padding: .nan").find("~padding: must be a finite number"), std::string::npos);
+  EXPECT_NE(errorOf("stale_timeout: .nan").find("~stale_timeout"), std::string::npos);
+  EXPECT_NE(errorOf("max_stamp_skew: .nan").find("~max_stamp_skew"), std::string::npos);
+  EXPECT_NE(errorOf("phi_deg: .nan").find("~phi_deg"), std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: a, odom_topic: /a, shape: {type: sphere, radius: .nan}}]")
+                .find("~bodies[0] (\"a\").shape.radius: must be a finite number"),
+            std::string::npos);
+  EXPECT_NE(errorOf("static_obstacles: [{name: w, shape: {type: sphere, radius: 1}, pose: {position: [0, .nan, 0]}}]")
+                .find("~static_obstacles[0] (\"w\").pose.position[1]: must be a finite number"),
+            std::string::npos);
+  EXPECT_NE(errorOf("static_obstacles: [{name: w, shape: {type: sphere, radius: 1}, pose: {rpy: [0, 0, .nan]}}]")
+                .find(".pose.rpy[2]: must be a finite number"),
+            std::string::npos);
+  EXPECT_NE(errorOf("static_obstacles: [{name: w, shape: {type: sphere, radius: 1}, pose: {orientation: [0, 0, 0, .nan]}}]")
+                .find(".pose.orientation[3]: must be a finite number"),
+            std::string::npos);
+  // .inf: rosparam gives a double infinity (set here directly: the test's YAML reader keeps
+  // ".inf" a string).
+  auto withInf = [](const std::string& text, const std::function<void(XmlRpc::XmlRpcValue&)>& put) {
+    XmlRpc::XmlRpcValue root = yaml(text);
+    put(root);
+    try {
+      parseParams(root);
+    } catch (const ParamError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const double inf = std::numeric_limits<double>::infinity();
+  EXPECT_NE(withInf("rate: 1", [&](XmlRpc::XmlRpcValue& r) { r["rate"] = inf; }).find("~rate: must be a finite number, got inf"),
+            std::string::npos);
+  EXPECT_NE(withInf("horizon: 1", [&](XmlRpc::XmlRpcValue& r) { r["horizon"] = -inf; }).find("~horizon: must be a finite number"),
+            std::string::npos);
+  EXPECT_NE(withInf("static_obstacles: [{name: w, shape: {type: sphere, radius: 1}, pose: {position: [0, 0, 0]}}]",
+                    [&](XmlRpc::XmlRpcValue& r) { r["static_obstacles"][0]["pose"]["position"][0] = inf; })
+                .find("~static_obstacles[0] (\"w\").pose.position[0]: must be a finite number"),
+            std::string::npos);
+  EXPECT_NE(withInf("bodies: [{name: a, odom_topic: /a, shape: {type: box, size: [1, 1, 1]}}]",
+                    [&](XmlRpc::XmlRpcValue& r) { r["bodies"][0]["shape"]["size"][1] = inf; })
+                .find("~bodies[0] (\"a\").shape.size[1]: must be a finite number"),
+            std::string::npos);
 }

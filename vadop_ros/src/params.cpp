@@ -1,8 +1,10 @@
 #include "vadop_ros/params.h"
 
 #include <vadop/error.h>
+#include <vadop/limits.h>
 #include <vadop/vadop.h>
 
+#include <ros/names.h>
 #include <ros/node_handle.h>
 
 #include <cmath>
@@ -87,6 +89,54 @@ void rejectUnknown(const XmlRpcValue& s, const std::set<std::string>& known, con
   }
 }
 
+// A topic or parameter name as the node's NodeHandle resolves it (roscpp's rules,
+// ros::names::validate: first character a letter or '/', then letters, digits, '_' and '/').
+// '~' names are refused too: the NodeHandle the node subscribes and reads parameters with
+// throws on them. `what` says what the name is ("topic", "parameter name").
+void checkRosName(const std::string& name, const std::string& path, const char* what) {
+  if (name.empty()) fail(path, "must not be empty");
+  std::string error;
+  if (!ros::names::validate(name, error)) {
+    fail(path, std::string("must be a valid ROS ") + what + " name (a letter or '/' first, then letters, digits, '_' and '/'), got \"" + name + "\"");
+  }
+  if (name.front() == '~') {
+    fail(path, std::string("must not be a private (~) ") + what + " name, got \"" + name + "\"");
+  }
+}
+
+// A tf2 frame id, after its leading '/' (tf1 style) was removed: letters, digits, '_', '-', '.'
+// and '/' between non-empty segments; no spaces. Empty only when allow_empty.
+void checkFrame(const std::string& frame, const std::string& path, bool allow_empty) {
+  if (frame.empty()) {
+    if (allow_empty) return;
+    fail(path, "must not be empty");
+  }
+  for (const char c : frame) {
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+                    c == '-' || c == '.' || c == '/';
+    if (!ok) {
+      fail(path, "must be a valid tf frame id (letters, digits, '_', '-', '.' and '/'), got \"" + frame + "\"");
+    }
+  }
+  if (frame.front() == '/' || frame.back() == '/' || frame.find("//") != std::string::npos) {
+    fail(path, "must be a valid tf frame id (no empty segment between '/'), got \"" + frame + "\"");
+  }
+}
+
+// tf2 frame ids have no leading '/': the tf1 style is accepted and the slashes removed.
+std::string stripLeadingSlashes(std::string s) {
+  size_t n = 0;
+  while (n < s.size() && s[n] == '/') ++n;
+  return s.erase(0, n);
+}
+
+// |value| <= limit (values here are already finite).
+void checkRange(double value, double limit, const std::string& path, const char* unit) {
+  if (!(std::fabs(value) <= limit)) {
+    fail(path, "must be within " + num(limit) + " " + unit + " (vadop/limits.h), got " + num(value));
+  }
+}
+
 std::vector<double> numberList(const XmlRpcValue& v, size_t n, const std::string& path) {
   if (v.getType() != XmlRpcValue::TypeArray || static_cast<size_t>(v.size()) != n) {
     fail(path, "must be a list of " + std::to_string(n) + " numbers");
@@ -96,9 +146,11 @@ std::vector<double> numberList(const XmlRpcValue& v, size_t n, const std::string
   return out;
 }
 
-double positive(const XmlRpcValue& v, const std::string& path) {
+// A shape dimension: > 0 (>= 0 when zero_ok) and at most vadop::kMaxSize.
+double dimension(const XmlRpcValue& v, const std::string& path, bool zero_ok = false) {
   const double d = toDouble(v, path);
-  if (!(d > 0.0)) fail(path, "must be a number > 0, got " + num(d));
+  if (zero_ok ? !(d >= 0.0) : !(d > 0.0)) fail(path, std::string("must be a number ") + (zero_ok ? ">= 0" : "> 0") + ", got " + num(d));
+  checkRange(d, vadop::kMaxSize, path, "m");
   return d;
 }
 
@@ -118,6 +170,9 @@ Eigen::Isometry3d parsePose(const XmlRpcValue& v, const std::string& path) {
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   if (const XmlRpcValue* p = member(v, "position")) {
     const auto xyz = numberList(*p, 3, path + ".position");
+    for (int k = 0; k < 3; ++k) {
+      checkRange(xyz[k], vadop::kMaxCoordinate, path + ".position[" + std::to_string(k) + "]", "m");
+    }
     pose.translation() = Eigen::Vector3d(xyz[0], xyz[1], xyz[2]);
   }
   const XmlRpcValue* q = member(v, "orientation");
@@ -127,6 +182,7 @@ Eigen::Isometry3d parsePose(const XmlRpcValue& v, const std::string& path) {
     const auto c = numberList(*q, 4, path + ".orientation");
     Eigen::Quaterniond quat(c[3], c[0], c[1], c[2]);
     if (!(quat.norm() > 1e-9)) fail(path + ".orientation", "must not be a zero quaternion");
+    if (!std::isfinite(quat.norm())) fail(path + ".orientation", "must have a finite norm (components too large)");
     pose.linear() = quat.normalized().toRotationMatrix();
   } else if (rpy) {
     const auto a = numberList(*rpy, 3, path + ".rpy");
@@ -162,6 +218,16 @@ std::string entryPath(const std::string& list, int i, const XmlRpcValue& entry) 
   return p;
 }
 
+// The names of one body (a template copy after substitution): topic and robot_description
+// parameter by roscpp's rules, frame and tf_prefix as tf2 frame ids. `suffix` marks a copy.
+void checkBodyNames(const BodyParams& b, const std::string& path, const std::string& suffix) {
+  checkRosName(b.topic, path + (b.source == VelocitySource::kOdometry ? ".odom_topic" : ".twist_topic") + suffix,
+               "topic");
+  checkFrame(b.frame, path + ".frame" + suffix, b.source == VelocitySource::kOdometry);
+  if (!b.has_shape) checkRosName(b.robot_description, path + ".robot_description" + suffix, "parameter");
+  if (b.links_from_tf) checkFrame(b.tf_prefix, path + ".tf_prefix" + suffix, true);
+}
+
 void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::string>& names) {
   requireArray(list, "~bodies");
   for (int i = 0; i < list.size(); ++i) {
@@ -182,7 +248,7 @@ void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::stri
     b.source = odom ? VelocitySource::kOdometry : VelocitySource::kTwist;
     b.topic = toString(odom ? *odom : *twist, path + (odom ? ".odom_topic" : ".twist_topic"));
     if (b.topic.empty()) fail(path + (odom ? ".odom_topic" : ".twist_topic"), "must not be empty");
-    if (const XmlRpcValue* f = member(e, "frame")) b.frame = toString(*f, path + ".frame");
+    if (const XmlRpcValue* f = member(e, "frame")) b.frame = stripLeadingSlashes(toString(*f, path + ".frame"));
     if (b.source == VelocitySource::kTwist && b.frame.empty()) {
       fail(path + ".frame", "is required with twist_topic (the tf frame that gives the body's pose)");
     }
@@ -203,7 +269,7 @@ void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::stri
       b.tf_prefix = toString(*p, path + ".tf_prefix");
       b.links_from_tf = true;
       while (!b.tf_prefix.empty() && b.tf_prefix.back() == '/') b.tf_prefix.pop_back();
-      if (!b.tf_prefix.empty() && b.tf_prefix.front() == '/') b.tf_prefix.erase(0, 1);
+      b.tf_prefix = stripLeadingSlashes(b.tf_prefix);
     }
 
     int count = 0;  // 0: a single body, no template
@@ -216,7 +282,8 @@ void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::stri
     }
     if (count == 0) {
       checkName(b.name, path + ".name", names);
-      out.bodies.push_back(b);
+      checkBodyNames(b, path, "");
+      out.bodies.push_back(std::move(b));
       continue;
     }
     for (int k = 0; k < count; ++k) {
@@ -226,7 +293,9 @@ void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::stri
       copy.frame = substitute(b.frame, k);
       copy.robot_description = substitute(b.robot_description, k);
       copy.tf_prefix = substitute(b.tf_prefix, k);
-      checkName(copy.name, path + ".name (copy " + std::to_string(k) + ")", names);
+      const std::string suffix = " (copy " + std::to_string(k) + ")";
+      checkName(copy.name, path + ".name" + suffix, names);
+      checkBodyNames(copy, path, suffix);
       out.bodies.push_back(std::move(copy));
     }
   }
@@ -253,7 +322,7 @@ void parseObstacles(const XmlRpcValue& list, MonitorParams& out, std::set<std::s
       o.shape = parseShape(*shape, path + ".shape");
     } else {
       o.robot_description = toString(*urdf, path + ".robot_description");
-      if (o.robot_description.empty()) fail(path + ".robot_description", "must not be empty");
+      checkRosName(o.robot_description, path + ".robot_description", "parameter");
     }
     if (const XmlRpcValue* p = member(e, "pose")) o.pose = parsePose(*p, path + ".pose");
     out.static_obstacles.push_back(std::move(o));
@@ -285,26 +354,22 @@ vadop::Shape parseShape(const XmlRpcValue& v, const std::string& path) {
   try {
     if (t == "sphere") {
       rejectUnknown(v, {"type", "radius"}, path);
-      return vadop::makeSphere(positive(need("radius"), path + ".radius"));
+      return vadop::makeSphere(dimension(need("radius"), path + ".radius"));
     }
     if (t == "box") {
       rejectUnknown(v, {"type", "size"}, path);
       const auto s = numberList(need("size"), 3, path + ".size");
       for (int k = 0; k < 3; ++k) {
         if (!(s[k] > 0.0)) fail(path + ".size[" + std::to_string(k) + "]", "must be > 0, got " + num(s[k]));
+        checkRange(s[k], vadop::kMaxSize, path + ".size[" + std::to_string(k) + "]", "m");
       }
       return vadop::makeBox(Eigen::Vector3d(s[0], s[1], s[2]));
     }
     if (t == "cylinder" || t == "capsule") {
       rejectUnknown(v, {"type", "radius", "length"}, path);
-      const double r = positive(need("radius"), path + ".radius");
-      const double l = toDouble(need("length"), path + ".length");
-      if (t == "cylinder") {
-        if (!(l > 0.0)) fail(path + ".length", "must be a number > 0, got " + num(l));
-        return vadop::makeCylinder(r, l);
-      }
-      if (!(l >= 0.0)) fail(path + ".length", "must be a number >= 0, got " + num(l));
-      return vadop::makeCapsule(r, l);
+      const double r = dimension(need("radius"), path + ".radius");
+      const double l = dimension(need("length"), path + ".length", t == "capsule");
+      return t == "cylinder" ? vadop::makeCylinder(r, l) : vadop::makeCapsule(r, l);
     }
   } catch (const vadop::InvalidArgument& e) {
     fail(path, e.what());
@@ -318,10 +383,12 @@ MonitorParams parseParams(const XmlRpcValue& root) {
   requireStruct(root, "~");
   if (const XmlRpcValue* v = member(root, "fixed_frame")) {
     p.fixed_frame = toString(*v, "~fixed_frame");
-    if (p.fixed_frame.empty()) fail("~fixed_frame", "must not be empty");
-    if (p.fixed_frame.front() == '/') p.fixed_frame.erase(0, 1);  // tf2 frames have no leading '/'
+    p.fixed_frame = stripLeadingSlashes(p.fixed_frame);  // tf2 frames have no leading '/'
+    checkFrame(p.fixed_frame, "~fixed_frame", false);
   }
-  p.rate = ranged(member(root, "rate"), p.rate, 0.0, 1000.0, true, "~rate");
+  // [0.1, 1000] Hz, the range of cfg/Monitor.cfg (the timer's period 1/rate must be a valid
+  // ros::Duration and the node must cycle).
+  p.rate = ranged(member(root, "rate"), p.rate, kMinRate, kMaxRate, false, "~rate");
   p.horizon = ranged(member(root, "horizon"), p.horizon, 0.0, 60.0, false, "~horizon");
   p.padding = ranged(member(root, "padding"), p.padding, 0.0, 10.0, false, "~padding");
   p.stale_timeout = ranged(member(root, "stale_timeout"), p.stale_timeout, 0.0, 1e6, true, "~stale_timeout");

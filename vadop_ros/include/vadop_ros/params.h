@@ -4,6 +4,11 @@
 // Every error throws ParamError with a one-line message that names the parameter by its path
 // under the node's private namespace, for example
 //   ~bodies[2] ("robot_3").shape.radius: must be a number > 0, got -1
+// Names: topics and robot_description parameter names follow roscpp's name rules
+// (ros::names::validate; '~' names are refused), frames (fixed_frame, frame, tf_prefix) are
+// tf2 frame ids (letters, digits, '_', '-', '.', '/' between segments; a leading '/' is removed).
+// Numbers: NaN and Inf are refused everywhere; static obstacle positions are within
+// vadop::kMaxCoordinate and shape dimensions within vadop::kMaxSize (vadop/limits.h).
 // Unknown keys inside a body, an obstacle or a shape are errors (a typo would otherwise
 // silently mean a default); unknown top-level keys are reported by unknownTopLevelKeys() so
 // that the node can warn (other tools may keep their own parameters there).
@@ -60,9 +65,14 @@ struct StaticObstacleParams {
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  // in the fixed frame
 };
 
+// The range of ~rate (Hz), the same as cfg/Monitor.cfg's: below 0.1 Hz the timer's period
+// (1 / rate) soon leaves what ros::Duration holds and the node would not cycle.
+constexpr double kMinRate = 0.1;
+constexpr double kMaxRate = 1000.0;
+
 struct MonitorParams {
-  std::string fixed_frame = "odom";
-  double rate = 30.0;           // Hz, (0, 1000]
+  std::string fixed_frame = "odom";  // a tf2 frame id; a leading '/' is removed
+  double rate = 30.0;           // Hz, [kMinRate, kMaxRate]
   double horizon = 2.0;         // s, [0, 60]
   double padding = 0.0;         // m, [0, 10]
   double stale_timeout = 0.5;   // s, > 0
