@@ -9,6 +9,8 @@
 #include <map>
 #include <memory>
 #include <sstream>
+#include <stdexcept>
+#include <unordered_set>
 
 namespace vadop_ros {
 namespace {
@@ -94,6 +96,32 @@ const char* toString(BodyState s) {
   return "unknown";
 }
 
+namespace {
+
+// World id of a URDF collision element: "body/link", "body/link#k" for the link's k-th element
+// (k > 0), where '%' and '#' in the link name are written "%25" and "%23". Unique by
+// construction: body names are unique and have no '/', so the first '/' ends the body name (a
+// primitive body's id, its bare name, has none); the escaped link name has no '#', so a '#'
+// starts the index; and the escaping is one-to-one. (Unescaped, link "x" element 1 and link
+// "x#1" element 0 were both "body/x#1".)
+std::string urdfElementId(const std::string& body, const std::string& link, int index) {
+  std::string id = body + "/";
+  id.reserve(id.size() + link.size() + 8);
+  for (const char c : link) {
+    if (c == '%') {
+      id += "%25";
+    } else if (c == '#') {
+      id += "%23";
+    } else {
+      id += c;
+    }
+  }
+  if (index > 0) id += "#" + std::to_string(index);
+  return id;
+}
+
+}  // namespace
+
 BodyRegistry::BodyRegistry(const MonitorParams& params, const ParamReader& read_param, const MeshLoader& load_mesh)
     : fixed_frame_(params.fixed_frame), stale_timeout_(params.stale_timeout) {
   // Parsed URDFs by parameter name (a fleet usually shares one description).
@@ -172,6 +200,18 @@ BodyRegistry::BodyRegistry(const MonitorParams& params, const ParamReader& read_
       e.active = true;
     }
   }
+
+  // Element ids are unique by construction (unique body names without '/', urdfElementId);
+  // a duplicate would leave an element out of the world (it keys by id), so it is an internal
+  // error, not a warning.
+  std::unordered_set<std::string> ids;
+  ids.reserve(elements_.size());
+  for (const Element& e : elements_) {
+    if (!ids.insert(e.id).second) {
+      throw std::logic_error("internal error: collision element id \"" + e.id + "\" (body \"" +
+                             bodies_[e.body].name + "\") is not unique");
+    }
+  }
 }
 
 void BodyRegistry::addUrdfGeometry(size_t bi, const std::string& description, const UrdfShapes& urdf,
@@ -185,7 +225,7 @@ void BodyRegistry::addUrdfGeometry(size_t bi, const std::string& description, co
   }
   for (const LinkGeometry& g : urdf.geometries) {
     Element e;
-    e.id = b.name + "/" + g.link + (g.index > 0 ? "#" + std::to_string(g.index) : "");
+    e.id = urdfElementId(b.name, g.link, g.index);
     e.body = bi;
     e.link = g.link;
     e.shape = g.shape;
