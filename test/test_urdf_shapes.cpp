@@ -4,6 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <stdlib.h>
+
+#include <chrono>
 #include <cstdlib>
 
 using vadop_ros::LinkGeometry;
@@ -146,4 +149,106 @@ TEST(UrdfShapes, MeshLoaderCachesAndReportsErrors) {
   EXPECT_TRUE(s.geometries.empty());
   ASSERT_EQ(s.errors.size(), 1u);
   EXPECT_NE(s.errors[0].find("link \"a\" collision 0: no such mesh package://nope/m.stl"), std::string::npos);
+}
+
+// Issue 13, item 9: mesh reads are bounded. file:///dev/zero and a 2 GB (sparse) file used to be
+// read until allocation failed (~1 GB, 10-13 s); both are refused before a byte is read, with
+// the per-link error naming the URI (and the limit).
+namespace {
+
+// A temporary directory, removed with everything in it when the test ends.
+struct TempDir {
+  std::string path;
+  TempDir() {
+    char tmpl[] = "/tmp/vadop_test_urdf_XXXXXX";
+    const char* p = ::mkdtemp(tmpl);
+    if (p) path = p;
+  }
+  ~TempDir() {
+    if (!path.empty()) std::system(("rm -rf '" + path + "'").c_str());
+  }
+};
+
+std::string meshUrdf(const std::string& uri) {
+  return "<robot name='x'><link name='a'><collision><geometry><sphere radius='0.5'/></geometry></collision></link>"
+         "<link name='m'><collision><geometry><mesh filename='" +
+         uri +
+         "'/></geometry></collision></link>"
+         "<joint name='j' type='fixed'><parent link='a'/><child link='m'/></joint></robot>";
+}
+
+// The error urdfToShapes reports for link "m" (its mesh), and how long the conversion took.
+std::string meshError(const std::string& uri, double& seconds) {
+  const auto start = std::chrono::steady_clock::now();
+  const UrdfShapes s = urdfToShapes(meshUrdf(uri), vadop_ros::makeDefaultMeshLoader());
+  seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(s.geometries.size(), 1u);  // link "a" is still there
+  if (s.errors.size() != 1u) {
+    ADD_FAILURE() << "errors: " << s.errors.size();
+    return "";
+  }
+  return s.errors[0];
+}
+
+}  // namespace
+
+TEST(UrdfShapes, MeshFromADeviceIsRefusedBeforeReading) {
+  double seconds = 0;
+  const std::string e = meshError("file:///dev/zero", seconds);
+  EXPECT_NE(e.find("link \"m\" collision 0: mesh \"file:///dev/zero\": /dev/zero is not a regular file"), std::string::npos)
+      << e;
+  EXPECT_LT(seconds, 1.0);  // before: ~1 GB read, 10-13 s (a bound of 1 s, not a benchmark)
+  EXPECT_NE(meshError("file:///tmp", seconds).find("/tmp is not a regular file"), std::string::npos);
+}
+
+TEST(UrdfShapes, MeshLargerThanTheLimitIsRefusedBeforeReading) {
+  TempDir dir;
+  ASSERT_FALSE(dir.path.empty());
+  const std::string big = dir.path + "/big.stl";
+  // A sparse 2 GiB file: no disk space used.
+  ASSERT_EQ(std::system(("truncate -s 2G '" + big + "'").c_str()), 0);
+  double seconds = 0;
+  const std::string e = meshError("file://" + big, seconds);
+  EXPECT_NE(e.find("mesh \"file://" + big + "\" is 2147483648 bytes, more than the limit of 64 MiB (kMaxMeshBytes)"),
+            std::string::npos)
+      << e;
+  EXPECT_LT(seconds, 1.0);
+  // Just above the limit: refused; at the limit: read (and then not a valid STL).
+  const std::string edge = dir.path + "/edge.stl";
+  ASSERT_EQ(std::system(("truncate -s " + std::to_string(vadop_ros::kMaxMeshBytes + 1) + " '" + edge + "'").c_str()), 0);
+  EXPECT_THROW(vadop_ros::readMeshResource("file://" + edge), std::runtime_error);
+  ASSERT_EQ(std::system(("truncate -s " + std::to_string(vadop_ros::kMaxMeshBytes) + " '" + edge + "'").c_str()), 0);
+  EXPECT_EQ(vadop_ros::readMeshResource("file://" + edge).size(), vadop_ros::kMaxMeshBytes);
+}
+
+TEST(UrdfShapes, MeshUriSchemes) {
+  // file:// and package:// resolve to paths; every other scheme is refused with a clear message.
+  EXPECT_EQ(vadop_ros::meshPath("file:///a/b.stl"), "/a/b.stl");
+  for (const std::string uri : {"http://example.com/m.stl", "https://example.com/m.stl", "/abs/m.stl", "m.stl",
+                                "ftp://h/m.stl"}) {
+    try {
+      vadop_ros::meshPath(uri);
+      ADD_FAILURE() << uri;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("mesh \"" + uri + "\": only package:// and file:// URIs are supported"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  EXPECT_THROW(vadop_ros::meshPath("file://relative/m.stl"), std::runtime_error);
+  EXPECT_THROW(vadop_ros::meshPath("package://"), std::runtime_error);
+  EXPECT_THROW(vadop_ros::meshPath("package://vadop"), std::runtime_error);
+  try {
+    vadop_ros::meshPath("package://no_such_package_vadop/m.stl");
+    ADD_FAILURE();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("package \"no_such_package_vadop\" not found"), std::string::npos) << e.what();
+  }
+  if (std::getenv("ROS_PACKAGE_PATH")) {
+    const std::string p = vadop_ros::meshPath("package://vadop/test/data/cube.stl");
+    EXPECT_EQ(p.substr(p.size() - std::string("/test/data/cube.stl").size()), "/test/data/cube.stl");
+  }
+  double seconds = 0;
+  EXPECT_NE(meshError("file:///no/such/file.stl", seconds).find("cannot retrieve mesh \"file:///no/such/file.stl\""),
+            std::string::npos);
 }

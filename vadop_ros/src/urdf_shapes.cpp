@@ -6,11 +6,18 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <console_bridge/console.h>
-#include <resource_retriever/retriever.h>
+#include <ros/package.h>
 #include <urdf_parser/urdf_parser.h>
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <sstream>
 #include <tuple>
@@ -54,18 +61,92 @@ std::string extensionOf(const std::string& uri) {
   return uri.substr(dot + 1);
 }
 
-MeshData loadMesh(const std::string& uri, const Eigen::Vector3d& scale) {
-  resource_retriever::Retriever retriever;
-  resource_retriever::MemoryResource res;
-  try {
-    res = retriever.get(uri);
-  } catch (const resource_retriever::Exception& e) {
-    throw std::runtime_error("cannot retrieve mesh \"" + uri + "\": " + e.what());
+std::string limitText() {
+  return std::to_string(kMaxMeshBytes >> 20) + " MiB";
+}
+
+// Reads a regular file of at most kMaxMeshBytes. The checks come before any byte is read (and
+// again on the open descriptor): a device (/dev/zero), a FIFO or a directory is refused, as is
+// a file larger than the limit; a file that grows while it is read stops at the limit.
+std::vector<char> readBounded(const std::string& uri, const std::string& path) {
+  const std::string what = "mesh \"" + uri + "\"";
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) {
+    throw std::runtime_error("cannot retrieve " + what + ": " + path + ": " + std::strerror(errno));
   }
-  if (res.size == 0) throw std::runtime_error("mesh \"" + uri + "\" is empty");
+  auto checkStat = [&](const struct stat& s) {
+    if (!S_ISREG(s.st_mode)) throw std::runtime_error(what + ": " + path + " is not a regular file");
+    if (static_cast<unsigned long long>(s.st_size) > kMaxMeshBytes) {
+      throw std::runtime_error(what + " is " + std::to_string(static_cast<unsigned long long>(s.st_size)) +
+                               " bytes, more than the limit of " + limitText() + " (kMaxMeshBytes)");
+    }
+  };
+  checkStat(st);
+  // O_NONBLOCK: should the path have become a FIFO since stat, open does not wait for a writer.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) throw std::runtime_error("cannot retrieve " + what + ": " + path + ": " + std::strerror(errno));
+  std::unique_ptr<int, void (*)(int*)> closer(new int(fd), [](int* f) {
+    ::close(*f);
+    delete f;
+  });
+  if (::fstat(fd, &st) != 0) throw std::runtime_error("cannot retrieve " + what + ": " + std::strerror(errno));
+  checkStat(st);
+  std::vector<char> data(static_cast<size_t>(st.st_size) + 1);  // one more: detects growth
+  size_t got = 0;
+  while (got < data.size()) {
+    const ssize_t n = ::read(fd, data.data() + got, data.size() - got);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) throw std::runtime_error("cannot read " + what + ": " + std::strerror(errno));
+    if (n == 0) break;
+    got += static_cast<size_t>(n);
+  }
+  if (got > kMaxMeshBytes) {
+    throw std::runtime_error(what + " grew beyond the limit of " + limitText() + " (kMaxMeshBytes) while read");
+  }
+  data.resize(got);
+  return data;
+}
+
+}  // namespace
+
+std::string meshPath(const std::string& uri) {
+  const std::string file = "file://", package = "package://";
+  if (uri.compare(0, file.size(), file) == 0) {
+    const std::string path = uri.substr(file.size());
+    if (path.empty() || path.front() != '/') {
+      throw std::runtime_error("mesh \"" + uri + "\": a file:// URI needs an absolute path (file:///path)");
+    }
+    return path;
+  }
+  if (uri.compare(0, package.size(), package) == 0) {
+    const std::string rest = uri.substr(package.size());
+    const size_t slash = rest.find('/');
+    const std::string name = rest.substr(0, slash);
+    if (name.empty() || slash == std::string::npos || slash + 1 == rest.size()) {
+      throw std::runtime_error("mesh \"" + uri + "\": a package:// URI is package://<package>/<path>");
+    }
+    const std::string root = ros::package::getPath(name);
+    if (root.empty()) {
+      throw std::runtime_error("cannot retrieve mesh \"" + uri + "\": package \"" + name +
+                               "\" not found (is it on ROS_PACKAGE_PATH?)");
+    }
+    return root + rest.substr(slash);
+  }
+  throw std::runtime_error("mesh \"" + uri +
+                           "\": only package:// and file:// URIs are supported (a remote mesh could not be "
+                           "bounded to " + limitText() + " before it is read)");
+}
+
+std::vector<char> readMeshResource(const std::string& uri) { return readBounded(uri, meshPath(uri)); }
+
+namespace {
+
+MeshData loadMesh(const std::string& uri, const Eigen::Vector3d& scale) {
+  const std::vector<char> res = readMeshResource(uri);
+  if (res.empty()) throw std::runtime_error("mesh \"" + uri + "\" is empty");
   Assimp::Importer importer;
   const aiScene* scene = importer.ReadFileFromMemory(
-      res.data.get(), res.size,
+      res.data(), res.size(),
       aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices |
           aiProcess_SortByPType,
       extensionOf(uri).c_str());

@@ -1,6 +1,12 @@
 // URDF -> collision shapes: every <collision> element of every link, with its origin and,
 // for meshes, its scale. box, cylinder and sphere map to the library's primitives; a mesh
-// (package:// or file:// URI, loaded with resource_retriever + assimp) to a triangle mesh.
+// (package:// or file:// URI, read from its file and loaded with assimp) to a triangle mesh.
+//
+// Mesh files are bounded: a URI is resolved to a path first (package:// with
+// ros::package::getPath, as resource_retriever does), and anything but a regular file of at most
+// kMaxMeshBytes is refused before a byte is read (file:///dev/zero, a FIFO, a 2 GB file), with an
+// error naming the URI and the limit. Other schemes (http://, ...) are refused: a remote
+// resource could not be bounded before it is read.
 //
 // Link poses: urdfToShapes also computes each link's pose in the root link's frame with every
 // joint at its zero position (a fixed joint's origin), which is the pose of a link that moves
@@ -65,8 +71,19 @@ struct MeshData {
 // Loads a mesh resource; throws std::runtime_error with a readable message when it cannot.
 using MeshLoader = std::function<MeshData(const std::string& uri, const Eigen::Vector3d& scale)>;
 
-// resource_retriever (package://, file://, http://) + assimp, with a cache by (uri, scale)
-// shared by the copies of a robot.
+// Largest mesh file read (bytes): 64 MiB, some 1.3 million triangles as binary STL, far more
+// than a collision mesh needs (the narrow phase works on the mesh's points).
+constexpr unsigned long long kMaxMeshBytes = 64ull << 20;
+
+// The file a package:// or file:// mesh URI names. Throws std::runtime_error naming the URI for
+// another scheme, a malformed URI or an unknown package.
+std::string meshPath(const std::string& uri);
+
+// The bytes of the mesh file `uri` names (meshPath). Throws std::runtime_error naming the URI
+// when it is not a regular file, is larger than kMaxMeshBytes (naming the limit) or cannot be read.
+std::vector<char> readMeshResource(const std::string& uri);
+
+// readMeshResource + assimp, with a cache by (uri, scale) shared by the copies of a robot.
 MeshLoader makeDefaultMeshLoader();
 
 // Parses the URDF text. Throws UrdfError when it does not parse (the message says why, when
