@@ -48,6 +48,7 @@ struct PreparedShapeData {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kEps = std::numeric_limits<double>::epsilon();
 
 // ---------------------------------------------------------------------------------------
 // Support mappings
@@ -158,7 +159,8 @@ struct Gjk {
   Eigen::Vector3d best_dir = Eigen::Vector3d::Zero();
 };
 
-SVert makeVert(const Convex& A, const Convex& B, const Eigen::Vector3d& d) {
+template <class CA, class CB>
+SVert makeVert(const CA& A, const CB& B, const Eigen::Vector3d& d) {
   // Support of A - B along d.
   SVert s;
   s.a = A.support(d);
@@ -311,8 +313,11 @@ bool closestOnSimplex(SVert* s, int& n, double* lambda) {
   return true;
 }
 
-Gjk runGjk(const Convex& A, const Convex& B, Eigen::Vector3d guess, double abs_tol, double rel_tol,
-           int max_iter) {
+// CA, CB: Convex or Swept (support(d), origin(), p, lever). Stops early once the certified
+// lower bound of the core distance exceeds stop_above.
+template <class CA, class CB>
+Gjk runGjk(const CA& A, const CB& B, Eigen::Vector3d guess, double abs_tol, double rel_tol, int max_iter,
+           double stop_above = kInf) {
   Gjk r;
   if (!(guess.squaredNorm() > 0.0) || !guess.allFinite()) guess = A.origin() - B.origin();
   if (!(guess.squaredNorm() > 0.0)) guess = Eigen::Vector3d::UnitX();
@@ -340,7 +345,7 @@ Gjk runGjk(const Convex& A, const Convex& B, Eigen::Vector3d guess, double abs_t
       r.best_lower = lower;
       r.best_dir = v / vn;
     }
-    if (vn - lower <= std::max(abs_tol, rel_tol * vn)) break;
+    if (vn - lower <= std::max(abs_tol, rel_tol * vn) || lower > stop_above) break;
     bool duplicate = false;
     for (int k = 0; k < n; ++k) {
       if ((s[k].w - w.w).squaredNorm() <= tiny * tiny) duplicate = true;
@@ -379,7 +384,8 @@ Gjk runGjk(const Convex& A, const Convex& B, Eigen::Vector3d guess, double abs_t
 
 // Separation of the padded convexes along unit n (from a to b): certified lower bound of
 // their signed distance.
-double separation(const Convex& A, const Convex& B, const Eigen::Vector3d& n) {
+template <class CA, class CB>
+double separation(const CA& A, const CB& B, const Eigen::Vector3d& n) {
   return n.dot(B.p - A.p) - A.h(n) - B.h(-n);
 }
 
@@ -928,6 +934,158 @@ Side sideAt(const PreparedShapeData& d, const Motion& m, double t) {
   return s;
 }
 
+// ---------------------------------------------------------------------------------------
+// Swept volumes (sweptLowerBound in distance.h).
+//
+// A body turning with angular velocity w about a pivot c(t) = c(ta) + v (t - ta): relative to
+// the pivot its points turn about the axis w_hat, which keeps each point's axial coordinate
+// and its distance from the axis. So over any time interval the core stays in the cylinder
+// about w_hat through the pivot whose radius is the core's largest distance from the axis and
+// whose axial extent is the core's support along +-w_hat (the "revolution hull"); the padded
+// shape in that cylinder rounded by the rounding radius; and the body over [ta, tb] in that
+// set summed with the pivot's displacement segment [0, v (tb - ta)]. A body that does not turn:
+// its posed core (a mesh: the hull of its vertices) summed with the segment, rounded. A body
+// that turns by at most kSmallTurn over [ta, tb]: the same with its pose at ta, the rounding
+// grown by turn * lever (a point at distance r from the pivot turned by an angle th moves by
+// the chord 2 r sin(th / 2) <= th r), which is tighter than the revolution hull for slow turns.
+constexpr double kSmallTurn = 0.5;  // rad
+struct Swept {
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();    // the pivot (or origin) at ta
+  Eigen::Vector3d seg = Eigen::Vector3d::Zero();  // its displacement over [ta, tb]
+  bool rotating = false;
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // rotating: unit axis
+  double rho = 0.0;                                 // rotating: cylinder radius (core)
+  double ax_lo = 0.0, ax_hi = 0.0;                  // rotating: axial extent of the core about p
+  const PreparedShapeData* d = nullptr;             // not rotating: the core, posed by R ...
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d shift = Eigen::Vector3d::Zero();  // ... with its origin at p + shift
+  double rounding = 0.0;
+  double lever = 0.0;  // bound of |x - p| over the set: the scale of the numbers involved
+
+  Eigen::Vector3d origin() const { return p; }
+  // A point of the turning or posed core relative to p (the start of the segment), farthest
+  // along u up to rounding (u need not be unit): what the GJK needs. The certificate uses h(),
+  // never the dot product of this point.
+  Eigen::Vector3d core(const Eigen::Vector3d& u) const {
+    if (rotating) {
+      const double a = u.dot(axis);
+      Eigen::Vector3d x = (a >= 0.0 ? ax_hi : ax_lo) * axis;
+      // The radial direction, orthogonalised twice: for u (nearly) along the axis the first
+      // difference is rounding noise, which must not tilt the point out of the cylinder.
+      Eigen::Vector3d perp = u - a * axis;
+      perp -= perp.dot(axis) * axis;
+      const double pn = perp.norm();
+      if (pn > 1e-12 * u.norm()) x += (rho / pn) * perp;
+      return x;
+    }
+    if (d->kind == CoreKind::kMesh) {
+      const Eigen::Vector3d ub = R.transpose() * u;
+      const Eigen::Vector3d* best = &d->shape.points[0];
+      double bv = best->dot(ub);
+      for (const Eigen::Vector3d& q : d->shape.points) {
+        const double v = q.dot(ub);
+        if (v > bv) {
+          bv = v;
+          best = &q;
+        }
+      }
+      return R * *best + shift;
+    }
+    return R * coreSupportBody(*d, R.transpose() * u) + shift;
+  }
+  Eigen::Vector3d rel(const Eigen::Vector3d& u) const {
+    return (u.dot(seg) > 0.0 ? seg : Eigen::Vector3d::Zero()) + core(u);
+  }
+  Eigen::Vector3d support(const Eigen::Vector3d& u) const { return p + rel(u); }
+  // Support value of the padded set about p: an upper bound (to rounding) of max (x - p).u.
+  double h(const Eigen::Vector3d& u) const {
+    const double un = u.norm();
+    double v = std::max(0.0, u.dot(seg)) + rounding * un;
+    if (rotating) {
+      // Over the cylinder: the axial end times u.axis plus rho times |u's radial part| (its
+      // computed norm is within a few ulps of |u| of the exact one: allowed for).
+      const double a = u.dot(axis);
+      v += (a >= 0.0 ? ax_hi : ax_lo) * a + rho * ((u - a * axis).norm() + 4.0 * kEps * un);
+    } else {
+      v += core(u).dot(u);  // the posed core's exact support point
+    }
+    return v;
+  }
+};
+
+Swept sweptVolume(const PreparedShapeData& d, const Motion& m, double ta, double tb) {
+  Swept s;
+  s.rounding = d.rounding;
+  s.seg = m.linear_velocity * (tb - ta);
+  if (!m.isRotating()) {
+    s.p = m.positionAt(ta);
+    s.d = &d;
+    s.R = m.orientation.toRotationMatrix();
+    s.lever = d.lever + s.seg.norm();
+    return s;
+  }
+  const Eigen::Matrix3d R = m.orientationAt(ta).toRotationMatrix();
+  s.p = m.hasPivot() ? m.pivotAt(ta) : m.positionAt(ta);
+  const Eigen::Vector3d shift = m.hasPivot() ? Eigen::Vector3d(m.positionAt(ta) - s.p) : Eigen::Vector3d::Zero();
+  const double turn = m.angular_velocity.norm() * (tb - ta);
+  if (turn <= kSmallTurn) {
+    const double arm = d.lever + shift.norm();  // max |x - p| over the padded shape
+    s.d = &d;
+    s.R = R;
+    s.shift = shift;
+    s.rounding += turn * arm * (1.0 + 4.0 * kEps);
+    s.lever = arm + turn * arm + s.seg.norm();
+    return s;
+  }
+  s.rotating = true;
+  s.axis = m.angular_velocity.normalized();
+  // The core's points that bound it (a cylinder's end centres, with its radius added).
+  double hi = -kInf, lo = kInf, rho = 0.0, extra = 0.0;
+  auto visit = [&](const Eigen::Vector3d& body) {
+    const Eigen::Vector3d y = R * body + shift;
+    const double a = y.dot(s.axis);
+    hi = std::max(hi, a);
+    lo = std::min(lo, a);
+    rho = std::max(rho, (y - a * s.axis).norm());
+  };
+  switch (d.kind) {
+    case CoreKind::kPoint: visit(Eigen::Vector3d::Zero()); break;
+    case CoreKind::kSegment:
+    case CoreKind::kCylinder:
+      visit(Eigen::Vector3d(0, 0, d.half_length));
+      visit(Eigen::Vector3d(0, 0, -d.half_length));
+      if (d.kind == CoreKind::kCylinder) {
+        // The rim circles: radius bounded by the end centre's plus the cylinder's radius (a
+        // vector of the disk moves a point by at most its length); the axial extent exactly.
+        extra = d.cyl_radius;
+        const Eigen::Vector3d ab = R.transpose() * s.axis;
+        const double ax = R.col(2).dot(s.axis);
+        const double rim = d.cyl_radius * std::sqrt(std::max(0.0, ab.squaredNorm() - ax * ax));
+        hi += rim;
+        lo -= rim;
+      }
+      break;
+    case CoreKind::kBox:
+      for (int k = 0; k < 8; ++k) {
+        visit(Eigen::Vector3d((k & 1) ? d.half_extents.x() : -d.half_extents.x(),
+                              (k & 2) ? d.half_extents.y() : -d.half_extents.y(),
+                              (k & 4) ? d.half_extents.z() : -d.half_extents.z()));
+      }
+      break;
+    case CoreKind::kPoints:
+      for (const Eigen::Vector3d& q : d.points) visit(q);
+      break;
+    case CoreKind::kMesh:
+      for (const Eigen::Vector3d& q : d.shape.points) visit(q);
+      break;
+  }
+  s.rho = rho + extra;
+  s.ax_hi = hi;
+  s.ax_lo = lo;
+  s.lever = s.rho + std::max(std::abs(hi), std::abs(lo)) + s.seg.norm() + s.rounding;
+  return s;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------
@@ -956,6 +1114,29 @@ AdvanceStep advanceStep(const PreparedShape& a, const Motion& ma, const Prepared
     return out;
   }
   out.step = separationStep(ca, A.kin, cb, B.kin, cert, horizon, advance_gap, horizon, &out.clear);
+  return out;
+}
+
+SweptBound sweptLowerBound(const PreparedShape& a, const Motion& ma, const PreparedShape& b, const Motion& mb,
+                           double ta, double tb, double stop_above) {
+  const Swept A = sweptVolume(a.data(), ma, ta, tb);
+  const Swept B = sweptVolume(b.data(), mb, ta, tb);
+  // Rounding allowance: the separation below is computed with exact support functions but in
+  // floating point, from coordinates of size `scale` (a few ulps of it each).
+  const double scale = A.p.norm() + B.p.norm() + A.lever + B.lever;
+  const double slack = 1e-15 * scale;
+  const double rounding = A.rounding + B.rounding;
+  Eigen::Vector3d guess = A.p - B.p;
+  const Gjk g = runGjk(A, B, guess, 1e-9, 1e-9, 64, stop_above + rounding + slack);
+  SweptBound out;
+  out.iterations = g.iterations;
+  if (g.overlap) {
+    out.lower_bound = -kInf;
+    return out;
+  }
+  double lower = separation(A, B, Eigen::Vector3d(-g.v / g.dist));
+  if (g.best_dir.squaredNorm() > 0.0) lower = std::max(lower, separation(A, B, Eigen::Vector3d(-g.best_dir)));
+  out.lower_bound = lower - slack;
   return out;
 }
 

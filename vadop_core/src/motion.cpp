@@ -1,6 +1,7 @@
 #include "vadop/motion.h"
 
 #include "vadop/error.h"
+#include "vadop/limits.h"
 
 #include <cmath>
 
@@ -9,6 +10,37 @@ namespace {
 
 void requireFinite(const Eigen::Vector3d& v, const std::string& what, const char* field) {
   if (!v.allFinite()) throw InvalidArgument(what + ": " + field + " is not finite");
+}
+
+void requireInRange(const std::string& error, const std::string& what) {
+  if (!error.empty()) throw InvalidArgument(what + ": " + error);
+}
+
+// Every coordinate within limit (limits.h: kMaxCoordinate).
+void requireCoordinates(const Eigen::Vector3d& v, double limit, const std::string& what, const char* field) {
+  for (int k = 0; k < 3; ++k) {
+    requireInRange(rangeError(v[k], limit, std::string(field) + "[" + std::to_string(k) + "]", "m"), what);
+  }
+}
+
+// The norm of a velocity within limit: sqrt(squaredNorm()), the value isValidMotion bounds (the
+// overflow-free norm when the square overflows, for the message).
+void requireSpeed(const Eigen::Vector3d& v, double limit, const std::string& what, const char* field,
+                  const char* unit) {
+  const double sq = v.squaredNorm();
+  const double norm = std::isfinite(sq) ? std::sqrt(sq) : v.stableNorm();
+  requireInRange(rangeError(norm, limit, std::string("|") + field + "|", unit), what);
+}
+
+// The range of limits.h for the fields of a motion (all finite already).
+void requireMotionRange(const Eigen::Vector3d& position, const Eigen::Vector3d& pivot_offset,
+                        const Eigen::Vector3d& linear_velocity, const Eigen::Vector3d& angular_velocity,
+                        double t_ref, const std::string& what) {
+  requireCoordinates(position, kMaxCoordinate, what, "position");
+  requireCoordinates(pivot_offset, kMaxCoordinate, what, "pivot_offset");
+  requireSpeed(linear_velocity, kMaxLinearSpeed, what, "linear_velocity", "m/s");
+  requireSpeed(angular_velocity, kMaxAngularSpeed, what, "angular_velocity", "rad/s");
+  requireInRange(rangeError(t_ref, kMaxTime, "t_ref", "s"), what);
 }
 
 }  // namespace
@@ -61,6 +93,7 @@ Motion makeMotion(const Eigen::Vector3d& position, const Eigen::Quaterniond& ori
   requireFinite(linear_velocity, what, "linear_velocity");
   requireFinite(angular_velocity, what, "angular_velocity");
   if (!std::isfinite(t_ref)) throw InvalidArgument("motion: t_ref is not finite");
+  requireMotionRange(position, Eigen::Vector3d::Zero(), linear_velocity, angular_velocity, t_ref, what);
   Motion m;
   m.t_ref = t_ref;
   m.position = position;
@@ -71,11 +104,13 @@ Motion makeMotion(const Eigen::Vector3d& position, const Eigen::Quaterniond& ori
 }
 
 bool isValidMotion(const Motion& m) {
-  // A NaN or Inf anywhere makes the sum non-finite (so may an overflow of finite values: then
-  // validateMotion, the exact test, finds nothing to complain about).
-  const double sum =
-      m.position.sum() + m.linear_velocity.sum() + m.angular_velocity.sum() + m.pivot_offset.sum() + m.t_ref;
-  return std::isfinite(sum) && std::abs(m.orientation.squaredNorm() - 1.0) <= 1e-6;
+  // The range of limits.h, as validateMotion checks it; every comparison is false for a NaN, and
+  // an Inf is beyond every limit, so a non-finite value fails too.
+  // (Not maxCoeff(), which may skip a NaN.)
+  return (m.position.array().abs() <= kMaxCoordinate).all() && (m.pivot_offset.array().abs() <= kMaxCoordinate).all() &&
+         m.linear_velocity.squaredNorm() <= kMaxLinearSpeed * kMaxLinearSpeed &&
+         m.angular_velocity.squaredNorm() <= kMaxAngularSpeed * kMaxAngularSpeed && std::abs(m.t_ref) <= kMaxTime &&
+         std::abs(m.orientation.squaredNorm() - 1.0) <= 1e-6;
 }
 
 void validateMotion(const Motion& m, const std::string& what) {
@@ -89,6 +124,7 @@ void validateMotion(const Motion& m, const std::string& what) {
                           std::to_string(m.orientation.norm()) + ")");
   }
   if (!std::isfinite(m.t_ref)) throw InvalidArgument(what + ": t_ref is not finite");
+  requireMotionRange(m.position, m.pivot_offset, m.linear_velocity, m.angular_velocity, m.t_ref, what);
 }
 
 }  // namespace vadop

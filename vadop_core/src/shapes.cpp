@@ -1,6 +1,7 @@
 #include "vadop/shapes.h"
 
 #include "vadop/error.h"
+#include "vadop/limits.h"
 
 #include <cmath>
 #include <sstream>
@@ -27,6 +28,42 @@ double maxNorm(const std::vector<Eigen::Vector3d>& points) {
   double r = 0.0;
   for (const auto& p : points) r = std::max(r, p.norm());
   return r;
+}
+
+void requireSize(double value, const std::string& field) {
+  const std::string error = rangeError(value, kMaxSize, field, "m");
+  if (!error.empty()) throw InvalidArgument(error);
+}
+
+// The range of limits.h (kMaxSize) for every dimension, point and the margin of a shape whose
+// fields are otherwise valid (finite, positive). One check for validateShape and the make*
+// functions. Edge lengths and lengths are the full ones, as the make* functions take them.
+void requireShapeRange(const Shape& s) {
+  switch (s.type) {
+    case ShapeType::kSphere: requireSize(s.radius, "sphere radius"); break;
+    case ShapeType::kBox:
+      for (int k = 0; k < 3; ++k) requireSize(2.0 * s.half_extents[k], "box size[" + std::to_string(k) + "]");
+      break;
+    case ShapeType::kCapsule:
+    case ShapeType::kCylinder: {
+      const std::string name = s.type == ShapeType::kCapsule ? "capsule" : "cylinder";
+      requireSize(s.radius, name + " radius");
+      requireSize(2.0 * s.half_length, name + " length");
+      break;
+    }
+    case ShapeType::kConvex:
+    case ShapeType::kMesh: {
+      const char* name = s.type == ShapeType::kConvex ? "|convex points[" : "|mesh vertices[";
+      for (size_t i = 0; i < s.points.size(); ++i) {
+        const double sq = s.points[i].squaredNorm();
+        if (sq <= kMaxSize * kMaxSize) continue;  // the common case, without a sqrt
+        requireSize(std::isfinite(sq) ? std::sqrt(sq) : s.points[i].stableNorm(),
+                    name + std::to_string(i) + "]|");
+      }
+      break;
+    }
+  }
+  requireSize(s.margin, "margin");
 }
 
 void finish(Shape& s) {
@@ -61,6 +98,7 @@ Shape makeSphere(double radius) {
   s.type = ShapeType::kSphere;
   s.radius = radius;
   finish(s);
+  requireShapeRange(s);
   return s;
 }
 
@@ -72,6 +110,7 @@ Shape makeBox(const Eigen::Vector3d& size) {
   s.type = ShapeType::kBox;
   s.half_extents = 0.5 * size;
   finish(s);
+  requireShapeRange(s);
   return s;
 }
 
@@ -86,6 +125,7 @@ Shape makeCapsule(double radius, double length) {
   s.radius = radius;
   s.half_length = 0.5 * length;
   finish(s);
+  requireShapeRange(s);
   return s;
 }
 
@@ -97,6 +137,7 @@ Shape makeCylinder(double radius, double length) {
   s.radius = radius;
   s.half_length = 0.5 * length;
   finish(s);
+  requireShapeRange(s);
   return s;
 }
 
@@ -106,6 +147,7 @@ Shape makeConvex(std::vector<Eigen::Vector3d> points) {
   s.type = ShapeType::kConvex;
   s.points = std::move(points);
   finish(s);
+  requireShapeRange(s);
   return s;
 }
 
@@ -128,6 +170,7 @@ Shape makeMesh(std::vector<Eigen::Vector3d> vertices, std::vector<std::array<int
   s.points = std::move(vertices);
   s.triangles = std::move(triangles);
   finish(s);
+  requireShapeRange(s);
   return s;
 }
 
@@ -184,6 +227,7 @@ Shape inflate(const Shape& shape, double padding) {
   if (!std::isfinite(padding) || padding < 0.0) {
     throw InvalidArgument("padding must be finite and >= 0, got " + formatNumber(padding));
   }
+  requireSize(padding, "padding");
   Shape s = shape;
   s.margin += padding;
   finish(s);
@@ -228,6 +272,7 @@ void validateShape(const Shape& s, const std::string& what) {
     if (!std::isfinite(s.margin) || s.margin < 0.0) {
       throw InvalidArgument("margin must be finite and >= 0, got " + formatNumber(s.margin));
     }
+    requireShapeRange(s);
     Shape copy = s;
     finish(copy);
     if (!(std::abs(copy.bounding_radius - s.bounding_radius) <= 1e-12 * (1.0 + copy.bounding_radius))) {

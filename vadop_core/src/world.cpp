@@ -1,6 +1,7 @@
 #include "vadop/world.h"
 
 #include "vadop/error.h"
+#include "vadop/limits.h"
 #include "vadop/sweep_prune.h"
 #include "vadop/vadop_grid.h"
 
@@ -173,22 +174,31 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
     throw InvalidArgument("predict: horizon must be finite and >= 0, got " + formatNumber(horizon));
   }
   const double t1 = t0 + horizon;
-  if (!std::isfinite(t1)) throw InvalidArgument("predict: t0 + horizon is not finite");
-  // Poses must stay far from overflow over the window, or the geometry turns into inf/NaN.
+  // The range of limits.h: the window's times, and every body's position over the window.
+  for (const auto& [value, field] : {std::pair<double, const char*>{t0, "predict: t0"}, {t1, "predict: t0 + horizon"}}) {
+    const std::string error = rangeError(value, kMaxTime, field, "s");
+    if (!error.empty()) throw InvalidArgument(error);
+  }
+  // A cheap bound of each coordinate of the body's origin over [t0, t1]: the pivot moves in a
+  // straight line (its coordinates are largest at an end) and the origin stays within
+  // |pivot_offset| of it. Motions are within range (validateMotion), so nothing overflows.
   for (const auto& kv : by_name_) {
     const Motion& m = broad_phase_->motion(kv.second);
-    for (const double t : {t0, t1}) {
-      const double dt = t - m.t_ref;
-      if (!std::isfinite(m.positionAt(t).squaredNorm()) ||
-          !std::isfinite((m.angular_velocity * dt).squaredNorm())) {
-        throw InvalidArgument("predict: body " + quoted(kv.first) + ": its pose at t = " + formatNumber(t) +
-                              " is out of the finite range (position or rotation angle too large)");
-      }
+    const Eigen::Vector3d c0 = m.hasPivot() ? m.pivotAt(t0) : m.positionAt(t0);
+    const Eigen::Vector3d c1 = m.hasPivot() ? m.pivotAt(t1) : m.positionAt(t1);
+    const double arm = m.hasPivot() ? m.pivot_offset.norm() : 0.0;
+    for (int k = 0; k < 3; ++k) {
+      const double reach = std::max(std::abs(c0[k]), std::abs(c1[k])) + arm;
+      const std::string error = rangeError(reach, kMaxReach,
+                                           "position[" + std::to_string(k) + "] over [" + formatNumber(t0) + ", " +
+                                               formatNumber(t1) + "] (bound)",
+                                           "m");
+      if (!error.empty()) throw InvalidArgument("predict: body " + quoted(kv.first) + ": " + error);
     }
   }
 
   broad_phase_->update(t0, t1);
-  std::vector<WorldImpact> out;
+  std::vector<WorldImpact> out, undecided;
   size_t calls = 0;
   for (const Pair& p : broad_phase_->pairs()) {
     if (mask && !(*mask)[p.a] && !(*mask)[p.b]) continue;
@@ -200,21 +210,25 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
     const Motion& ma = broad_phase_->motion(ia);
     const Motion& mb = broad_phase_->motion(ib);
     const Impact hit = timeOfImpact(*ra->prepared, ma, *rb->prepared, mb, t0, t1, config_.toi);
-    if (!hit.hit) continue;
+    if (!hit.hit && !hit.undecided) continue;
     WorldImpact w;
     w.a = ra->name;
     w.b = rb->name;
     w.a_key = ra->key;
     w.b_key = rb->key;
     w.impact = hit;
-    out.push_back(std::move(w));
+    (hit.hit ? out : undecided).push_back(std::move(w));
   }
-  last_candidates_ = calls;
-  std::sort(out.begin(), out.end(), [](const WorldImpact& x, const WorldImpact& y) {
+  auto order = [](const WorldImpact& x, const WorldImpact& y) {
     if (x.impact.time != y.impact.time) return x.impact.time < y.impact.time;
     if (x.a_key != y.a_key) return x.a_key < y.a_key;
     return x.b_key < y.b_key;
-  });
+  };
+  std::sort(out.begin(), out.end(), order);
+  std::sort(undecided.begin(), undecided.end(), order);
+  // Nothing above throws once the narrow phase has run: the statistics change together.
+  last_candidates_ = calls;
+  last_undecided_ = std::move(undecided);
   return out;
 }
 

@@ -5,12 +5,18 @@
 //   gap(time) <= tol, normal from a to b, point between the two surfaces.
 #include "vadop/distance.h"
 #include "vadop/error.h"
+#include "vadop/limits.h"
 #include "vadop/time_of_impact.h"
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <functional>
 #include <limits>
+#include <random>
+#include <string>
 #include <vector>
 
 namespace {
@@ -42,7 +48,7 @@ void expectTime(const Impact& imp, double t_star, double closing, double tol = k
   ASSERT_TRUE(imp.hit);
   EXPECT_LE(imp.time, t_star + 1e-12);
   EXPECT_GE(imp.time, t_star - tol / closing - 1e-12);
-  EXPECT_FALSE(imp.conservative);
+  EXPECT_FALSE(imp.undecided);
 }
 
 void expectNormal(const Impact& imp, const Vector3d& n, double max_deg = 1e-3) {
@@ -291,14 +297,14 @@ TEST(TimeOfImpact, RotatingBarSweepsSphere) {
   const Motion mfar = motion(Vector3d(0, reach + r + 1e-4, 0));
   const Impact miss = vadop::timeOfImpact(bar, mbar, ball, mfar, 0.0, 1.1 * kPi / w);
   EXPECT_FALSE(miss.hit);
-  EXPECT_FALSE(miss.conservative);
+  EXPECT_FALSE(miss.undecided);
   // ... and 0.3 tol inside its reach: the corner touches it at th = pi/2 - atan(hw).
   const Motion mnear = motion(Vector3d(0, reach + r - 0.3 * kTol, 0));
   const Impact hit = vadop::timeOfImpact(bar, mbar, ball, mnear, 0.0, 1.1 * kPi / w);
   ASSERT_TRUE(hit.hit);
   EXPECT_LE(hit.time, (kPi / 2 - std::atan(hw)) / w + 1e-9);
   EXPECT_GE(hit.time, (kPi / 2 - std::atan(hw)) / w - 2e-3);  // grazing: sqrt(2 gap / (w^2 reach))
-  EXPECT_FALSE(hit.conservative);
+  EXPECT_FALSE(hit.undecided);
 
   // Capsule bar (r 0.05, segment 2 along z) spinning about x at 2 rad/s: its axis is
   // (0, -sin th, cos th). Sphere r 0.1 at (0, -D, 0): distance from the axis line D cos th.
@@ -513,13 +519,15 @@ TEST(TimeOfImpact, ToleranceAndWindowEdges) {
   // Contact exactly at t1 is reported.
   imp = vadop::timeOfImpact(box, ma, ball, mb, 0.0, 2.0);
   expectTime(imp, 2.0, 1.0);
-  // A 1-iteration budget that cannot conclude reports a conservative hit, never a miss.
+  // A 1-iteration budget that cannot conclude reports undecided, neither a contact nor a miss.
   ToiOptions one;
   one.max_iterations = 1;
   const Shape cyl = vadop::makeCylinder(0.2, 0.5);
   imp = vadop::timeOfImpact(cyl, motion(Vector3d(3, 0.3, 0), Vector3d(-1, 0, 0), Vector3d(0, 0, 5)), box, ma, 0.0, 5.0, one);
-  EXPECT_TRUE(imp.hit);
-  EXPECT_TRUE(imp.conservative);
+  EXPECT_FALSE(imp.hit);
+  EXPECT_TRUE(imp.undecided);
+  EXPECT_EQ(imp.iterations, 1);
+  EXPECT_GT(imp.time, 0.0);
   EXPECT_LE(imp.time, 2.3);  // certified time before the contact (t* = 3 - 0.7)
 }
 
@@ -625,6 +633,295 @@ TEST(Distance, AnalyticStaticDistances) {
   EXPECT_TRUE(d.cores_overlap);
   EXPECT_NEAR(d.distance, -0.3, 1e-6);
   EXPECT_LE(angleDeg(d.normal, Vector3d::UnitX()), 0.1);
+}
+
+// ---------------------------------------------------------------------------------------
+// Fast spinners (issue 13, defect 5): the budget must not turn a near miss into a contact,
+// and the swept-volume certificate must settle them quickly.
+
+// A bar 2 x 0.1 x 0.1 spinning about z at w (its corners reach hypot(1, 0.05) in the xy
+// plane) and a 0.2 m block whose near face is `clearance` beyond that reach, on the y axis.
+struct SpinScene {
+  Shape bar = vadop::makeBox(Vector3d(2, 0.1, 0.1));
+  Shape block = vadop::makeBox(Vector3d(0.2, 0.2, 0.2));
+  Motion mbar, mblock;
+  SpinScene(double w, double clearance) {
+    mbar = motion(Vector3d::Zero(), Vector3d::Zero(), Vector3d(0, 0, w));
+    mblock = motion(Vector3d(0, std::hypot(1.0, 0.05) + clearance + 0.1, 0));
+  }
+};
+
+double cpuMsPerCall(const std::function<void()>& f, int reps) {
+  const auto start = std::chrono::steady_clock::now();
+  for (int i = 0; i < reps; ++i) f();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count() / reps;
+}
+
+TEST(TimeOfImpact, FastSpinnerNearMissIsClearNotAContact) {
+  // 1 cm clear of the block at every turn. Before the swept volumes, conservative
+  // advancement ran out of its 10,000 steps (at t = 47.9 s and 3.39 s of these windows in the
+  // issue's scenes) and reported a "conservative" contact.
+  for (const auto& [w, horizon] : {std::pair<double, double>{20.0, 60.0}, {1000.0, 10.0}}) {
+    const SpinScene sc(w, 0.01);
+    const Impact imp = vadop::timeOfImpact(sc.bar, sc.mbar, sc.block, sc.mblock, 0.0, horizon);
+    EXPECT_FALSE(imp.hit) << "w = " << w << ": contact reported at t = " << imp.time;
+    EXPECT_FALSE(imp.undecided) << "w = " << w << ": undecided at t = " << imp.time;
+    EXPECT_EQ(imp.time, horizon);
+    EXPECT_LE(imp.iterations, 100) << "w = " << w;
+    // Both orders of the pair, and the block turning too (slowly, about its own centre).
+    const Impact rev = vadop::timeOfImpact(sc.block, sc.mblock, sc.bar, sc.mbar, 0.0, horizon);
+    EXPECT_FALSE(rev.hit || rev.undecided) << "w = " << w;
+    Motion slow = sc.mblock;
+    slow.angular_velocity = Vector3d(0, 0, 1e-4);  // its near face comes < 1 mm closer over 60 s
+    const Impact both = vadop::timeOfImpact(sc.bar, sc.mbar, sc.block, slow, 0.0, horizon);
+    EXPECT_FALSE(both.hit || both.undecided) << "w = " << w;
+    const vadop::PreparedShape pa(sc.bar), pb(sc.block);
+    const double ms = cpuMsPerCall([&] { (void)vadop::timeOfImpact(pa, sc.mbar, pb, sc.mblock, 0.0, horizon); }, 200);
+    std::printf("spinning bar, w = %g rad/s over %g s: %d evaluations, %.4f ms per pair\n", w, horizon,
+                imp.iterations, ms);
+  }
+  // The same at a clearance of 1 mm and with the pivot moving along the axis (the block
+  // staying beside it): the swept cylinder plus the pivot's path still clears the block.
+  SpinScene sc(300.0, 1e-3);
+  sc.mbar.linear_velocity = Vector3d(0, 0, 0.002);  // 6 cm up over 30 s, the block is 10 cm tall
+  const Impact imp = vadop::timeOfImpact(sc.bar, sc.mbar, sc.block, sc.mblock, 0.0, 30.0);
+  EXPECT_FALSE(imp.hit || imp.undecided) << imp.time;
+  EXPECT_LE(imp.iterations, 200);
+}
+
+// The gap between the bar (spinning about its moving centre) and a wall: the bar's reach
+// along x at angle th is L |cos th| + W |sin th|.
+TEST(TimeOfImpact, ContactAfterLongSpinningIsFoundOnTime) {
+  const double L = 1.0, W = 0.05, w = 20.0, v = 0.01;
+  // The reach peaks at R = hypot(L, W) when th = k pi +- atan(W / L). The wall's face X is
+  // placed 0.75 mm inside the reach at the peak th = 191 pi - atan(W / L) (t = 29.998 s, after
+  // 95 turns), so that the peak before it (th = 190 pi + atan(W / L)) clears the wall by 0.8 mm
+  // (a cleaner contact than a graze within microns, which costs advancement thousands of steps).
+  const double X = std::hypot(L, W) + v * (191 * kPi - std::atan2(W, L)) / w - 0.00075;
+  const Shape bar = vadop::makeBox(Vector3d(2 * L, 2 * W, 0.1));
+  const Shape wall = vadop::makeBox(Vector3d(0.2, 10, 10));
+  const Motion mbar = motion(Vector3d::Zero(), Vector3d(v, 0, 0), Vector3d(0, 0, w));
+  const Motion mwall = motion(Vector3d(X + 0.1, 0, 0));
+  auto gap = [&](double t) { return X - v * t - (L * std::abs(std::cos(w * t)) + W * std::abs(std::sin(w * t))); };
+  // The first time the gap reaches `level`: a scan at 1e-5 s (near a maximum of the reach the
+  // gap changes by < 3e-8 m in that time), then bisection.
+  auto first = [&](double level) {
+    double t = 0.0;
+    while (gap(t + 1e-5) > level) t += 1e-5;
+    double lo = t, hi = t + 1e-5;
+    for (int k = 0; k < 60; ++k) {
+      const double mid = 0.5 * (lo + hi);
+      (gap(mid) > level ? lo : hi) = mid;
+    }
+    return hi;
+  };
+  const double t_tol = first(kTol), t_half = first(0.5 * kTol);
+  ASSERT_GT(t_half, 25.0);
+  const Impact imp = vadop::timeOfImpact(bar, mbar, wall, mwall, 0.0, 60.0);
+  ASSERT_TRUE(imp.hit) << "undecided " << imp.undecided << " at " << imp.time;
+  EXPECT_FALSE(imp.undecided);
+  // The contract: gap > tol/2 before `time`, gap <= tol at `time`.
+  EXPECT_GE(imp.time, t_tol - 1e-9);
+  EXPECT_LE(imp.time, t_half + 1e-9);
+  EXPECT_LE(angleDeg(imp.normal, Vector3d::UnitX()), 0.1);
+  EXPECT_LE(imp.iterations, 2000);
+  std::printf("contact after %.1f turns: t = %.9f s (truth [%.9f, %.9f]), %d evaluations\n", w * t_half / (2 * kPi),
+              imp.time, t_tol, t_half, imp.iterations);
+}
+
+TEST(TimeOfImpact, TinyBudgetIsUndecidedWithACertifiedTime) {
+  // The bar sweeps the block (5 mm inside its reach): a contact at the first pass of a corner.
+  // The contact angle th solves L cos th + W sin th = D (a corner's distance along y), from th = 0.
+  const double L = 1.0, W = 0.05, w = 20.0;
+  const double D = std::hypot(L, W) - 0.005;
+  const Shape bar = vadop::makeBox(Vector3d(2 * L, 2 * W, 0.1));
+  const Shape block = vadop::makeBox(Vector3d(0.2, 0.2, 0.2));
+  // The bar starts along x; its corner (L, W) turns towards +y: its y is L sin th + W cos th.
+  const Motion mbar = motion(Vector3d::Zero(), Vector3d::Zero(), Vector3d(0, 0, w));
+  const Motion mblock = motion(Vector3d(0, D + 0.1, 0));
+  const double th = std::asin(D / std::hypot(L, W)) - std::atan2(W, L);
+  const double t_star = th / w;
+  const Impact full = vadop::timeOfImpact(bar, mbar, block, mblock, 0.0, 1.0);
+  ASSERT_TRUE(full.hit);
+  EXPECT_NEAR(full.time, t_star, 1e-6);
+  for (const int budget : {1, 2, 5}) {
+    ToiOptions o;
+    o.max_iterations = budget;
+    const Impact imp = vadop::timeOfImpact(bar, mbar, block, mblock, 0.0, 1.0, o);
+    EXPECT_FALSE(imp.hit) << "budget " << budget;
+    EXPECT_TRUE(imp.undecided) << "budget " << budget;
+    EXPECT_LE(imp.iterations, budget);
+    EXPECT_GT(imp.time, 0.0);
+    EXPECT_LE(imp.time, t_star);
+    // Certified: the gap stays > tol/2 on [0, time] (sampled).
+    for (int k = 0; k <= 200; ++k) {
+      const double t = imp.time * k / 200.0;
+      const vadop::DistanceResult d = vadop::distance(bar, mbar.poseAt(t), block, mblock.poseAt(t));
+      ASSERT_GT(d.distance, 0.5 * kTol) << "budget " << budget << " t = " << t;
+    }
+  }
+}
+
+// The swept-volume certificate against dense sampling: random shapes, motions (turning or
+// not, about the origin or an offset pivot) and intervals. Whenever it certifies a bound, every
+// sampled gap over the interval is at least that bound (the GJK's distance is an upper bound
+// of the gap, so a sample below the bound is a real violation).
+TEST(SweptVolume, CertifiedBoundHoldsAgainstDenseSampling) {
+  std::mt19937_64 rng(20261123);
+  std::uniform_real_distribution<double> u(-1.0, 1.0), pos(0.05, 0.5);
+  std::normal_distribution<double> g;
+  auto randomShape = [&](int kind) -> Shape {
+    switch (kind) {
+      case 0: return vadop::makeSphere(pos(rng));
+      case 1: return vadop::makeBox(Vector3d(2 * pos(rng), 2 * pos(rng), 2 * pos(rng)));
+      case 2: return vadop::makeCapsule(0.5 * pos(rng), 2 * pos(rng));
+      case 3: return vadop::makeCylinder(pos(rng), 2 * pos(rng));
+      case 4: {
+        std::vector<Vector3d> pts;
+        for (int i = 0; i < 6; ++i) pts.push_back(Vector3d(u(rng), u(rng), u(rng)) * 0.4);
+        return vadop::inflate(vadop::makeConvex(pts), 0.5 * pos(rng) * static_cast<double>(rng() % 2));
+      }
+      default: return boxMesh(Vector3d(pos(rng), pos(rng), pos(rng)));
+    }
+  };
+  auto randomMotion = [&](int turning) {
+    const Quaterniond q(g(rng), g(rng), g(rng), g(rng));
+    Motion m = motion(Vector3d(u(rng), u(rng), u(rng)) * 1.5, Vector3d(g(rng), g(rng), g(rng)) * 0.7,
+                      turning ? Vector3d(Vector3d(g(rng), g(rng), g(rng)) * 8.0) : Vector3d::Zero(), q.normalized(),
+                      u(rng));
+    if (turning && rng() % 2) m.pivot_offset = Vector3d(u(rng), u(rng), u(rng)) * 0.5;
+    return m;
+  };
+  int certified = 0, tight = 0, checked = 0;
+  for (int c = 0; c < 1500; ++c) {
+    const Shape a = randomShape(static_cast<int>(rng() % 6)), b = randomShape(static_cast<int>(rng() % 6));
+    const Motion ma = randomMotion(static_cast<int>(rng() % 3)), mb = randomMotion(static_cast<int>(rng() % 3));
+    const double ta = u(rng);
+    const double tb = ta + std::pow(10.0, -3.0 + 3.3 * (0.5 + 0.5 * u(rng)));
+    const vadop::PreparedShape pa(a), pb(b);
+    const vadop::detail::SweptBound sb = vadop::detail::sweptLowerBound(pa, ma, pb, mb, ta, tb,
+                                                                        std::numeric_limits<double>::infinity());
+    if (!(sb.lower_bound > -1.0)) continue;  // the volumes overlap (or nearly): nothing certified
+    ++checked;
+    if (sb.lower_bound > 0.5 * kTol) ++certified;
+    double lowest = std::numeric_limits<double>::infinity();
+    for (int k = 0; k <= 300; ++k) {
+      const double t = ta + (tb - ta) * k / 300.0;
+      const double d = vadop::distance(pa, ma.poseAt(t), pb, mb.poseAt(t)).distance;
+      lowest = std::min(lowest, d);
+      ASSERT_GE(d, sb.lower_bound - 1e-12)
+          << "case " << c << ": sampled gap " << d << " at t = " << t << " below the certified " << sb.lower_bound
+          << " over [" << ta << ", " << tb << "], types " << vadop::toString(a.type) << " / "
+          << vadop::toString(b.type) << " wa " << ma.angular_velocity.transpose() << " pa " << ma.pivot_offset.transpose()
+          << " wb " << mb.angular_velocity.transpose() << " pb " << mb.pivot_offset.transpose() << " r " << a.radius << "," << b.radius << " hl " << b.half_length << " margin " << a.margin << "," << b.margin
+          << " posa " << ma.positionAt(t).transpose() << " posb " << mb.positionAt(t).transpose();
+    }
+    if (lowest - sb.lower_bound < 0.05) ++tight;
+  }
+  std::printf("swept volumes: %d cases with a bound, %d certify clear, %d within 5 cm of the sampled minimum\n",
+              checked, certified, tight);
+  EXPECT_GE(certified, 300);  // not vacuous
+  EXPECT_GE(tight, 30);       // ... and sometimes close to the truth
+}
+
+// ---------------------------------------------------------------------------------------
+// The numerical range (limits.h; issue 13, defect 10).
+
+TEST(Range, MotionLimitsInsideAndJustBeyond) {
+  const double beyond = 1.0 + 1e-12;
+  struct Case {
+    const char* field;
+    std::function<void(Motion&, double)> set;
+    double limit;
+  };
+  const std::vector<Case> cases = {
+      {"position[0]", [](Motion& m, double x) { m.position.x() = x; }, vadop::kMaxCoordinate},
+      {"position[2]", [](Motion& m, double x) { m.position.z() = -x; }, vadop::kMaxCoordinate},
+      {"pivot_offset[1]", [](Motion& m, double x) { m.pivot_offset.y() = x; }, vadop::kMaxCoordinate},
+      {"|linear_velocity|", [](Motion& m, double x) { m.linear_velocity = Vector3d(0.6, -0.8, 0) * x; },
+       vadop::kMaxLinearSpeed},
+      {"|angular_velocity|", [](Motion& m, double x) { m.angular_velocity = Vector3d(0, 0.8, 0.6) * x; },
+       vadop::kMaxAngularSpeed},
+      {"t_ref", [](Motion& m, double x) { m.t_ref = -x; }, vadop::kMaxTime},
+  };
+  for (const Case& c : cases) {
+    Motion in = motion(Vector3d::Zero());
+    c.set(in, c.limit * (1.0 - 1e-12));
+    EXPECT_NO_THROW(vadop::validateMotion(in, "m")) << c.field;
+    Motion out = motion(Vector3d::Zero());
+    c.set(out, c.limit * beyond);
+    EXPECT_FALSE(vadop::isValidMotion(out)) << c.field;
+    try {
+      vadop::validateMotion(out, "m");
+      ADD_FAILURE() << c.field << " beyond its limit accepted";
+    } catch (const vadop::InvalidArgument& e) {
+      EXPECT_NE(std::string(e.what()).find(c.field), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("beyond"), std::string::npos) << e.what();
+    }
+    // timeOfImpact checks its motions too.
+    EXPECT_THROW(vadop::timeOfImpact(vadop::makeSphere(1), out, vadop::makeSphere(1), motion(Vector3d(5, 0, 0)), 0, 1),
+                 vadop::InvalidArgument)
+        << c.field;
+  }
+  // makeMotion: the same limits.
+  const Quaterniond I = Quaterniond::Identity();
+  const Vector3d z = Vector3d::Zero();
+  EXPECT_NO_THROW(vadop::makeMotion(Vector3d(vadop::kMaxCoordinate, 0, 0), I, z, z));
+  EXPECT_THROW(vadop::makeMotion(Vector3d(vadop::kMaxCoordinate * beyond, 0, 0), I, z, z), vadop::InvalidArgument);
+  EXPECT_THROW(vadop::makeMotion(Vector3d(1e12, 0, 0), I, z, z), vadop::InvalidArgument);  // the issue's boxes
+  EXPECT_NO_THROW(vadop::makeMotion(z, I, Vector3d(0, 0, vadop::kMaxLinearSpeed), z));
+  EXPECT_THROW(vadop::makeMotion(z, I, Vector3d(0, 0, vadop::kMaxLinearSpeed * beyond), z), vadop::InvalidArgument);
+  EXPECT_THROW(vadop::makeMotion(z, I, Vector3d(1e150, 0, 0), z), vadop::InvalidArgument);  // the issue's spheres
+  EXPECT_NO_THROW(vadop::makeMotion(z, I, z, Vector3d(vadop::kMaxAngularSpeed, 0, 0)));
+  EXPECT_THROW(vadop::makeMotion(z, I, z, Vector3d(vadop::kMaxAngularSpeed * beyond, 0, 0)), vadop::InvalidArgument);
+  EXPECT_NO_THROW(vadop::makeMotion(z, I, z, z, vadop::kMaxTime));
+  EXPECT_THROW(vadop::makeMotion(z, I, z, z, vadop::kMaxTime * beyond), vadop::InvalidArgument);
+  // A huge finite velocity whose square overflows: named with its value, not as "not finite".
+  try {
+    vadop::makeMotion(z, I, Vector3d(1e200, 1e200, 0), z);
+    ADD_FAILURE() << "accepted";
+  } catch (const vadop::InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("beyond"), std::string::npos) << e.what();
+  }
+  // isValidMotion never says yes to a NaN anywhere.
+  Motion nan = motion(Vector3d::Zero());
+  nan.position.y() = std::nan("");
+  EXPECT_FALSE(vadop::isValidMotion(nan));
+  nan = motion(Vector3d::Zero());
+  nan.pivot_offset.z() = std::nan("");
+  EXPECT_FALSE(vadop::isValidMotion(nan));
+}
+
+TEST(Range, RangeErrorMessages) {
+  EXPECT_EQ(vadop::rangeError(1e7, 1e7, "x", "m"), "");
+  EXPECT_EQ(vadop::rangeError(-1e7, 1e7, "x", "m"), "");
+  EXPECT_EQ(vadop::rangeError(2e7, 1e7, "position[0]", "m"), "position[0] = 20000000 is beyond 10000000 m");
+  EXPECT_EQ(vadop::rangeError(std::nan(""), 1e7, "t_ref", "s"), "t_ref = nan is not finite");
+  EXPECT_EQ(vadop::rangeError(-std::numeric_limits<double>::infinity(), 1e7, "t", "s"), "t = -inf is not finite");
+}
+
+TEST(Range, SphereSphereAtTheEdgesOfTheRange) {
+  // Spheres of the largest radius at +-kMaxCoordinate closing at the largest speed: the closed
+  // form stays exact (it squared |d0| ~ 1e14 before, fine, but 1e150 overflowed).
+  const double r = vadop::kMaxSize, x = vadop::kMaxCoordinate, v = 0.5 * vadop::kMaxLinearSpeed;
+  const Shape big = vadop::makeSphere(r);
+  const Impact imp = vadop::timeOfImpact(big, motion(Vector3d(-x, 0, 0), Vector3d(v, 0, 0)), big,
+                                         motion(Vector3d(x, 0, 0), Vector3d(-v, 0, 0)), 0.0, 2000.0);
+  const double t_star = (2 * x - 2 * r) / (2 * v);
+  expectTime(imp, t_star, 2 * v);
+  expectNormal(imp, Vector3d::UnitX());
+  // Tiny and slow: 1 um spheres 10 um apart closing at 1 nm/s, with a tolerance of 1e-9 m.
+  ToiOptions fine;
+  fine.tolerance = 1e-9;
+  const Shape tiny = vadop::makeSphere(1e-6);
+  const Impact small = vadop::timeOfImpact(tiny, motion(Vector3d::Zero()), tiny,
+                                           motion(Vector3d(1e-5, 0, 0), Vector3d(-1e-9, 0, 0)), 0.0, 1e5, fine);
+  expectTime(small, (1e-5 - 2e-6) / 1e-9, 1e-9, 1e-9);
+  // Crossing paths at the largest speed, far out: a miss by 1 m stays a miss.
+  const Impact miss = vadop::timeOfImpact(vadop::makeSphere(1.0), motion(Vector3d(-x, 0, 0), Vector3d(1e4, 0, 0)),
+                                          vadop::makeSphere(1.0), motion(Vector3d(x, 3.0, 0), Vector3d(-1e4, 0, 0)),
+                                          0.0, 3000.0);
+  EXPECT_FALSE(miss.hit);
 }
 
 }  // namespace

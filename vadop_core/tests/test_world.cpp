@@ -7,6 +7,7 @@
 //  - the ImpactQueue response loop on a Newton's cradle.
 #include "vadop/error.h"
 #include "vadop/impact_queue.h"
+#include "vadop/limits.h"
 #include "vadop/scene_io.h"
 #include "vadop/world.h"
 
@@ -14,11 +15,13 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <map>
 #include <algorithm>
 #include <cstdio>
+#include <functional>
 #include <random>
 #include <string>
 #include <vector>
@@ -168,10 +171,11 @@ TEST(World, BadInputNamesTheBodyAndLeavesTheWorldUnchanged) {
   expectError([&] { w.predict(nan, 1.0); }, "t0", "finite");
   expectError([&] { w.predict(0.0, -1.0); }, "horizon", ">= 0");
   expectError([&] { w.predict(0.0, 1.0, {"a", "nope"}); }, "\"nope\"", "unknown");
-  // A motion whose pose overflows within the window: rejected by predict, naming the body.
-  w.add("fast", makeSphere(1.0), moving({0, 0, 0}, {1e300, 0, 0}));
+  // A motion that leaves the range (limits.h, kMaxReach) within the window: rejected by
+  // predict, naming the body. (A velocity of 1e300 m/s is now rejected by add itself.)
+  w.add("fast", makeSphere(1.0), moving({0, 0, 0}, {kMaxLinearSpeed, 0, 0}));
   try {
-    w.predict(0.0, 1e10);
+    w.predict(0.0, 1e4);
     ADD_FAILURE() << "no exception";
   } catch (const InvalidArgument& e) {
     EXPECT_NE(std::string(e.what()).find("\"fast\""), std::string::npos) << e.what();
@@ -193,6 +197,157 @@ TEST(World, BadInputNamesTheBodyAndLeavesTheWorldUnchanged) {
   c.broad_phase = BroadPhaseKind::kSap;
   c.vadop.axes = 2;
   EXPECT_NO_THROW(World{c});
+}
+
+// Issue 13, defect 5: a bar spinning 1 cm clear of another body. Conservative advancement
+// used to run out of its budget and report a contact (at t = 42.8 s and 0.856 s for the block,
+// 1.19 s for the ball at 1,000 rad/s), and only for the broad phases that list the pair: brute
+// force (swept bounding spheres) drops the ball, so the output depended on the broad phase.
+// Now: no contact and nothing undecided, whatever the broad phase.
+TEST(World, FastSpinnersGiveNoContactForEveryBroadPhase) {
+  const double reach = std::hypot(1.0, 0.05);  // the bar's corners in the xy plane
+  struct SpinCase {
+    double w, horizon;
+    bool ball;  // the other body: a ball of radius 0.1, or a 0.2 m block
+  };
+  for (const SpinCase& c : {SpinCase{20.0, 60.0, false}, SpinCase{1000.0, 10.0, false}, SpinCase{20.0, 60.0, true},
+                            SpinCase{1000.0, 10.0, true}}) {
+    for (const BroadPhaseKind kind : {BroadPhaseKind::kVadop, BroadPhaseKind::kVadopSap, BroadPhaseKind::kSap,
+                                      BroadPhaseKind::kBrute}) {
+      WorldConfig config;
+      config.broad_phase = kind;
+      World w(config);
+      w.add("bar", makeBox(Eigen::Vector3d(2, 0.1, 0.1)),
+            makeMotion({0, 0, 0}, Eigen::Quaterniond::Identity(), {0, 0, 0}, {0, 0, c.w}));
+      w.add("other", c.ball ? makeSphere(0.1) : makeBox(Eigen::Vector3d(0.2, 0.2, 0.2)),
+            still({0, reach + 0.01 + 0.1, 0}));
+      const auto start = std::chrono::steady_clock::now();
+      const auto out = w.predict(0.0, c.horizon);
+      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+      EXPECT_EQ(impactsToJsonLines(out), "") << toString(kind) << " w = " << c.w << (c.ball ? " ball" : " block");
+      EXPECT_TRUE(w.lastUndecided().empty()) << toString(kind) << " w = " << c.w;
+      std::printf("%-9s w = %4g rad/s, %s: %zu candidate(s), %.3f ms\n", toString(kind), c.w, c.ball ? "ball " : "block",
+                  w.lastCandidateCount(), ms);
+    }
+  }
+}
+
+// Undecided pairs are neither contacts nor misses: predict leaves them out, lastUndecided
+// lists them (same order as predict's result), the same for every broad phase.
+TEST(World, UndecidedPairsAreListedApartFromContacts) {
+  std::vector<std::string> first;
+  for (const BroadPhaseKind kind : {BroadPhaseKind::kVadop, BroadPhaseKind::kVadopSap, BroadPhaseKind::kSap,
+                                    BroadPhaseKind::kBrute}) {
+    WorldConfig config;
+    config.broad_phase = kind;
+    config.toi.max_iterations = 1;  // too small for a turning pair
+    World w(config);
+    // A spinning bar with a block 5 mm inside its reach (a contact after about 0.07 s, which
+    // one step cannot find), a second such pair later in the window, and two spheres that
+    // meet head-on at t = 1 (closed form: one evaluation, decided).
+    const double reach = std::hypot(1.0, 0.05);
+    const Motion spin = makeMotion({0, 0, 0}, Eigen::Quaterniond::Identity(), {0, 0, 0}, {0, 0, 20});
+    w.add("bar", makeBox(Eigen::Vector3d(2, 0.1, 0.1)), spin);
+    w.add("block", makeBox(Eigen::Vector3d(0.2, 0.2, 0.2)), still({0, reach - 0.005 + 0.1, 0}));
+    w.add("left", makeSphere(0.5), moving({0, 10, 0}, {1, 0, 0}));
+    w.add("right", makeSphere(0.5), moving({3, 10, 0}, {-1, 0, 0}));
+    Motion spin2 = spin;
+    spin2.position = {0, -10, 0};
+    w.add("bar2", makeBox(Eigen::Vector3d(2, 0.1, 0.1)), spin2);
+    w.add("block2", makeBox(Eigen::Vector3d(0.2, 0.2, 0.2)), still({0, -10 - reach + 0.005 - 0.1, 0}));
+    const auto out = w.predict(0.0, 2.0);
+    ASSERT_EQ(out.size(), 1u) << toString(kind);
+    EXPECT_EQ(out[0].a + "-" + out[0].b, "left-right");
+    EXPECT_NEAR(out[0].impact.time, 1.0, 1e-6);
+    const auto& und = w.lastUndecided();
+    ASSERT_EQ(und.size(), 2u) << toString(kind);
+    std::vector<std::string> names;
+    for (size_t i = 0; i < und.size(); ++i) {
+      EXPECT_FALSE(und[i].impact.hit);
+      EXPECT_TRUE(und[i].impact.undecided);
+      EXPECT_GT(und[i].impact.time, 0.0);
+      EXPECT_LT(und[i].impact.time, 0.08);  // certified clear only up to there, before the contact
+      if (i > 0) {
+        EXPECT_TRUE(und[i - 1].impact.time < und[i].impact.time ||
+                    (und[i - 1].impact.time == und[i].impact.time && und[i - 1].a_key < und[i].a_key));
+      }
+      names.push_back(und[i].a + "-" + und[i].b + "@" + formatNumber(und[i].impact.time));
+    }
+    if (first.empty()) {
+      first = names;
+    } else {
+      EXPECT_EQ(names, first) << toString(kind);
+    }
+    // The next predict replaces the list.
+    w.remove("bar");
+    w.remove("bar2");
+    EXPECT_EQ(w.predict(0.0, 2.0).size(), 1u);
+    EXPECT_TRUE(w.lastUndecided().empty());
+  }
+}
+
+// Issue 13, defect 10: the range of limits.h, inside and just beyond, in the library's own
+// checks (add/setMotion through validateMotion, predict for the window and the reach).
+TEST(World, RangeLimitsInsideAndJustBeyond) {
+  const double up = 1.0 + 1e-12;
+  World w;
+  w.add("a", makeSphere(0.5), still({0, 0, 0}));
+  auto expectRangeError = [&](const std::function<void()>& f, const std::string& needle) {
+    try {
+      f();
+      ADD_FAILURE() << "no exception, expected one naming " << needle;
+    } catch (const InvalidArgument& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("beyond"), std::string::npos) << e.what();
+    }
+  };
+  // The issue's 0.5 m boxes at x = 1e12 (reported touching at t = 0 before): refused.
+  expectRangeError([&] { w.add("far", makeBox(Eigen::Vector3d(0.5, 0.5, 0.5)), still({1e12, 0, 0})); },
+                   "position[0] = 1000000000000");
+  expectRangeError([&] { w.add("far", makeSphere(1e149), still({0, 0, 0})); }, "sphere radius");
+  // Position and pivot offset: kMaxCoordinate per coordinate.
+  EXPECT_NO_THROW(w.add("edge", makeSphere(0.5), still({0, -kMaxCoordinate, 0})));
+  expectRangeError([&] { w.add("out", makeSphere(0.5), still({0, kMaxCoordinate * up, 0})); }, "position[1]");
+  Motion pivot = still({0, 0, 0});
+  pivot.angular_velocity = {0, 0, 1};
+  pivot.pivot_offset = {0, 0, kMaxCoordinate};
+  EXPECT_NO_THROW(w.setMotion("edge", pivot));
+  pivot.pivot_offset.z() *= up;
+  expectRangeError([&] { w.setMotion("edge", pivot); }, "pivot_offset[2]");
+  w.remove("edge");
+  // Speeds.
+  Motion m = moving({0, 0, 5}, {0, kMaxLinearSpeed, 0});
+  EXPECT_NO_THROW(w.add("v", makeSphere(0.5), m));
+  m.linear_velocity.y() *= up;
+  expectRangeError([&] { w.setMotion("v", m); }, "|linear_velocity|");
+  m = moving({0, 0, 5}, {0, 0, 0});
+  m.angular_velocity = {kMaxAngularSpeed, 0, 0};
+  EXPECT_NO_THROW(w.setMotion("v", m));
+  m.angular_velocity.x() *= up;
+  expectRangeError([&] { w.setMotion("v", m); }, "|angular_velocity|");
+  m = moving({0, 0, 5}, {0, 0, 0}, -kMaxTime);
+  EXPECT_NO_THROW(w.setMotion("v", m));
+  m.t_ref *= up;
+  expectRangeError([&] { w.setMotion("v", m); }, "t_ref");
+  w.setMotion("v", still({0, 0, 5}));
+  // The window: t0 and t0 + horizon within kMaxTime.
+  EXPECT_NO_THROW(w.predict(kMaxTime - 1.0, 1.0));
+  expectRangeError([&] { w.predict(kMaxTime * up, 0.0); }, "predict: t0");
+  expectRangeError([&] { w.predict(kMaxTime - 1.0, 2.0); }, "predict: t0 + horizon");
+  expectRangeError([&] { w.predict(-kMaxTime * up, 1.0); }, "predict: t0");
+  // The reach: a body at kMaxCoordinate moving at 1e4 m/s reaches kMaxReach after 1,000 s.
+  w.add("runner", makeSphere(0.5), moving({kMaxCoordinate, 0, 0}, {kMaxLinearSpeed, 0, 0}));
+  EXPECT_NO_THROW(w.predict(0.0, 1000.0));
+  expectRangeError([&] { w.predict(0.0, 1000.001); }, "\"runner\"");
+  // ... and a turning body's origin, up to |pivot_offset| from its pivot.
+  Motion arm = moving({kMaxCoordinate, 0, 0}, {kMaxLinearSpeed, 0, 0});
+  arm.angular_velocity = {0, 0, 1};
+  arm.pivot_offset = {0, 1.0, 0};
+  w.setMotion("runner", arm);
+  EXPECT_NO_THROW(w.predict(0.0, 999.9));
+  expectRangeError([&] { w.predict(0.0, 1000.0); }, "position[0]");
+  // Nothing changed by the refused calls.
+  EXPECT_EQ(w.ids(), (std::vector<std::string>{"a", "v", "runner"}));
 }
 
 TEST(World, BroadPhaseKindNames) {

@@ -98,5 +98,25 @@ AdvanceStep advanceStep(const PreparedShape& a, const Motion& ma, const Prepared
                         const Motion& mb, double t, double horizon, double touch_gap,
                         double advance_gap, Eigen::Vector3d* hint);
 
+// The swept-volume certificate, used by timeOfImpact where rotation limits the steps above.
+// Over [ta, tb] (ta <= tb) each body lies in a convex set: a turning body in its revolution
+// hull -- the cylinder about the axis of its angular velocity through its pivot at ta, whose
+// radius is the largest distance of its core from that axis and whose axial extent is the
+// core's support along +-axis (both unchanged by the turning), rounded by the shape's rounding
+// radius -- Minkowski-summed with the pivot's displacement over [ta, tb]; a body that does not
+// turn in its posed shape (a mesh: the convex hull of its vertices) summed with its
+// displacement; a body that turns by at most 0.5 rad over [ta, tb], in its shape posed at ta
+// and grown by that angle times its largest distance from the pivot, plus the displacement.
+// lower_bound is a certified lower bound of the gap between the two sets (the
+// separation along a GJK direction, computed with exact support functions, less a rounding
+// allowance), hence of the gap between the bodies at every t in [ta, tb]; -inf when the sets
+// overlap. The GJK may stop as soon as the bound exceeds stop_above (+inf: run to accuracy).
+struct SweptBound {
+  double lower_bound = 0.0;
+  int iterations = 0;  // GJK iterations
+};
+SweptBound sweptLowerBound(const PreparedShape& a, const Motion& ma, const PreparedShape& b,
+                           const Motion& mb, double ta, double tb, double stop_above);
+
 }  // namespace detail
 }  // namespace vadop
