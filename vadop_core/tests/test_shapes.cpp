@@ -3,13 +3,16 @@
 // same geometry; and a link offset from a turning body's origin, expressed that way, is
 // predicted on its true arc (the straight-line extrapolation of its own centre misses).
 #include "vadop/error.h"
+#include "vadop/limits.h"
 #include "vadop/shapes.h"
 #include "vadop/time_of_impact.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <random>
+#include <string>
 
 namespace vadop {
 namespace {
@@ -90,6 +93,61 @@ TEST(TransformShape, ArmOfATurningBodyIsPredictedOnItsArc) {
   const Motion tangent = makeMotion(Eigen::Vector3d(1, 0, 0), Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, 1, 0),
                                     Eigen::Vector3d(0, 0, 1));
   EXPECT_FALSE(timeOfImpact(ball, tangent, ball, obstacle, 0.0, 2.0).hit);
+}
+
+// Issue 13, defect 10: every dimension, point and the margin within kMaxSize (limits.h), in the
+// make* functions and validateShape alike; inside and just beyond, the message naming the
+// field and the value.
+TEST(ShapeRange, EveryDimensionWithinKMaxSize) {
+  const double in = kMaxSize, out = kMaxSize * (1.0 + 1e-12);
+  auto expectRange = [](const std::function<Shape()>& make, const std::string& field) {
+    try {
+      make();
+      ADD_FAILURE() << field << ": accepted beyond kMaxSize";
+    } catch (const InvalidArgument& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(field), std::string::npos) << what;
+      EXPECT_NE(what.find("is beyond 100000 m"), std::string::npos) << what;
+    }
+  };
+  EXPECT_NO_THROW(makeSphere(in));
+  expectRange([&] { return makeSphere(out); }, "sphere radius = 100000.0000001");
+  expectRange([&] { return makeSphere(1e149); }, "sphere radius = 1e+149");  // the issue's spheres
+  EXPECT_NO_THROW(makeBox(Eigen::Vector3d(in, 1, in)));
+  expectRange([&] { return makeBox(Eigen::Vector3d(1, out, 1)); }, "box size[1]");
+  EXPECT_NO_THROW(makeCapsule(in, in));
+  expectRange([&] { return makeCapsule(out, 1); }, "capsule radius");
+  expectRange([&] { return makeCapsule(1, out); }, "capsule length");
+  EXPECT_NO_THROW(makeCylinder(in, in));
+  expectRange([&] { return makeCylinder(out, 1); }, "cylinder radius");
+  expectRange([&] { return makeCylinder(1, out); }, "cylinder length");
+  EXPECT_NO_THROW(makeConvex({{0, 0, 0}, {0.6 * in, 0.8 * in, 0}}));
+  expectRange([&] { return makeConvex({{0, 0, 0}, {0, 0.6 * out, 0.8 * out}}); }, "|convex points[1]|");
+  expectRange([&] { return makeConvex({{1e200, 1e200, 0}}); }, "|convex points[0]| = 1.41421356237309");
+  EXPECT_NO_THROW(makeMesh({{0, 0, 0}, {in, 0, 0}, {0, 1, 0}}, {{{0, 1, 2}}}));
+  expectRange([&] { return makeMesh({{0, 0, 0}, {1, 0, 0}, {0, 0, -out}}, {{{0, 1, 2}}}); }, "|mesh vertices[2]|");
+  EXPECT_NO_THROW(inflate(makeSphere(1), in));
+  expectRange([&] { return inflate(makeSphere(1), out); }, "padding");
+  // validateShape: the same limits for shapes built by hand (message prefixed).
+  Shape box = makeBox(Eigen::Vector3d(1, 1, 1));
+  box.half_extents.z() = 0.5 * out;
+  expectRange([&] {
+    validateShape(box, "body");
+    return box;
+  }, "body: box size[2]");
+  Shape padded = inflate(makeSphere(1), in);
+  EXPECT_NO_THROW(validateShape(padded, "body"));
+  padded.margin = out;
+  expectRange([&] {
+    validateShape(padded, "body");
+    return padded;
+  }, "margin");
+  Shape cyl = makeCylinder(1, 1);
+  cyl.half_length = out;
+  expectRange([&] {
+    validateShape(cyl, "c");
+    return cyl;
+  }, "cylinder length");
 }
 
 }  // namespace
