@@ -21,6 +21,22 @@ CASES = [
     ({"bodies": [{"name": "a", "shape": {"type": "sphere", "radius": 1.0}}]},
      '~bodies[0] ("a").odom_topic: is required'),
     ({"ignore_pairs": [["a"]]}, "~ignore_pairs[0]"),
+    # Issue 13: these aborted the node (ros::Duration out of range; an uncaught
+    # ros::InvalidNameException from subscribe) instead of a fatal error naming the parameter.
+    ({"rate": 1e-10}, "~rate: must be in [0.1, 1000], got 1e-10"),
+    ({"bodies": [{"name": "a", "odom_topic": "/a/odom", "shape": {"type": "sphere", "radius": 1.0}},
+                 {"name": "b", "odom_topic": "/a b/odom!", "shape": {"type": "sphere", "radius": 1.0}}]},
+     '~bodies[1] ("b").odom_topic: must be a valid ROS topic name'),
+    ({"bodies": [{"name": "a", "twist_topic": "/a/vel", "frame": "base link",
+                  "shape": {"type": "sphere", "radius": 1.0}}]},
+     '~bodies[0] ("a").frame: must be a valid tf frame id'),
+    ({"bodies": [{"name": "a", "odom_topic": "/a/odom", "robot_description": "~robot_description"}]},
+     '~bodies[0] ("a").robot_description: must not be a private (~) parameter name'),
+    # Issue 13: a static obstacle at 1e200 was accepted (and blinded the node); NaN from YAML.
+    ({"static_obstacles": [{"name": "w", "shape": {"type": "sphere", "radius": 1.0},
+                            "pose": {"position": [1e200, 0.0, 0.0]}}]},
+     '~static_obstacles[0] ("w").pose.position[0]: must be within 1e+07 m'),
+    ({"padding": float("nan")}, "~padding"),
 ]
 
 

@@ -359,3 +359,33 @@ TEST(Params, NanAndInfAreRefusedEverywhere) {
                 .find("~bodies[0] (\"a\").shape.size[1]: must be a finite number"),
             std::string::npos);
 }
+
+// Issue 13, item 8: the body limit is what ROS starts within about a minute (see kMaxBodies).
+TEST(Params, MovingBodiesAtMostKMaxBodies) {
+  EXPECT_EQ(vadop_ros::kMaxBodies, 20000);
+  EXPECT_NE(errorOf("bodies: [{name: 'a{i}', count: 20001, odom_topic: '/a{i}', shape: {type: sphere, radius: 1}}]")
+                .find("~bodies[0] (\"a{i}\").count: must be in [1, 20000], got 20001"),
+            std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: 'a{i}', count: 1000000, odom_topic: '/a{i}', shape: {type: sphere, radius: 1}}]")
+                .find(".count: must be in [1, 20000]"),
+            std::string::npos);
+  // In all: two templates together, or a single body after a full template.
+  EXPECT_NE(errorOf(R"(
+bodies:
+  - {name: 'a{i}', count: 15000, odom_topic: '/a{i}', shape: {type: sphere, radius: 1}}
+  - {name: 'b{i}', count: 5001, odom_topic: '/b{i}', shape: {type: sphere, radius: 1}}
+)").find("~bodies[1] (\"b{i}\").count: makes 20001 moving bodies, more than the limit of 20000"),
+            std::string::npos);
+  EXPECT_NE(errorOf(R"(
+bodies:
+  - {name: 'a{i}', count: 20000, odom_topic: '/a{i}', shape: {type: sphere, radius: 1}}
+  - {name: c, odom_topic: /c, shape: {type: sphere, radius: 1}}
+)").find("~bodies[1] (\"c\"): makes 20001 moving bodies"),
+            std::string::npos);
+  const MonitorParams p = parseParams(yaml(R"(
+bodies:
+  - {name: 'a{i}', count: 19999, odom_topic: '/a{i}', shape: {type: sphere, radius: 1}}
+  - {name: c, odom_topic: /c, shape: {type: sphere, radius: 1}}
+)"));
+  EXPECT_EQ(p.bodies.size(), 20000u);
+}

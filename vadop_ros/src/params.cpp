@@ -7,6 +7,7 @@
 #include <ros/names.h>
 #include <ros/node_handle.h>
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <sstream>
@@ -275,10 +276,19 @@ void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::stri
     int count = 0;  // 0: a single body, no template
     if (const XmlRpcValue* c = member(e, "count")) {
       count = toInt(*c, path + ".count");
-      if (count < 1 || count > 1000000) fail(path + ".count", "must be in [1, 1000000], got " + std::to_string(count));
+      if (count < 1 || count > kMaxBodies) {
+        fail(path + ".count", "must be in [1, " + std::to_string(kMaxBodies) + "], got " + std::to_string(count));
+      }
       if (b.name.find("{i}") == std::string::npos) {
         fail(path + ".name", "must contain {i} when count is given (each copy needs its own name)");
       }
+    }
+    // Checked before any copy is made: each moving body is one subscription (see kMaxBodies).
+    const size_t total = out.bodies.size() + static_cast<size_t>(std::max(count, 1));
+    if (total > static_cast<size_t>(kMaxBodies)) {
+      fail(path + (count > 0 ? ".count" : ""), "makes " + std::to_string(total) + " moving bodies, more than the limit of " +
+                                                   std::to_string(kMaxBodies) +
+                                                   " (each is a topic subscription; ROS start-up time grows with their square)");
     }
     if (count == 0) {
       checkName(b.name, path + ".name", names);
@@ -286,6 +296,7 @@ void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::stri
       out.bodies.push_back(std::move(b));
       continue;
     }
+    out.bodies.reserve(out.bodies.size() + static_cast<size_t>(count));
     for (int k = 0; k < count; ++k) {
       BodyParams copy = b;
       copy.name = substitute(b.name, k);

@@ -70,6 +70,13 @@ struct StaticObstacleParams {
 constexpr double kMinRate = 0.1;
 constexpr double kMaxRate = 1000.0;
 
+// Most moving bodies (in all, templates expanded; also the largest `count`). Each one is a topic
+// subscription, and ROS's own bookkeeping makes subscribing superlinear: roscpp
+// (TopicManager::addSubCallback) and rosmaster (NodeRef.add) compare each new subscription
+// with every earlier one of the node. Measured start-up on the 2-core machine (README): 5,000
+// bodies 5.5 s, 20,000 about 40 s, 50,000 188 s; 20,000 keeps it within about a minute.
+constexpr int kMaxBodies = 20000;
+
 struct MonitorParams {
   std::string fixed_frame = "odom";  // a tf2 frame id; a leading '/' is removed
   double rate = 30.0;           // Hz, [kMinRate, kMaxRate]
