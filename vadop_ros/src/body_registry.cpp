@@ -173,6 +173,8 @@ BodyRegistry::BodyRegistry(const MonitorParams& params, const ParamReader& read_
     return true;
   };
 
+  bodies_.reserve(params.bodies.size() + params.static_obstacles.size());
+  elements_.reserve(params.bodies.size() + params.static_obstacles.size());  // at least one each, usually
   for (const BodyParams& bp : params.bodies) {
     Body b;
     b.name = bp.name;

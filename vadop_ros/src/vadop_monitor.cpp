@@ -18,7 +18,9 @@
 #include <tf2_ros/transform_listener.h>
 #include <visualization_msgs/MarkerArray.h>
 
+#include <chrono>
 #include <cstdio>
+#include <exception>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -48,13 +50,27 @@ class Tf2Source : public TransformSource {
   tf2_ros::Buffer& buffer_;
 };
 
+double secondsSince(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+// Start-up progress of large configurations: a line every kProgressEvery bodies or
+// kProgressSeconds, whichever comes first.
+constexpr size_t kProgressEvery = 10000;
+constexpr double kProgressSeconds = 5.0;
+
 class MonitorNode {
  public:
   MonitorNode(ros::NodeHandle nh, ros::NodeHandle pnh, const MonitorParams& params)
       : nh_(nh), pnh_(pnh), tf_buffer_(ros::Duration(30.0)), tf_listener_(tf_buffer_, nh_), tf_source_(tf_buffer_) {
+    const auto start = std::chrono::steady_clock::now();
     core_ = std::make_unique<MonitorCore>(params, [this](const std::string& name, std::string& value) {
       return nh_.getParam(name, value);
     });
+    if (params.bodies.size() + params.static_obstacles.size() >= kProgressEvery) {
+      ROS_INFO("vadop_monitor: geometry of %zu bodies and obstacles built in %.1f s",
+               params.bodies.size() + params.static_obstacles.size(), secondsSince(start));
+    }
     for (const std::string& e : core_->registry().geometryErrors()) {
       ROS_ERROR("vadop_monitor: %s (the rest is monitored)", e.c_str());
     }
@@ -63,9 +79,24 @@ class MonitorNode {
     markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("markers", 2);
 
     const auto& bodies = core_->registry().bodies();
+    // One subscription per moving body: a call to the master each, and both roscpp
+    // (TopicManager::addSubCallback) and rosmaster (NodeRef.add) compare a new subscription
+    // with every earlier one of the node. This is nearly all of a large start-up (20,000
+    // bodies: parameters 0.2 s, geometry 0.3 s, subscriptions 40 s; see kMaxBodies), so its
+    // progress is logged.
+    size_t moving = 0;
+    for (const Body& b : bodies) moving += b.is_static ? 0 : 1;
+    const auto subscribe_start = std::chrono::steady_clock::now();
+    auto last_progress = subscribe_start;
+    subs_.reserve(moving);
     for (size_t i = 0; i < bodies.size(); ++i) {
       const Body& b = bodies[i];
       if (b.is_static) continue;
+      if (!subs_.empty() && (subs_.size() % kProgressEvery == 0 || secondsSince(last_progress) >= kProgressSeconds)) {
+        last_progress = std::chrono::steady_clock::now();
+        ROS_INFO("vadop_monitor: set up %zu of %zu bodies (subscribing, %.0f s)", subs_.size(), moving,
+                 secondsSince(subscribe_start));
+      }
       const auto hints = ros::TransportHints().tcpNoDelay();
       if (b.params.source == VelocitySource::kOdometry) {
         subs_.push_back(nh_.subscribe<nav_msgs::Odometry>(
@@ -98,8 +129,10 @@ class MonitorNode {
         [this](vadop::MonitorConfig& c, uint32_t) { onReconfigure(c); });
 
     timer_ = nh_.createTimer(ros::Duration(1.0 / rate_), [this](const ros::TimerEvent&) { onTimer(); });
-    size_t moving = 0;
-    for (const Body& b : bodies) moving += b.is_static ? 0 : 1;
+    if (moving >= kProgressEvery) {
+      ROS_INFO("vadop_monitor: subscribed to %zu topics in %.1f s; start-up took %.1f s", moving,
+               secondsSince(subscribe_start), secondsSince(start));
+    }
     ROS_INFO("vadop_monitor: %zu moving bodies, %zu static obstacles, %zu collision elements; fixed frame \"%s\", "
              "%.1f Hz, horizon %.2f s, padding %.3f m",
              moving, bodies.size() - moving, core_->registry().elements().size(), params.fixed_frame.c_str(), rate_,
@@ -169,21 +202,42 @@ class MonitorNode {
 int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // log lines appear at once, also when piped
   ros::init(argc, argv, "vadop_monitor");
-  ros::NodeHandle nh;
-  ros::NodeHandle pnh("~");
-  vadop_ros::MonitorParams params;
+  // The node handles outlive the handlers below: the last one's destruction shuts roscpp (and
+  // its logging) down, and the fatal message would be lost.
+  std::unique_ptr<ros::NodeHandle> nh_ptr, pnh_ptr;
+  std::unique_ptr<vadop_ros::MonitorNode> node;
+  // Start-up: any error ends the node with a fatal message and exit status 1, never an abort
+  // (an exception escaping main). Parameters are checked first and name the parameter.
   try {
+    nh_ptr = std::make_unique<ros::NodeHandle>();
+    pnh_ptr = std::make_unique<ros::NodeHandle>("~");
+    ros::NodeHandle& nh = *nh_ptr;
+    ros::NodeHandle& pnh = *pnh_ptr;
+    const auto start = std::chrono::steady_clock::now();
     XmlRpc::XmlRpcValue root;
     if (!pnh.getParam(pnh.getNamespace(), root)) root = XmlRpc::XmlRpcValue();
-    params = vadop_ros::parseParams(root);
+    const vadop_ros::MonitorParams params = vadop_ros::parseParams(root);
     for (const std::string& key : vadop_ros::unknownTopLevelKeys(root)) {
       ROS_WARN("vadop_monitor: unknown parameter ~%s ignored", key.c_str());
     }
-    vadop_ros::MonitorNode node(nh, pnh, params);
-    ros::spin();
+    if (params.bodies.size() + params.static_obstacles.size() >= vadop_ros::kProgressEvery) {
+      ROS_INFO("vadop_monitor: parameters of %zu bodies and obstacles read in %.1f s; setting up",
+               params.bodies.size() + params.static_obstacles.size(), vadop_ros::secondsSince(start));
+    }
+    node = std::make_unique<vadop_ros::MonitorNode>(nh, pnh, params);
   } catch (const vadop_ros::ParamError& e) {
     ROS_FATAL("vadop_monitor: bad parameter %s", e.what());
     return 1;
+  } catch (const std::exception& e) {
+    ROS_FATAL("vadop_monitor: cannot start: %s", e.what());
+    return 1;
   }
+  try {
+    ros::spin();
+  } catch (const std::exception& e) {
+    ROS_FATAL("vadop_monitor: stopped by an error: %s", e.what());
+    return 1;
+  }
+  node.reset();  // before roscpp shuts down
   return 0;
 }

@@ -11,6 +11,8 @@
 //   vadop_monitor_bench [--bodies 100,1000,5000] [--cycles 150] [--warmup 15] [--rate 30]
 //                       [--horizon 2] [--area 6] [--turn 0.5] [--markers] [--seed 1]
 // --area: m^2 of floor per body (density); --turn: largest turn rate (rad/s) of a body.
+//   vadop_monitor_bench --startup 5000,50000   start-up instead: parseParams + MonitorCore for N
+//                       bodies (primitive and 3-link URDF templates), no ROS transport
 //
 // Prints one line per N and, for N = 1000, whether the mean cycle uses under a third of the
 // period at the given rate.
@@ -57,6 +59,52 @@ struct Result {
   double candidates = 0, impacts = 0;
   size_t elements = 0;
 };
+
+// Start-up without ROS transport (--startup N,...): parseParams of one `count: N` template (as
+// the node reads it: one XmlRpc struct), then MonitorCore (registry, geometry, world) for
+// primitive bodies and for a 3-link URDF robot with tf links. Wall seconds of each step.
+void startup(const std::vector<size_t>& sizes) {
+  const std::string urdf =
+      "<robot name='r'><link name='base'><collision><geometry><cylinder radius='0.3' length='0.4'/></geometry>"
+      "</collision><collision><origin xyz='0 0 0.3'/><geometry><sphere radius='0.1'/></geometry></collision></link>"
+      "<link name='mast'><collision><geometry><box size='0.1 0.1 0.5'/></geometry></collision></link>"
+      "<link name='head'><collision><geometry><sphere radius='0.15'/></geometry></collision></link>"
+      "<joint name='j1' type='revolute'><parent link='base'/><child link='mast'/><axis xyz='0 1 0'/>"
+      "<limit lower='-1' upper='1' effort='1' velocity='1'/></joint>"
+      "<joint name='j2' type='fixed'><parent link='mast'/><child link='head'/><origin xyz='0 0 0.3'/></joint></robot>";
+  std::printf("start-up without ROS transport (wall s): parseParams of a count: N template, MonitorCore\n");
+  std::printf("%8s %6s %10s %12s %10s %10s\n", "bodies", "kind", "parse", "MonitorCore", "total", "us/body");
+  for (const size_t n : sizes) {
+    for (const bool with_urdf : {false, true}) {
+      XmlRpc::XmlRpcValue body;
+      body["name"] = std::string("b_{i}");
+      body["count"] = static_cast<int>(n);
+      body["odom_topic"] = std::string("/b_{i}/odom");
+      if (with_urdf) {
+        body["robot_description"] = std::string("/robot_description");
+        body["tf_prefix"] = std::string("b_{i}");
+      } else {
+        body["shape"]["type"] = std::string("sphere");
+        body["shape"]["radius"] = 0.3;
+      }
+      XmlRpc::XmlRpcValue root;
+      root["bodies"][0] = body;
+      const auto t0 = std::chrono::steady_clock::now();
+      const vadop_ros::MonitorParams p = vadop_ros::parseParams(root);
+      const auto t1 = std::chrono::steady_clock::now();
+      vadop_ros::MonitorCore core(p, [&](const std::string&, std::string& value) {
+        value = urdf;
+        return true;
+      });
+      const auto t2 = std::chrono::steady_clock::now();
+      const double parse = std::chrono::duration<double>(t1 - t0).count();
+      const double build = std::chrono::duration<double>(t2 - t1).count();
+      std::printf("%8zu %6s %10.3f %12.3f %10.3f %10.2f\n", n, with_urdf ? "urdf" : "sphere", parse, build,
+                  parse + build, 1e6 * (parse + build) / static_cast<double>(n));
+      std::fflush(stdout);
+    }
+  }
+}
 
 double percentile(std::vector<double> v, double p) {
   std::sort(v.begin(), v.end());
@@ -193,6 +241,7 @@ int main(int argc, char** argv) {
   double rate = 30.0, horizon = 2.0, area = 6.0, turn = 0.5;
   bool markers = false;
   unsigned seed = 1;
+  std::vector<size_t> startup_sizes;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -212,10 +261,11 @@ int main(int argc, char** argv) {
       else if (a == "--turn") turn = std::stod(next());
       else if (a == "--seed") seed = static_cast<unsigned>(std::stoul(next()));
       else if (a == "--markers") markers = true;
+      else if (a == "--startup") startup_sizes = parseList(next());
       else {
         std::fprintf(stderr,
                      "usage: %s [--bodies 100,1000,5000] [--cycles 150] [--warmup 15] [--rate 30] [--horizon 2] "
-                     "[--area 6] [--turn 0.5] [--markers] [--seed 1]\n",
+                     "[--area 6] [--turn 0.5] [--markers] [--seed 1] | --startup 5000,50000\n",
                      argv[0]);
         return a == "--help" || a == "-h" ? 0 : 2;
       }
@@ -223,6 +273,10 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "bad value for %s\n", a.c_str());
       return 2;
     }
+  }
+  if (!startup_sizes.empty()) {
+    startup(startup_sizes);
+    return 0;
   }
   if (cycles < 1 || warmup < 0 || !(rate > 0) || !(horizon >= 0) || !(area > 0) || !(turn >= 0) || sizes.empty()) {
     std::fprintf(stderr, "bad arguments\n");
