@@ -413,3 +413,166 @@ bodies:
   // It turns about base_footprint: a quarter turn later it is at (0, 1, 0.5).
   EXPECT_TRUE(centre(e, ts + M_PI / 2).isApprox(Eigen::Vector3d(0.0, 1.0, 0.5), 1e-9)) << centre(e, ts + M_PI / 2);
 }
+
+// ----------------------------------------------------------------------------- issue 13
+
+namespace {
+
+ros::Time epoch(uint32_t sec, uint32_t nsec = 0) { return ros::Time(sec, nsec); }
+
+nav_msgs::Odometry odomAt(const ros::Time& stamp, double x, double vx) {
+  nav_msgs::Odometry m = odom(0.0, x, 0.0, vx);
+  m.header.stamp = stamp;
+  return m;
+}
+
+// A transform source like tf2's at stamps 2^31 s apart: its error path throws std::runtime_error
+// (ros::Duration out of range) instead of returning false.
+class ThrowingTf : public vadop_ros::TransformSource {
+ public:
+  bool lookup(const std::string&, const std::string&, const ros::Time&, Eigen::Isometry3d&, ros::Time&,
+              std::string&) override {
+    throw std::runtime_error("Duration is out of dual 32-bit range");
+  }
+};
+
+}  // namespace
+
+TEST(BodyRegistry, StampBeyondTwoToThe31SecondsNeitherThrowsNorBlinds) {
+  // Old code: update() computed (t - base) as a ros::Duration: 4e9 - 100 s is beyond 2^31 s and
+  // threw "Duration is out of dual 32-bit range" (the node aborted).
+  BodyRegistry r(params(kThree), noParams(), vadop_ros::makeDefaultMeshLoader());
+  FakeTf tf;
+  ASSERT_EQ(r.onOdometry(1, odom(100.0, 5, 0, -1), ros::Time(100.0)), InputResult::kAccepted);
+  nav_msgs::Odometry far = odom(0.0, 0, 0, 1);
+  far.header.stamp = epoch(4000000000u);
+  EXPECT_EQ(r.onOdometry(0, far, ros::Time(100.0)), InputResult::kInvalid);  // 4e9 s ahead of the clock
+  EXPECT_NE(r.bodies()[0].status.last_invalid.find("4000000000"), std::string::npos)
+      << r.bodies()[0].status.last_invalid;
+  EXPECT_NO_THROW(r.update(ros::Time(100.0), tf));
+  EXPECT_TRUE(r.elements()[1].active);
+  // The same stamp with a clock there (use_sim_time): accepted and predicted, in small seconds.
+  ASSERT_EQ(r.onOdometry(0, far, epoch(4000000000u)), InputResult::kAccepted);
+  EXPECT_NO_THROW(r.update(epoch(4000000000u, 500000000u), tf));
+  ASSERT_TRUE(r.elements()[0].active);
+  const double t = r.seconds(epoch(4000000000u, 500000000u));
+  EXPECT_LE(std::fabs(t), BodyRegistry::kRebaseAfterSeconds);
+  EXPECT_TRUE(r.elements()[0].motion.positionAt(t).isApprox(Eigen::Vector3d(0.5, 0, 0), 1e-9));
+  EXPECT_EQ(r.bodies()[1].status.state, BodyState::kStale);  // its last message is 4e9 s old
+}
+
+TEST(BodyRegistry, ClockJumpForwardAndBackNeverThrows) {
+  BodyRegistry r(params(kThree), noParams(), vadop_ros::makeDefaultMeshLoader());
+  FakeTf tf;
+  ASSERT_EQ(r.onOdometry(0, odom(100.0, 0, 0, 1), ros::Time(100.0)), InputResult::kAccepted);
+  r.update(ros::Time(100.0), tf);
+  // /clock jumps to 4.2e9 s: old code threw in (now - last_receipt) and seconds(now).
+  EXPECT_NO_THROW(r.update(epoch(4200000000u), tf));
+  EXPECT_EQ(r.bodies()[0].status.state, BodyState::kStale);
+  ASSERT_TRUE(r.elements()[0].active);
+  EXPECT_LE(std::fabs(r.elements()[0].motion.t_ref), BodyRegistry::kRebaseAfterSeconds);
+  EXPECT_TRUE(r.elements()[0].motion.positionAt(r.seconds(epoch(4200000000u))).isApprox(Eigen::Vector3d(0, 0, 0),
+                                                                                          1e-9));
+  // The largest ROS time, and back to the start (without reset): still no exception.
+  EXPECT_NO_THROW(r.update(epoch(4294967295u, 999999999u), tf));
+  EXPECT_NO_THROW(r.update(ros::Time(1.0), tf));
+  EXPECT_LE(std::fabs(r.seconds(ros::Time(1.0))), BodyRegistry::kRebaseAfterSeconds);
+}
+
+TEST(BodyRegistry, ThrowingTransformSourceOnlySkipsThatBody) {
+  BodyRegistry r(params(kThree), noParams(), vadop_ros::makeDefaultMeshLoader());
+  ThrowingTf tf;
+  ASSERT_EQ(r.onOdometry(0, odom(1.0, 0, 0, 1, 0, 0, 0, "map"), ros::Time(1.0)), InputResult::kAccepted);
+  ASSERT_EQ(r.onOdometry(1, odom(1.0, 5, 0, -1), ros::Time(1.0)), InputResult::kAccepted);
+  EXPECT_NO_THROW(r.update(ros::Time(1.0), tf));
+  EXPECT_EQ(r.bodies()[0].status.state, BodyState::kTfMissing);
+  EXPECT_NE(r.bodies()[0].status.tf_error.find("Duration"), std::string::npos);
+  EXPECT_TRUE(r.elements()[1].active);
+}
+
+TEST(BodyRegistry, FutureStampIsDroppedAndBlocksNothing) {
+  BodyRegistry r(params(kThree), noParams(), vadop_ros::makeDefaultMeshLoader());
+  FakeTf tf;
+  const ros::Time now(1000.0);
+  // Old code: accepted, then every message until t = 101000 s was "out of order".
+  EXPECT_EQ(r.onOdometry(0, odom(1000.0 + 1e5, 0, 0, 1), now), InputResult::kInvalid);
+  EXPECT_NE(r.bodies()[0].status.last_invalid.find("ahead"), std::string::npos);
+  EXPECT_EQ(r.onOdometry(0, odom(1000.1, 1, 0, 1), ros::Time(1000.1)), InputResult::kAccepted);
+  // Behind by more than the skew: dropped too.
+  EXPECT_EQ(r.onOdometry(0, odom(1000.2 - 100.0, 1, 0, 1), ros::Time(1000.2)), InputResult::kInvalid);
+  EXPECT_NE(r.bodies()[0].status.last_invalid.find("behind"), std::string::npos);
+  // Within the skew ahead (3 s): accepted; it holds back older stamps only while it is ahead of
+  // the new message's receipt time.
+  EXPECT_EQ(r.onOdometry(0, odom(1003.3, 2, 0, 1), ros::Time(1000.3)), InputResult::kAccepted);
+  EXPECT_EQ(r.onOdometry(0, odom(1000.4, 3, 0, 1), ros::Time(1000.4)), InputResult::kAccepted);
+  r.update(ros::Time(1000.4), tf);
+  EXPECT_TRUE(r.elements()[0].motion.positionAt(r.seconds(ros::Time(1000.4))).isApprox(Eigen::Vector3d(3, 0, 0), 1e-9));
+  // The ordinary rule still holds for stamps not ahead of the clock.
+  EXPECT_EQ(r.onOdometry(0, odom(1000.35, 9, 0, 1), ros::Time(1000.5)), InputResult::kOutOfOrder);
+  EXPECT_EQ(r.onOdometry(0, odom(1000.4, 9, 0, 1), ros::Time(1000.5)), InputResult::kOutOfOrder);
+  // The skew is a parameter.
+  r.setMaxStampSkew(1e5 + 10.0);
+  EXPECT_EQ(r.onOdometry(0, odom(1000.6 + 1e5, 0, 0, 1), ros::Time(1000.6)), InputResult::kAccepted);
+  EXPECT_EQ(r.onOdometry(0, odom(1000.7, 4, 0, 1), ros::Time(1000.7)), InputResult::kAccepted);
+}
+
+TEST(BodyRegistry, FutureStampInTwistStampedBlocksNothing) {
+  BodyRegistry r(params(R"(
+bodies:
+  - {name: t, twist_topic: /t, frame: t_link, shape: {type: sphere, radius: 0.5}}
+)"),
+                 noParams(), vadop_ros::makeDefaultMeshLoader());
+  geometry_msgs::TwistStamped m;
+  m.twist.linear.x = 1.0;
+  m.header.stamp = ros::Time(50.0 + 1e5);
+  EXPECT_EQ(r.onTwist(0, m, ros::Time(50.0)), InputResult::kInvalid);
+  m.header.stamp = ros::Time(50.1);
+  EXPECT_EQ(r.onTwist(0, m, ros::Time(50.1)), InputResult::kAccepted);
+  m.header.stamp = ros::Time(54.0);  // 3.8 s ahead: within the skew
+  EXPECT_EQ(r.onTwist(0, m, ros::Time(50.2)), InputResult::kAccepted);
+  m.header.stamp = ros::Time(50.3);
+  EXPECT_EQ(r.onTwist(0, m, ros::Time(50.3)), InputResult::kAccepted);
+}
+
+TEST(BodyRegistry, MessageValuesAreCheckedAgainstTheLibraryRange) {
+  BodyRegistry r(params(kThree), noParams(), vadop_ros::makeDefaultMeshLoader());
+  // Old code accepted anything up to 1e9.
+  EXPECT_EQ(r.onOdometry(0, odom(1.0, 2e7, 0, 0), ros::Time(1.0)), InputResult::kInvalid);    // > kMaxCoordinate
+  EXPECT_EQ(r.onOdometry(0, odom(1.0, 0, 0, 2e4), ros::Time(1.0)), InputResult::kInvalid);    // > kMaxLinearSpeed
+  EXPECT_EQ(r.onOdometry(0, odom(1.0, 0, 0, 0, 0, 0, 2e4), ros::Time(1.0)), InputResult::kInvalid);  // rad/s
+  EXPECT_EQ(r.bodies()[0].status.dropped_invalid, 3u);
+}
+
+TEST(BodyRegistry, ElementOutOfRangeOverTheWindowIsLeftOutAndMarked) {
+  // stale_timeout 5000 s: a body whose last message (t = 100 s, x = 5e6 m, 9 km/s) is 2000 s old
+  // is still extrapolated, to 2.3e7 m: beyond kMaxReach. Old code passed it to the world (its
+  // check allowed 1e12), whose predict then failed for every body.
+  BodyRegistry r(params(R"(
+stale_timeout: 5000
+bodies:
+  - {name: a, odom_topic: /a, shape: {type: sphere, radius: 0.5}}
+  - {name: far, odom_topic: /f, shape: {type: sphere, radius: 0.5}}
+  - {name: wide, odom_topic: /w, shape: {type: sphere, radius: 0.5}}
+)"),
+                 noParams(), vadop_ros::makeDefaultMeshLoader());
+  FakeTf tf;
+  ASSERT_EQ(r.onOdometry(0, odom(2100.0, 0, 0, 1), ros::Time(2100.0)), InputResult::kAccepted);
+  ASSERT_EQ(r.onOdometry(1, odom(100.0, 5e6, 0, 9e3), ros::Time(100.0)), InputResult::kAccepted);
+  // Each component within kMaxCoordinate, the distance from the origin beyond it.
+  nav_msgs::Odometry wide = odom(2100.0, 9e6, 9e6, 0);
+  wide.pose.pose.position.z = 9e6;
+  ASSERT_EQ(r.onOdometry(2, wide, ros::Time(2100.0)), InputResult::kAccepted);
+  r.update(ros::Time(2100.0), tf);
+  EXPECT_TRUE(r.elements()[0].active);
+  EXPECT_FALSE(r.elements()[1].active);
+  EXPECT_FALSE(r.elements()[2].active);
+  EXPECT_NE(r.bodies()[1].status.last_invalid.find("out of range"), std::string::npos) << r.bodies()[1].status.last_invalid;
+  EXPECT_EQ(r.bodies()[1].status.last_invalid_receipt, ros::Time(2100.0));  // marked bad input now
+  EXPECT_GE(r.bodies()[2].status.elements_left_out, 1u);
+  // The window is the largest horizon: stated at t = -1200 s at 9e6 m moving at 9 km/s, the
+  // element is at 1.98e7 m at t = 0 (within kMaxReach) and 2.03e7 m at t = 60 s (beyond).
+  const vadop::Motion m =
+      vadop::makeMotion({9e6, 0, 0}, Eigen::Quaterniond::Identity(), {9e3, 0, 0}, {0, 0, 0}, -1200.0);
+  EXPECT_TRUE(BodyRegistry::motionRangeError(m, 0.0, 2.0).empty());
+  EXPECT_FALSE(BodyRegistry::motionRangeError(m, 0.0, BodyRegistry::kMotionCheckWindow).empty());
+}

@@ -4,6 +4,7 @@
 #include "yaml_xmlrpc.h"
 
 #include <gtest/gtest.h>
+#include <vadop/error.h>
 
 #include <cmath>
 #include <limits>
@@ -229,4 +230,208 @@ static_obstacles:
   const double a = 2.0 * std::asin(0.1);
   EXPECT_NEAR(i.point.x, 0.5 * std::sin(a), 1e-3);
   EXPECT_NEAR(i.point.y, 0.5 * (1.0 + std::cos(a) + 2.0), 1e-3);
+}
+
+// ----------------------------------------------------------------------------- issue 13
+
+namespace {
+
+nav_msgs::Odometry odomAt(const ros::Time& stamp, double x, double y, double vx) {
+  nav_msgs::Odometry m = odom(0.0, x, y, vx);
+  m.header.stamp = stamp;
+  return m;
+}
+
+// a and b head-on (impact 1.5 s after `t`), c and d far away standing still.
+void headOn(MonitorCore& core, const ros::Time& t) {
+  auto& reg = core.registry();
+  ASSERT_EQ(reg.onOdometry(0, odomAt(t, -2.0, 0.0, 1.0), t), vadop_ros::InputResult::kAccepted);
+  ASSERT_EQ(reg.onOdometry(1, odomAt(t, 2.0, 0.0, -1.0), t), vadop_ros::InputResult::kAccepted);
+}
+
+void expectHeadOn(const vadop::ImpactArray& out, double tti) {
+  ASSERT_EQ(out.impacts.size(), 1u);
+  EXPECT_EQ(out.impacts[0].body_a, "a");
+  EXPECT_EQ(out.impacts[0].body_b, "b");
+  EXPECT_NEAR(out.impacts[0].time_to_impact, tti, 1e-4);
+}
+
+}  // namespace
+
+TEST(MonitorCore, HugeStampsAndClockJumpsNeitherThrowNorStopThePrediction) {
+  MonitorCore core = makeCore(kFour);
+  FakeTf tf;
+  headOn(core, ros::Time(100.0));
+  // Odometry stamped secs = 4e9 (old code: the node aborted with "Duration is out of dual
+  // 32-bit range"): dropped as 4e9 s ahead of the clock; a and b are still predicted.
+  nav_msgs::Odometry far = odom(0.0, 5.0, 5.0, 0.0);
+  far.header.stamp = ros::Time(4000000000u, 0);
+  EXPECT_EQ(core.registry().onOdometry(2, far, ros::Time(100.0)), vadop_ros::InputResult::kInvalid);
+  expectHeadOn(core.cycle(ros::Time(100.5), tf), 1.0);
+  // /clock jumps to 4.2e9 s: a and b are stale there (standing still 2 m apart: no impact) and
+  // fresh messages at the new time are predicted as before.
+  const ros::Time jump(4200000000u, 0);
+  EXPECT_NO_THROW(core.cycle(jump, tf));
+  EXPECT_TRUE(core.lastStats().error.empty()) << core.lastStats().error;
+  headOn(core, jump);
+  const vadop::ImpactArray& out = core.cycle(jump + ros::Duration(0.5), tf);
+  expectHeadOn(out, 1.0);
+  EXPECT_NEAR((out.impacts[0].time_of_impact - jump).toSec(), 1.5, 1e-4);
+  // At the very end of ROS time the impact time saturates instead of throwing.
+  const ros::Time end(4294967295u, 0);
+  headOn(core, end);
+  ASSERT_NO_THROW(core.cycle(end + ros::Duration(0.5), tf));
+  expectHeadOn(core.lastImpacts(), 1.0);
+  EXPECT_EQ(core.lastImpacts().impacts[0].time_of_impact, ros::TIME_MAX);
+}
+
+TEST(MonitorCore, RebaseKeepsImpactsStaleChecksAndTheWorldRight) {
+  MonitorCore core = makeCore(R"(
+stale_timeout: 0.5
+horizon: 3.0
+bodies:
+  - {name: a, odom_topic: /a, shape: {type: sphere, radius: 0.5}}
+  - {name: b, odom_topic: /b, shape: {type: sphere, radius: 0.5}}
+  - {name: c, odom_topic: /c, shape: {type: sphere, radius: 0.5}}
+static_obstacles:
+  - {name: wall, shape: {type: box, size: [1, 1, 1]}, pose: {position: [0, 10, 0]}}
+)");
+  FakeTf tf;
+  auto& reg = core.registry();
+  const ros::Time t0(1000.0);
+  headOn(core, t0);
+  expectHeadOn(core.cycle(t0, tf), 1.5);
+  const ros::Time base = reg.timeBase();
+  EXPECT_EQ(reg.rebases(), 1u);
+  // An hour later, just before the rebase: a and b head-on again, c heads for the wall (its
+  // face at y = 9.5: 3 m to go at 1.5 m/s).
+  const double h = vadop_ros::BodyRegistry::kRebaseAfterSeconds;
+  const ros::Time before = t0 + ros::Duration(h - 0.2);
+  headOn(core, before);
+  nav_msgs::Odometry up = odomAt(before, 0.0, 6.0, 0.0);
+  up.twist.twist.linear.y = 1.5;
+  ASSERT_EQ(reg.onOdometry(2, up, before), vadop_ros::InputResult::kAccepted);
+  const vadop::ImpactArray& pre = core.cycle(before + ros::Duration(0.1), tf);
+  EXPECT_EQ(reg.timeBase(), base);
+  ASSERT_EQ(pre.impacts.size(), 2u);
+  const double pre_wall = pre.impacts[1].time_to_impact;
+  EXPECT_NEAR(pre.impacts[0].time_to_impact, 1.4, 1e-4);
+  EXPECT_EQ(pre.impacts[1].body_a + pre.impacts[1].body_b, "wallc");  // the wall entered the world first
+  EXPECT_NEAR(pre_wall, 1.9, 1e-4);
+  const size_t in_world = core.lastStats().elements_in_world;
+  // Across the rebase (0.2 s later): the same states give the same impacts, 0.2 s closer.
+  const ros::Time after = before + ros::Duration(0.3);
+  const vadop::ImpactArray& post = core.cycle(after, tf);
+  EXPECT_NE(reg.timeBase(), base);
+  EXPECT_EQ(reg.rebases(), 2u);
+  EXPECT_LE(std::fabs(reg.seconds(after)), 1.0);
+  ASSERT_EQ(post.impacts.size(), 2u);
+  EXPECT_NEAR(post.impacts[0].time_to_impact, 1.2, 1e-4);
+  EXPECT_EQ(post.impacts[1].body_a + post.impacts[1].body_b, "wallc");
+  EXPECT_NEAR(post.impacts[1].time_to_impact, pre_wall - 0.2, 1e-4);
+  EXPECT_EQ(core.lastStats().elements_in_world, in_world);
+  for (const auto& e : reg.elements()) {
+    if (e.active) EXPECT_LE(std::fabs(e.motion.t_ref), 1.0) << e.id;
+  }
+  // Stale checks use the ROS stamps, not the seconds: 0.5 s after the last messages, stale.
+  core.cycle(before + ros::Duration(0.45), tf);
+  EXPECT_EQ(reg.bodies()[0].status.state, vadop_ros::BodyState::kOk);
+  core.cycle(before + ros::Duration(0.6), tf);
+  EXPECT_EQ(reg.bodies()[0].status.state, vadop_ros::BodyState::kStale);
+  EXPECT_EQ(reg.bodies()[2].status.state, vadop_ros::BodyState::kStale);
+}
+
+TEST(MonitorCore, ElementOutOfRangeNeverBlindsTheOtherBodies) {
+  // A body extrapolated beyond kMaxReach (last message 2000 s ago at 9 km/s, stale_timeout
+  // 5000 s). Old code gave it to the world, whose predict threw: no impact for anybody.
+  MonitorCore core = makeCore(R"(
+stale_timeout: 5000
+bodies:
+  - {name: a, odom_topic: /a, shape: {type: sphere, radius: 0.5}}
+  - {name: b, odom_topic: /b, shape: {type: sphere, radius: 0.5}}
+  - {name: far, odom_topic: /f, shape: {type: sphere, radius: 0.5}}
+)");
+  FakeTf tf;
+  ASSERT_EQ(core.registry().onOdometry(2, odom(100.0, 5e6, 0.0, 9e3), ros::Time(100.0)),
+            vadop_ros::InputResult::kAccepted);
+  headOn(core, ros::Time(2100.0));
+  expectHeadOn(core.cycle(ros::Time(2100.0), tf), 1.5);
+  EXPECT_TRUE(core.lastStats().error.empty()) << core.lastStats().error;
+  EXPECT_EQ(core.lastStats().elements_in_world, 2u);
+  EXPECT_EQ(core.registry().bodies()[2].status.last_invalid_receipt, ros::Time(2100.0));
+}
+
+TEST(MonitorCore, PredictFailureLeavesTheOffenderOutAndRetriesOnce) {
+  MonitorCore core = makeCore(kFour);
+  FakeTf tf;
+  headOn(core, ros::Time(10.0));
+  ASSERT_EQ(core.registry().onOdometry(2, odom(10.0, 0.0, 20.0, 0.0), ros::Time(10.0)),
+            vadop_ros::InputResult::kAccepted);
+  // The world refuses c at predict (as the library does for a body beyond its range).
+  int calls_with_c = 0;
+  core.predictorForTesting().before_predict_for_testing = [&](size_t, const std::string& id) {
+    if (id == "c") {
+      ++calls_with_c;
+      throw vadop::InvalidArgument("predict: body \"c\": position[0] beyond 2e7 m (simulated)");
+    }
+  };
+  // Old code: "prediction failed", nothing published for a and b.
+  expectHeadOn(core.cycle(ros::Time(10.0), tf), 1.5);
+  EXPECT_TRUE(core.lastStats().error.empty()) << core.lastStats().error;
+  EXPECT_NE(core.lastStats().recovered.find("c"), std::string::npos);
+  EXPECT_EQ(core.registry().bodies()[2].status.last_invalid_receipt, ros::Time(10.0));
+  EXPECT_EQ(calls_with_c, 1);
+  // Kept out while its motion stays the same (no second failure per cycle) ...
+  expectHeadOn(core.cycle(ros::Time(10.1), tf), 1.4);
+  EXPECT_EQ(calls_with_c, 1);
+  EXPECT_EQ(core.lastStats().elements_in_world, 2u);
+  // ... and tried again with a new one.
+  core.predictorForTesting().before_predict_for_testing = nullptr;
+  ASSERT_EQ(core.registry().onOdometry(2, odom(10.2, 0.0, 20.0, 0.0), ros::Time(10.2)),
+            vadop_ros::InputResult::kAccepted);
+  core.cycle(ros::Time(10.2), tf);
+  EXPECT_EQ(core.lastStats().elements_in_world, 3u);
+  // A failure naming no element and no element out of range: this cycle is lost (reported).
+  core.predictorForTesting().before_predict_for_testing = [&](size_t, const std::string&) {
+    throw vadop::InvalidArgument("predict: something else");
+  };
+  EXPECT_NO_THROW(core.cycle(ros::Time(10.3), tf));
+  EXPECT_FALSE(core.lastStats().error.empty());
+  EXPECT_TRUE(core.lastImpacts().impacts.empty());
+}
+
+TEST(MonitorCore, ReconfigureKeepsNaNAndOutOfRangeValuesOut) {
+  MonitorCore core = makeCore(kFour);
+  FakeTf tf;
+  headOn(core, ros::Time(1.0));
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<std::string> errors;
+  // dynparam set horizon nan: NaN passes dynamic_reconfigure's clamp. Old code stored it and
+  // every cycle failed until a valid horizon was set.
+  vadop_ros::RuntimeSettings s = core.reconfigure({nan, nan, nan}, &errors);
+  EXPECT_EQ(errors.size(), 3u);
+  EXPECT_NE(errors[0].find("horizon"), std::string::npos);
+  EXPECT_NE(errors[1].find("rate"), std::string::npos);
+  EXPECT_NE(errors[2].find("padding"), std::string::npos);
+  EXPECT_EQ(s.horizon, 3.0);
+  EXPECT_EQ(s.rate, 30.0);
+  EXPECT_EQ(s.padding, 0.0);
+  expectHeadOn(core.cycle(ros::Time(1.0), tf), 1.5);
+  errors.clear();
+  s = core.reconfigure({-1.0, 1e6, 11.0}, &errors);
+  EXPECT_EQ(errors.size(), 3u);
+  EXPECT_EQ(s.horizon, 3.0);
+  EXPECT_EQ(s.rate, 30.0);
+  EXPECT_EQ(s.padding, 0.0);
+  errors.clear();
+  s = core.reconfigure({std::numeric_limits<double>::infinity(), 0.1, 0.1}, &errors);
+  EXPECT_EQ(errors.size(), 1u);
+  EXPECT_EQ(s.horizon, 3.0);
+  EXPECT_EQ(s.rate, 0.1);
+  EXPECT_EQ(s.padding, 0.1);
+  EXPECT_EQ(core.params().rate, 0.1);
+  EXPECT_FALSE(core.setHorizon(nan));
+  EXPECT_TRUE(core.setHorizon(60.0));
+  EXPECT_EQ(core.horizon(), 60.0);
+  expectHeadOn(core.cycle(ros::Time(1.1), tf), 1.3);  // padding 0.1: gap 2.8 m at 1.1 s
 }

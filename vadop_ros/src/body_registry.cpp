@@ -1,11 +1,14 @@
 #include "vadop_ros/body_registry.h"
 
 #include <vadop/error.h>
+#include <vadop/limits.h>
 
 #include <ros/console.h>
 #include <ros/time.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <memory>
 #include <sstream>
@@ -18,33 +21,34 @@ namespace {
 // Farthest screw axis (m from the element) modelled as a rotation about it (see update()).
 constexpr double kMaxPivot = 1e4;
 
-constexpr double kMaxMagnitude = 1e9;  // m, m/s, rad/s: anything beyond is treated as garbage
-
 double wallNow() { return ros::WallTime::now().toSec(); }
 
-// Checks one value; returns false (and sets `why`) on NaN/Inf or beyond kMaxMagnitude.
-bool checkValue(double v, const char* field, std::string& why) {
+// Checks one value against the library's range for its kind (vadop/limits.h); returns false
+// (and sets `why`) on NaN/Inf or beyond `limit`.
+bool checkValue(double v, double limit, const char* unit, const std::string& field, std::string& why) {
   if (!std::isfinite(v)) {
-    why = std::string("NaN/Inf in ") + field;
+    why = "NaN/Inf in " + field;
     return false;
   }
-  if (std::fabs(v) > kMaxMagnitude) {
+  if (std::fabs(v) > limit) {
     std::ostringstream os;
-    os << field << " = " << v << " is out of range (|value| > 1e9)";
+    os << field << " = " << v << " is out of range (|value| > " << limit << " " << unit << ")";
     why = os.str();
     return false;
   }
   return true;
 }
 
-bool checkVector(const geometry_msgs::Vector3& v, const std::string& field, std::string& why) {
-  return checkValue(v.x, (field + ".x").c_str(), why) && checkValue(v.y, (field + ".y").c_str(), why) &&
-         checkValue(v.z, (field + ".z").c_str(), why);
+bool checkVector(const geometry_msgs::Vector3& v, double limit, const char* unit, const std::string& field,
+                 std::string& why) {
+  return checkValue(v.x, limit, unit, field + ".x", why) && checkValue(v.y, limit, unit, field + ".y", why) &&
+         checkValue(v.z, limit, unit, field + ".z", why);
 }
 
 bool checkPoint(const geometry_msgs::Point& v, const std::string& field, std::string& why) {
-  return checkValue(v.x, (field + ".x").c_str(), why) && checkValue(v.y, (field + ".y").c_str(), why) &&
-         checkValue(v.z, (field + ".z").c_str(), why);
+  return checkValue(v.x, vadop::kMaxCoordinate, "m", field + ".x", why) &&
+         checkValue(v.y, vadop::kMaxCoordinate, "m", field + ".y", why) &&
+         checkValue(v.z, vadop::kMaxCoordinate, "m", field + ".z", why);
 }
 
 bool checkQuaternion(const geometry_msgs::Quaternion& q, const std::string& field, std::string& why) {
@@ -52,8 +56,10 @@ bool checkQuaternion(const geometry_msgs::Quaternion& q, const std::string& fiel
     why = "NaN/Inf in " + field;
     return false;
   }
-  const double n = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
-  if (!(n > 1e-9) || !std::isfinite(n)) {
+  // Scaled before squaring: a quaternion of 1e200 components is a valid orientation.
+  const double m = std::max({std::fabs(q.x), std::fabs(q.y), std::fabs(q.z), std::fabs(q.w)});
+  if (!(m > 0.0) || !(std::sqrt((q.x / m) * (q.x / m) + (q.y / m) * (q.y / m) + (q.z / m) * (q.z / m) +
+                                (q.w / m) * (q.w / m)) * m > 1e-9)) {
     why = "zero-norm quaternion in " + field;
     return false;
   }
@@ -73,13 +79,16 @@ Eigen::Vector3d rotationVector(const Eigen::Matrix3d& r) {
   return aa.axis() * aa.angle();
 }
 
-bool finiteMotionOver(const vadop::Motion& m, double t0, double t1) {
-  for (const double t : {t0, t1}) {
-    if (!m.positionAt(t).allFinite()) return false;
-    if (!(m.angular_velocity * (t - m.t_ref)).allFinite()) return false;
-    if (m.positionAt(t).cwiseAbs().maxCoeff() > 1e12) return false;
-  }
-  return true;
+std::string stampText(const ros::Time& t) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%u.%09u", t.sec, t.nsec);
+  return buf;
+}
+
+std::string number(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
 }
 
 }  // namespace
@@ -269,29 +278,110 @@ std::vector<std::string> BodyRegistry::geometryErrors() const {
   return out;
 }
 
-void BodyRegistry::rejectInput(Body& b, const std::string& why, const ros::Time& receipt) {
-  ++b.status.dropped_invalid;
+ros::Time addSeconds(const ros::Time& t, double s) {
+  if (std::isnan(s)) return t;
+  const double ns = static_cast<double>(t.toNSec()) + s * 1e9;
+  if (!(ns > 0.0)) return ros::Time();
+  // 2^32 s in ns is 4.29e18 (not exact in a double): anything at or beyond is the largest time.
+  if (ns >= static_cast<double>(ros::TIME_MAX.toNSec())) return ros::TIME_MAX;
+  ros::Time out;
+  out.fromNSec(static_cast<uint64_t>(ns));
+  return out;
+}
+
+std::string BodyRegistry::motionRangeError(const vadop::Motion& m, double t0, double t1) {
+  using vadop::kMaxAngularSpeed;
+  using vadop::kMaxCoordinate;
+  using vadop::kMaxLinearSpeed;
+  using vadop::kMaxReach;
+  using vadop::kMaxTime;
+  if (!vadop::isValidMotion(m)) {
+    try {
+      vadop::validateMotion(m, "motion");
+    } catch (const vadop::InvalidArgument& e) {
+      return e.what();
+    }
+  }
+  // Norms (not components): the strictest reading of the library's limits.
+  const auto beyond = [](const char* what, double value, double limit, const char* unit) {
+    return std::string(what) + " " + number(value) + " " + unit + " is beyond " + number(limit) + " " + unit;
+  };
+  if (!(std::fabs(m.t_ref) <= kMaxTime)) return beyond("|t_ref|", std::fabs(m.t_ref), kMaxTime, "s");
+  if (!(m.position.norm() <= kMaxCoordinate)) return beyond("|position|", m.position.norm(), kMaxCoordinate, "m");
+  if (!(m.pivot_offset.norm() <= kMaxCoordinate)) {
+    return beyond("|pivot offset|", m.pivot_offset.norm(), kMaxCoordinate, "m");
+  }
+  if (!(m.linear_velocity.norm() <= kMaxLinearSpeed)) {
+    return beyond("|linear velocity|", m.linear_velocity.norm(), kMaxLinearSpeed, "m/s");
+  }
+  if (!(m.angular_velocity.norm() <= kMaxAngularSpeed)) {
+    return beyond("|angular velocity|", m.angular_velocity.norm(), kMaxAngularSpeed, "rad/s");
+  }
+  // The origin stays within |pivot(t)| + |pivot offset| of zero; the pivot moves on a line, so
+  // its largest distance over [t0, t1] is at an end.
+  const double spin_radius = m.hasPivot() ? m.pivot_offset.norm() : 0.0;
+  for (const double t : {t0, t1}) {
+    const double reach = (m.hasPivot() ? m.pivotAt(t) : m.positionAt(t)).norm() + spin_radius;
+    if (!(reach <= kMaxReach)) {
+      return "its position at t = " + number(t) + " s (" + number(reach) + " m from the origin) is beyond " +
+             number(kMaxReach) + " m";
+    }
+  }
+  return "";
+}
+
+void BodyRegistry::rejectInput(Body& b, const std::string& why, const ros::Time& receipt, bool count_message) {
+  if (count_message) {
+    ++b.status.dropped_invalid;
+  } else {
+    ++b.status.elements_left_out;
+  }
   b.status.last_invalid = why;
   b.status.last_invalid_receipt = receipt;
   const double now = wallNow();
   if (now - b.last_warn_invalid >= kWarnPeriod) {
     b.last_warn_invalid = now;
-    ROS_WARN_NAMED("vadop_monitor", "body \"%s\": message dropped: %s (%llu dropped so far; warnings for this body "
-                   "throttled to one per %.0f s)",
-                   b.name.c_str(), why.c_str(), static_cast<unsigned long long>(b.status.dropped_invalid), kWarnPeriod);
+    if (count_message) {
+      ROS_WARN_NAMED("vadop_monitor", "body \"%s\": message dropped: %s (%llu dropped so far; warnings for this body "
+                     "throttled to one per %.0f s)",
+                     b.name.c_str(), why.c_str(), static_cast<unsigned long long>(b.status.dropped_invalid),
+                     kWarnPeriod);
+    } else {
+      ROS_WARN_NAMED("vadop_monitor", "%s \"%s\": %s: left out of the prediction (warnings for this body throttled "
+                     "to one per %.0f s)",
+                     b.is_static ? "static obstacle" : "body", b.name.c_str(), why.c_str(), kWarnPeriod);
+    }
   }
 }
 
-bool BodyRegistry::acceptStamp(Body& b, ros::Time stamp, const ros::Time& receipt) {
+void BodyRegistry::markElementBad(size_t element, const std::string& why, const ros::Time& now) {
+  const Element& e = elements_.at(element);
+  rejectInput(bodies_.at(e.body), "element \"" + e.id + "\": " + why, now, false);
+}
+
+InputResult BodyRegistry::acceptStamp(Body& b, ros::Time stamp, const ros::Time& receipt) {
   if (stamp.isZero()) stamp = receipt;
-  if (b.has_state && stamp <= b.stamp) {
+  // Far from the node's clock, ahead or behind: invalid (it would blind the body, or be
+  // extrapolated over hours).
+  const double skew = secondsBetween(stamp, receipt);
+  if (!(std::fabs(skew) <= max_stamp_skew_)) {
+    rejectInput(b,
+                "stamp " + stampText(stamp) + " is " + number(std::fabs(skew)) + " s " +
+                    (skew > 0 ? "ahead of" : "behind") + " the node's clock (" + stampText(receipt) +
+                    ") at its receipt: beyond ~max_stamp_skew = " + number(max_stamp_skew_) + " s",
+                receipt);
+    return InputResult::kInvalid;
+  }
+  // Out of order / duplicate, but only while the last stamp is not ahead of this receipt: a
+  // slightly-future stamp blocks nothing once the clock has reached it.
+  if (b.has_state && stamp <= b.stamp && b.stamp <= receipt) {
     ++b.status.dropped_out_of_order;
-    ROS_DEBUG_NAMED("vadop_monitor", "body \"%s\": message with stamp %.6f ignored (not newer than %.6f)",
-                    b.name.c_str(), stamp.toSec(), b.stamp.toSec());
-    return false;
+    ROS_DEBUG_NAMED("vadop_monitor", "body \"%s\": message with stamp %s ignored (not newer than %s)", b.name.c_str(),
+                    stampText(stamp).c_str(), stampText(b.stamp).c_str());
+    return InputResult::kOutOfOrder;
   }
   b.stamp = stamp;
-  return true;
+  return InputResult::kAccepted;
 }
 
 InputResult BodyRegistry::onOdometry(size_t bi, const nav_msgs::Odometry& msg, const ros::Time& receipt) {
@@ -301,11 +391,13 @@ InputResult BodyRegistry::onOdometry(size_t bi, const nav_msgs::Odometry& msg, c
   const auto& t = msg.twist.twist;
   if (!checkPoint(p.position, "pose.pose.position", why) ||
       !checkQuaternion(p.orientation, "pose.pose.orientation", why) ||
-      !checkVector(t.linear, "twist.twist.linear", why) || !checkVector(t.angular, "twist.twist.angular", why)) {
+      !checkVector(t.linear, vadop::kMaxLinearSpeed, "m/s", "twist.twist.linear", why) ||
+      !checkVector(t.angular, vadop::kMaxAngularSpeed, "rad/s", "twist.twist.angular", why)) {
     rejectInput(b, why, receipt);
     return InputResult::kInvalid;
   }
-  if (!acceptStamp(b, msg.header.stamp, receipt)) return InputResult::kOutOfOrder;
+  const InputResult stamp_result = acceptStamp(b, msg.header.stamp, receipt);
+  if (stamp_result != InputResult::kAccepted) return stamp_result;
   b.has_state = true;
   b.source_frame = stripSlash(msg.header.frame_id);
   if (b.source_frame.empty()) b.source_frame = fixed_frame_;
@@ -325,11 +417,13 @@ InputResult BodyRegistry::onOdometry(size_t bi, const nav_msgs::Odometry& msg, c
 InputResult BodyRegistry::onTwist(size_t bi, const geometry_msgs::TwistStamped& msg, const ros::Time& receipt) {
   Body& b = bodies_.at(bi);
   std::string why;
-  if (!checkVector(msg.twist.linear, "twist.linear", why) || !checkVector(msg.twist.angular, "twist.angular", why)) {
+  if (!checkVector(msg.twist.linear, vadop::kMaxLinearSpeed, "m/s", "twist.linear", why) ||
+      !checkVector(msg.twist.angular, vadop::kMaxAngularSpeed, "rad/s", "twist.angular", why)) {
     rejectInput(b, why, receipt);
     return InputResult::kInvalid;
   }
-  if (!acceptStamp(b, msg.header.stamp, receipt)) return InputResult::kOutOfOrder;
+  const InputResult stamp_result = acceptStamp(b, msg.header.stamp, receipt);
+  if (stamp_result != InputResult::kAccepted) return stamp_result;
   b.has_state = true;
   b.twist_frame = stripSlash(msg.header.frame_id);
   b.v = toEigen(msg.twist.linear);
@@ -339,10 +433,27 @@ InputResult BodyRegistry::onTwist(size_t bi, const geometry_msgs::TwistStamped& 
   return InputResult::kAccepted;
 }
 
+bool BodyRegistry::lookup(TransformSource& tf, const std::string& target, const std::string& source,
+                          const ros::Time& time, Eigen::Isometry3d& pose, ros::Time& stamp, std::string& error) {
+  try {
+    if (!tf.lookup(target, source, time, pose, stamp, error)) return false;
+  } catch (const std::exception& e) {
+    // tf2 formats its extrapolation errors with ros::Duration(requested - latest), which
+    // throws std::runtime_error when the two are more than 2^31 s apart.
+    error = std::string("transform lookup failed: ") + e.what();
+    return false;
+  }
+  if (!(pose.matrix().allFinite())) {
+    error = "transform from \"" + source + "\" to \"" + target + "\" is not finite";
+    return false;
+  }
+  return true;
+}
+
 void BodyRegistry::warnTf(Body& b, const std::string& error, const ros::Time& ros_now) {
   b.status.tf_error = error;
   if (b.tf_missing_since.isZero()) b.tf_missing_since = ros_now;
-  if ((ros_now - b.tf_missing_since).toSec() < kTfWarnAfter) return;
+  if (secondsBetween(ros_now, b.tf_missing_since) < kTfWarnAfter) return;
   const double now = wallNow();
   if (now - b.last_warn_tf >= kWarnPeriod) {
     b.last_warn_tf = now;
@@ -378,8 +489,8 @@ bool BodyRegistry::bodyMotion(Body& b, const ros::Time& now, TransformSource& tf
   if (b.params.source == VelocitySource::kOdometry) {
     Eigen::Isometry3d fixed_src = Eigen::Isometry3d::Identity();
     if (b.source_frame != fixed_frame_) {
-      if (!tf.lookup(fixed_frame_, b.source_frame, b.stamp, fixed_src, stamp, error) &&
-          !tf.lookup(fixed_frame_, b.source_frame, ros::Time(0), fixed_src, stamp, error)) {
+      if (!lookup(tf, fixed_frame_, b.source_frame, b.stamp, fixed_src, stamp, error) &&
+          !lookup(tf, fixed_frame_, b.source_frame, ros::Time(0), fixed_src, stamp, error)) {
         warnTf(b, error, now);
         return false;
       }
@@ -393,7 +504,7 @@ bool BodyRegistry::bodyMotion(Body& b, const ros::Time& now, TransformSource& tf
     if (!b.params.frame.empty() && b.params.frame != b.child_frame && !b.child_frame.empty()) {
       // The body frame is another frame rigid with the child frame.
       Eigen::Isometry3d child_body;
-      if (!tf.lookup(b.child_frame, b.params.frame, ros::Time(0), child_body, stamp, error)) {
+      if (!lookup(tf, b.child_frame, b.params.frame, ros::Time(0), child_body, stamp, error)) {
         warnTf(b, error, now);
         return false;
       }
@@ -406,7 +517,7 @@ bool BodyRegistry::bodyMotion(Body& b, const ros::Time& now, TransformSource& tf
     t_ref = b.stamp;
   } else {
     frame = b.params.frame;
-    if (!tf.lookup(fixed_frame_, frame, ros::Time(0), pose, stamp, error)) {
+    if (!lookup(tf, fixed_frame_, frame, ros::Time(0), pose, stamp, error)) {
       warnTf(b, error, now);
       return false;
     }
@@ -414,7 +525,7 @@ bool BodyRegistry::bodyMotion(Body& b, const ros::Time& now, TransformSource& tf
     if (!b.twist_frame.empty() && b.twist_frame != frame) {
       Eigen::Isometry3d fixed_twist;
       ros::Time s2;
-      if (!tf.lookup(fixed_frame_, b.twist_frame, ros::Time(0), fixed_twist, s2, error)) {
+      if (!lookup(tf, fixed_frame_, b.twist_frame, ros::Time(0), fixed_twist, s2, error)) {
         warnTf(b, error, now);
         return false;
       }
@@ -428,12 +539,27 @@ bool BodyRegistry::bodyMotion(Body& b, const ros::Time& now, TransformSource& tf
 }
 
 void BodyRegistry::update(const ros::Time& now, TransformSource& tf) {
-  if (!has_base_) {
+  // Seconds since the base stay within kRebaseAfterSeconds of zero: far inside vadop::kMaxTime
+  // whatever the clock (epoch seconds, a /clock jump to 4e9 s, a jump back).
+  if (!has_base_ || !(std::fabs(seconds(now)) <= kRebaseAfterSeconds)) {
     base_ = now;
     has_base_ = true;
+    ++rebases_;
   }
+  const double t_now = seconds(now);
+  const double t_check_end = t_now + kMotionCheckWindow;
   for (Body& b : bodies_) {
-    if (b.is_static) continue;
+    if (b.is_static) {
+      // Fixed motions (zero velocity, set at start-up): checked like the others, so that one
+      // obstacle out of range is left out instead of failing every prediction.
+      for (const size_t ei : b.elements) {
+        Element& e = elements_[ei];
+        const std::string why = motionRangeError(e.motion, t_now, t_check_end);
+        e.active = why.empty();
+        if (!e.active) rejectInput(b, "element \"" + e.id + "\": " + why, now, false);
+      }
+      continue;
+    }
     for (const size_t ei : b.elements) elements_[ei].active = false;
     b.status.tf_error.clear();
     b.status.links_skipped = 0;
@@ -453,14 +579,16 @@ void BodyRegistry::update(const ros::Time& now, TransformSource& tf) {
       b.status.state = BodyState::kTfMissing;
       continue;
     }
-    const bool stale = (now - b.status.last_receipt).toSec() > stale_timeout_;
+    const bool stale = secondsBetween(now, b.status.last_receipt) > stale_timeout_;
     if (stale) {
       v.setZero();
       w.setZero();
     }
     resolveReference(b, body_frame);
-    const double tr = seconds(t_ref);
-    const double t_now = seconds(now);
+    // A stale body stands still: its pose holds at any time, so its motion is referred to
+    // `now` (its stamp may be hours old, beyond the library's time range).
+    const ros::Time motion_ref = stale ? now : t_ref;
+    const double tr = seconds(motion_ref);
     const Eigen::Matrix3d& rb = fb.linear();
     for (const size_t ei : b.elements) {
       Element& e = elements_[ei];
@@ -481,14 +609,14 @@ void BodyRegistry::update(const ros::Time& now, TransformSource& tf) {
           ++b.status.links_skipped;
           continue;
         }
-        if (!tf.lookup(body_frame, e.tf_frame, ros::Time(0), body_link, ls, error)) {
+        if (!lookup(tf, body_frame, e.tf_frame, ros::Time(0), body_link, ls, error)) {
           warnTf(b, "link \"" + e.link + "\": " + error, now);
           ++b.status.links_skipped;
           continue;
         }
         // Own motion relative to the body, from the last two distinct tf stamps.
         if (e.has_rel && ls > e.rel_stamp) {
-          const double dt = (ls - e.rel_stamp).toSec();
+          const double dt = secondsBetween(ls, e.rel_stamp);
           e.rel_v = (body_link.translation() - e.rel_pose.translation()) / dt;
           e.rel_w = rotationVector(body_link.linear() * e.rel_pose.linear().transpose()) / dt;
           if (!e.rel_v.allFinite() || !e.rel_w.allFinite() || dt > 1.0) {
@@ -503,7 +631,7 @@ void BodyRegistry::update(const ros::Time& now, TransformSource& tf) {
         }
         // The tf pose holds at its own stamp: carried to the body's t_ref with the link's own
         // motion (tf and odometry rarely share stamps).
-        const double lag = tr - seconds(ls);
+        const double lag = secondsBetween(motion_ref, ls);
         if (!stale && e.has_rel && std::abs(lag) <= 1.0) {
           body_link.translation() += e.rel_v * lag;
           const Eigen::Vector3d turn = e.rel_w * lag;
@@ -533,14 +661,19 @@ void BodyRegistry::update(const ros::Time& now, TransformSource& tf) {
         vadop::Motion m = vadop::makeMotion(pe.translation(), Eigen::Quaterniond(pe.linear()),
                                             screw ? vadop::screwPivotVelocity(ve, we) : ve, we, tr);
         if (screw) m.pivot_offset = pivot;
-        if (!finiteMotionOver(m, t_now, t_now + 120.0)) {
-          rejectInput(b, "pose or velocity out of range after transformation", now);
+        // The library's range over [now, now + the largest horizon]: one element out of it is
+        // left out (and its body marked), never the whole prediction.
+        const std::string why = motionRangeError(m, t_now, t_check_end);
+        if (!why.empty()) {
+          rejectInput(b, (e.link.empty() ? std::string("motion") : "link \"" + e.link + "\": motion") +
+                             " out of range after transformation: " + why,
+                      now, false);
           continue;
         }
         e.motion = m;
         e.active = true;
       } catch (const vadop::InvalidArgument& ex) {
-        rejectInput(b, std::string("invalid motion: ") + ex.what(), now);
+        rejectInput(b, std::string("invalid motion: ") + ex.what(), now, false);
       }
     }
     if (b.status.links_skipped > 0) {

@@ -32,6 +32,24 @@ Predictor makePredictor(const MonitorParams& p) {
   }
 }
 
+// Throttle of the cycle's own error lines (wall clock: ROS_*_THROTTLE needs ros::Time::now(),
+// which tests and the fuzz target do not initialise).
+bool throttleOk(double& last) {
+  const double now = ros::WallTime::now().toSec();
+  if (now - last < 5.0) return false;
+  last = now;
+  return true;
+}
+
+// "" when v is finite and in [lo, hi], else the error line for parameter `name`.
+std::string rangeCheck(const char* name, double v, double lo, double hi, double kept, const char* unit) {
+  if (std::isfinite(v) && v >= lo && v <= hi) return "";
+  char buf[256];
+  std::snprintf(buf, sizeof buf, "%s = %g refused (must be finite and in [%g, %g] %s); keeping %g %s", name, v, lo, hi,
+                unit, kept, unit);
+  return buf;
+}
+
 }  // namespace
 
 MonitorCore::MonitorCore(const MonitorParams& params, const ParamReader& read_param, const MeshLoader& load_mesh)
@@ -41,33 +59,79 @@ MonitorCore::MonitorCore(const MonitorParams& params, const ParamReader& read_pa
       predictor_(makePredictor(params)) {
   soonest_.assign(registry_.bodies().size(), std::numeric_limits<double>::infinity());
   impacts_.header.frame_id = params_.fixed_frame;
+  registry_.setMaxStampSkew(params.max_stamp_skew);
+  refused_.assign(registry_.elements().size(), 0);
+  refused_motion_.resize(registry_.elements().size());
 }
 
-void MonitorCore::setPadding(double padding) {
-  if (padding == params_.padding) return;
-  params_.padding = padding;
-  // Shapes change: every element leaves the world and comes back, padded anew, at the next
-  // cycle (World has no setShape).
-  predictor_.clear();
+RuntimeSettings MonitorCore::settings() const {
+  RuntimeSettings s;
+  s.horizon = params_.horizon;
+  s.rate = params_.rate;
+  s.padding = params_.padding;
+  return s;
+}
+
+RuntimeSettings MonitorCore::reconfigure(const RuntimeSettings& requested, std::vector<std::string>* errors) {
+  const auto refuse = [&](const std::string& e) {
+    if (e.empty()) return false;
+    if (errors) errors->push_back(e);
+    return true;
+  };
+  if (!refuse(rangeCheck("horizon", requested.horizon, 0.0, kMaxHorizon, params_.horizon, "s"))) {
+    params_.horizon = requested.horizon;
+  }
+  if (!refuse(rangeCheck("rate", requested.rate, kMinRate, kMaxRate, params_.rate, "Hz"))) {
+    params_.rate = requested.rate;
+  }
+  if (!refuse(rangeCheck("padding", requested.padding, 0.0, kMaxPadding, params_.padding, "m")) &&
+      requested.padding != params_.padding) {
+    params_.padding = requested.padding;
+    // Shapes change: every element leaves the world and comes back, padded anew, at the next
+    // cycle (World has no setShape).
+    predictor_.clear();
+  }
+  return settings();
+}
+
+bool MonitorCore::setHorizon(double horizon) {
+  RuntimeSettings s = settings();
+  s.horizon = horizon;
+  std::vector<std::string> errors;
+  reconfigure(s, &errors);
+  return errors.empty();
+}
+
+bool MonitorCore::setPadding(double padding) {
+  RuntimeSettings s = settings();
+  s.padding = padding;
+  std::vector<std::string> errors;
+  reconfigure(s, &errors);
+  return errors.empty();
 }
 
 void MonitorCore::reset() {
   registry_.reset();
   const auto& elements = registry_.elements();
   for (size_t i = 0; i < elements.size(); ++i) {
-    if (!registry_.bodies()[elements[i].body].is_static) predictor_.unset(i);
+    if (!registry_.bodies()[elements[i].body].is_static) {
+      predictor_.unset(i);
+      refused_[i] = 0;
+    }
   }
   impacts_.impacts.clear();
   std::fill(soonest_.begin(), soonest_.end(), std::numeric_limits<double>::infinity());
 }
 
-void MonitorCore::syncWorld() {
+void MonitorCore::syncWorld(const ros::Time& now) {
   const auto& elements = registry_.elements();
   size_t moving = 0;
   std::string error;
   for (size_t i = 0; i < elements.size(); ++i) {
     const Element& e = elements[i];
-    if (!e.active) {
+    if (refused_[i] && !(e.active && sameMotion(e.motion, refused_motion_[i]))) refused_[i] = 0;
+    if (!e.active || refused_[i]) {
+      if (refused_[i]) registry_.markElementBad(i, "left out since the prediction failed on it", now);
       predictor_.unset(i);
       continue;
     }
@@ -77,8 +141,7 @@ void MonitorCore::syncWorld() {
                         : predictor_.set(i, e.id, e.shape, e.motion, error);
     if (!ok) {
       predictor_.unset(i);
-      ROS_WARN_THROTTLE_NAMED(5.0, "vadop_monitor", "element \"%s\" left out of the prediction: %s", e.id.c_str(),
-                              error.c_str());
+      registry_.markElementBad(i, "refused by the world: " + error, now);  // throttled per body
     }
   }
   stats_.moving_elements = moving;
@@ -106,12 +169,32 @@ bool MonitorCore::pairIgnored(size_t ea, size_t eb) const {
   return false;
 }
 
+bool MonitorCore::leaveOutOffenders(const std::string& error, const ros::Time& now) {
+  const auto& elements = registry_.elements();
+  std::string names;
+  for (size_t i = 0; i < elements.size(); ++i) {
+    if (!predictor_.contains(i)) continue;
+    const Element& e = elements[i];
+    std::string why = BodyRegistry::motionRangeError(predictor_.motion(i), t0_, t0_ + params_.horizon);
+    if (why.empty() && error.find("\"" + e.id + "\"") == std::string::npos) continue;
+    if (why.empty()) why = "the prediction failed on it: " + error;
+    predictor_.unset(i);
+    refused_[i] = 1;
+    refused_motion_[i] = e.motion;
+    registry_.markElementBad(i, why, now);
+    names += (names.empty() ? "" : ", ") + e.id;
+  }
+  if (names.empty()) return false;
+  stats_.recovered = "left out " + names + " after: " + error;
+  return true;
+}
+
 const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSource& tf) {
   const auto start = std::chrono::steady_clock::now();
   stats_ = CycleStats();
   stats_.stamp = now;
   registry_.update(now, tf);
-  syncWorld();
+  syncWorld(now);
 
   impacts_.header.stamp = now;
   impacts_.header.frame_id = params_.fixed_frame;
@@ -119,14 +202,31 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
   std::fill(soonest_.begin(), soonest_.end(), std::numeric_limits<double>::infinity());
   t0_ = registry_.seconds(now);
 
+  // One element the world refuses must not cost everybody the cycle: find it (out of range
+  // over the window, or named by the error), leave it out while its motion stays the same,
+  // and predict once more.
   std::vector<RawImpact> raw;
   const auto predict_start = std::chrono::steady_clock::now();
-  try {
-    raw = predictor_.predict(t0_, params_.horizon);
-  } catch (const vadop::InvalidArgument& e) {
-    stats_.error = e.what();
-    ROS_ERROR_THROTTLE_NAMED(5.0, "vadop_monitor", "prediction failed this cycle: %s", e.what());
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    try {
+      raw = predictor_.predict(t0_, params_.horizon);
+      stats_.error.clear();
+      break;
+    } catch (const std::exception& e) {  // vadop::InvalidArgument; anything else is treated alike
+      stats_.error = e.what();
+      if (attempt == 0 && leaveOutOffenders(e.what(), now)) continue;
+      break;
+    }
   }
+  if (!stats_.recovered.empty() && stats_.error.empty() && throttleOk(last_error_log_)) {
+    ROS_WARN_NAMED("vadop_monitor", "prediction recovered this cycle: %s (throttled to one line per 5 s)",
+                   stats_.recovered.c_str());
+  }
+  if (!stats_.error.empty() && throttleOk(last_error_log_)) {
+    ROS_ERROR_NAMED("vadop_monitor", "prediction failed this cycle: %s (throttled to one line per 5 s)",
+                    stats_.error.c_str());
+  }
+  stats_.elements_in_world = predictor_.size();
   stats_.predict_seconds = secondsSince(predict_start);
   stats_.candidates = predictor_.lastCandidateCount();
   stats_.raw_impacts = raw.size();
@@ -143,8 +243,9 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
     msg.link_a = ea.link;
     msg.body_b = bodies[eb.body].name;
     msg.link_b = eb.link;
-    msg.time_to_impact = std::max(0.0, hit.time - t0_);
-    msg.time_of_impact = now + ros::Duration(msg.time_to_impact);
+    // In [0, horizon]: t0 + horizon - t0 may differ from the horizon by a rounding.
+    msg.time_to_impact = std::min(params_.horizon, std::max(0.0, hit.time - t0_));
+    msg.time_of_impact = addSeconds(now, msg.time_to_impact);  // saturates: now may be near 2^32 s
     msg.point.x = hit.point.x();
     msg.point.y = hit.point.y();
     msg.point.z = hit.point.z();

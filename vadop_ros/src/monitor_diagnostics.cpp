@@ -36,6 +36,8 @@ void CycleTimeWindow::report(diagnostic_updater::DiagnosticStatusWrapper& stat, 
   const double mean = count_ ? sum_ / count_ : 0.0;
   if (!last_.error.empty()) {
     stat.summary(DiagnosticStatus::ERROR, "prediction failed: " + last_.error);
+  } else if (!last_.recovered.empty()) {
+    stat.summary(DiagnosticStatus::WARN, "prediction recovered: " + last_.recovered);
   } else if (overruns_ > 0) {
     stat.summaryf(DiagnosticStatus::WARN, "%zu of %zu cycles overran the period (%.1f ms)", overruns_, count_,
                   period * 1e3);
@@ -71,7 +73,7 @@ std::string describeBody(const Body& b, const ros::Time& now, double stale_timeo
     case BodyState::kStatic: text = "static obstacle"; break;
     case BodyState::kStale:
       lvl = DiagnosticStatus::WARN;
-      text = "stale: no message for " + fmt("%.2f", (now - s.last_receipt).toSec()) + " s (timeout " +
+      text = "stale: no message for " + fmt("%.2f", secondsBetween(now, s.last_receipt)) + " s (timeout " +
              fmt("%.2f", stale_timeout) + " s): standing still at its last pose";
       break;
     case BodyState::kTfMissing:
@@ -84,9 +86,12 @@ std::string describeBody(const Body& b, const ros::Time& now, double stale_timeo
       text = "not monitored: no geometry";
       break;
   }
-  if (!s.last_invalid_receipt.isZero() && (now - s.last_invalid_receipt).toSec() < BodyRegistry::kInvalidMarkSeconds) {
+  if (!s.last_invalid_receipt.isZero() &&
+      secondsBetween(now, s.last_invalid_receipt) < BodyRegistry::kInvalidMarkSeconds) {
     lvl = std::max<unsigned char>(lvl, DiagnosticStatus::WARN);
-    text += "; bad input: " + std::to_string(s.dropped_invalid) + " message(s) dropped, last: " + s.last_invalid;
+    text += "; bad input: " + std::to_string(s.dropped_invalid) + " message(s) dropped";
+    if (s.elements_left_out > 0) text += ", " + std::to_string(s.elements_left_out) + " element-cycle(s) left out";
+    text += ", last: " + s.last_invalid;
   }
   if (!s.geometry_errors.empty()) {
     lvl = DiagnosticStatus::ERROR;
@@ -109,7 +114,7 @@ void reportBodies(diagnostic_updater::DiagnosticStatusWrapper& stat, const BodyR
     worst = std::max(worst, lvl);
     ++counts[static_cast<int>(b.status.state)];
     if (!b.status.last_invalid_receipt.isZero() &&
-        (now - b.status.last_invalid_receipt).toSec() < BodyRegistry::kInvalidMarkSeconds) {
+        secondsBetween(now, b.status.last_invalid_receipt) < BodyRegistry::kInvalidMarkSeconds) {
       ++bad_input;
     }
   }

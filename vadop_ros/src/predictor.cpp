@@ -8,12 +8,6 @@
 namespace vadop_ros {
 namespace {
 
-bool sameMotion(const vadop::Motion& a, const vadop::Motion& b) {
-  return a.t_ref == b.t_ref && a.position == b.position && a.orientation.coeffs() == b.orientation.coeffs() &&
-         a.linear_velocity == b.linear_velocity && a.angular_velocity == b.angular_velocity &&
-         a.pivot_offset == b.pivot_offset;
-}
-
 // Velocity of the material point x of a body moving with m, at time t.
 Eigen::Vector3d pointVelocity(const vadop::Motion& m, const Eigen::Vector3d& x, double t) {
   return m.velocityOfPoint(x, t);
@@ -28,6 +22,12 @@ vadop::WorldConfig worldConfig(const PredictorConfig& c) {
 }
 
 }  // namespace
+
+bool sameMotion(const vadop::Motion& a, const vadop::Motion& b) {
+  return a.t_ref == b.t_ref && a.position == b.position && a.orientation.coeffs() == b.orientation.coeffs() &&
+         a.linear_velocity == b.linear_velocity && a.angular_velocity == b.angular_velocity &&
+         a.pivot_offset == b.pivot_offset;
+}
 
 struct Predictor::Impl {
   explicit Impl(const PredictorConfig& c) : world(worldConfig(c)) {}
@@ -87,6 +87,11 @@ size_t Predictor::size() const { return impl_->world.size(); }
 size_t Predictor::lastCandidateCount() const { return impl_->world.lastCandidateCount(); }
 
 std::vector<RawImpact> Predictor::predict(double t0, double horizon) {
+  if (before_predict_for_testing) {
+    for (size_t i = 0; i < impl_->slots.size(); ++i) {
+      if (impl_->slots[i].in) before_predict_for_testing(i, impl_->slots[i].id);
+    }
+  }
   const std::vector<vadop::WorldImpact> hits = impl_->world.predict(t0, horizon);
   std::vector<RawImpact> out;
   out.reserve(hits.size());

@@ -18,9 +18,22 @@
 //    body frame, estimated from its two latest distinct tf poses.
 //
 // Bad input never throws and never affects another body:
-//  - NaN/Inf anywhere in a message, a zero-norm quaternion or a value beyond 1e9: dropped,
+//  - NaN/Inf anywhere in a message, a zero-norm quaternion or a value beyond the library's
+//    range (vadop/limits.h: |position component| <= kMaxCoordinate, |linear velocity
+//    component| <= kMaxLinearSpeed, |angular velocity component| <= kMaxAngularSpeed): dropped,
 //    counted, a warning (throttled per body), the body marked in its status for a while;
-//  - a stamp not newer than the last accepted one (out of order, duplicate): ignored, counted;
+//  - stamps (odometry and TwistStamped alike; a zero stamp means the receipt time):
+//    a message stamped further than max_stamp_skew (~max_stamp_skew, default 5 s) from the
+//    node's clock at its receipt, ahead or behind, is dropped as invalid like a NaN (warning
+//    naming the body and the stamp). A stamp not newer than the last accepted one (out of
+//    order, duplicate) is ignored and counted, but only while that last stamp is not ahead of
+//    the new message's receipt time: a stamp in the future (within the skew) holds back older
+//    stamps only until the clock reaches it, so no single message can block later good ones;
+//  - each cycle every element's motion (after transformation) is checked over
+//    [now, now + kMotionCheckWindow] against the same range (|position| and |pivot offset|
+//    <= kMaxCoordinate, |position| within the window <= kMaxReach, |velocities| <= the limits,
+//    |t_ref| <= kMaxTime): an element outside it is left out of the world this cycle, with a
+//    warning (throttled per body) and the body marked bad input. Static obstacles too;
 //  - no accepted message for stale_timeout (by receipt time): the body stands still at its
 //    last pose (zero velocity) and is flagged stale;
 //  - a transform missing: the body (or that link) is skipped this cycle; a warning (throttled)
@@ -50,6 +63,19 @@
 
 namespace vadop_ros {
 
+// Time arithmetic that cannot overflow. ros::Time - ros::Time is a ros::Duration, which throws
+// ("Duration is out of dual 32-bit range") beyond 2^31 s, while a valid stamp goes up to
+// 2^32 - 1 s: any two stamps are compared in int64 nanoseconds instead (exact; |a - b| < 2^63).
+inline int64_t nsecBetween(const ros::Time& a, const ros::Time& b) {
+  return static_cast<int64_t>(a.toNSec()) - static_cast<int64_t>(b.toNSec());
+}
+// a - b in seconds.
+inline double secondsBetween(const ros::Time& a, const ros::Time& b) {
+  return static_cast<double>(nsecBetween(a, b)) * 1e-9;
+}
+// t + s seconds, saturated to [0, 2^32 - 1 s] (ros::Time's range); t when s is NaN.
+ros::Time addSeconds(const ros::Time& t, double s);
+
 // tf as the registry sees it: a tf2_ros::Buffer in the node, a table in tests.
 class TransformSource {
  public:
@@ -78,10 +104,11 @@ const char* toString(BodyState s);
 struct BodyStatus {
   BodyState state = BodyState::kWaiting;
   uint64_t accepted = 0;
-  uint64_t dropped_invalid = 0;     // NaN/Inf, zero quaternion, out of range
+  uint64_t dropped_invalid = 0;     // NaN/Inf, zero quaternion, out of range, stamp skew
+  uint64_t elements_left_out = 0;   // element-cycles whose motion was out of range (or refused)
   uint64_t dropped_out_of_order = 0;
-  std::string last_invalid;         // why the last invalid message was dropped
-  ros::Time last_invalid_receipt;   // zero if none
+  std::string last_invalid;         // why the last invalid message (or element) was dropped
+  ros::Time last_invalid_receipt;   // zero if none (for an element: the cycle time)
   ros::Time last_receipt;           // of the last accepted message
   std::string tf_error;             // this cycle's missing transform, if any
   size_t links_skipped = 0;         // this cycle, tf links without a transform
@@ -159,7 +186,8 @@ class BodyRegistry {
   std::vector<std::string> geometryErrors() const;
 
   // Message inputs for the moving body `body` (index into bodies()); `receipt` is the ROS time
-  // at which it arrived (it decides staleness; it replaces a zero stamp).
+  // at which it arrived (it decides staleness; it replaces a zero stamp). The stamp policy is
+  // in the header comment: beyond max_stamp_skew from `receipt` -> kInvalid.
   InputResult onOdometry(size_t body, const nav_msgs::Odometry& msg, const ros::Time& receipt);
   InputResult onTwist(size_t body, const geometry_msgs::TwistStamped& msg, const ros::Time& receipt);
 
@@ -169,9 +197,27 @@ class BodyRegistry {
   // Forgets every state (time jumped backwards, e.g. a bag restarted); keeps the geometry.
   void reset();
 
-  // The library works in seconds since a base time, set by the first update (or reset).
-  double seconds(const ros::Time& t) const { return (t - base_).toSec(); }
+  // The library works in seconds since a base time, set by the first update (or reset) and
+  // moved to `now` by update() whenever |seconds(now)| exceeds kRebaseAfterSeconds (every
+  // moving element's motion is recomputed each cycle from its ros::Time stamps; static ones
+  // have zero velocity), so these seconds stay far inside vadop::kMaxTime whatever the clock.
+  double seconds(const ros::Time& t) const { return secondsBetween(t, base_); }
   const ros::Time& timeBase() const { return base_; }
+  static constexpr double kRebaseAfterSeconds = 3600.0;
+  // Times the base moved (the first base included).
+  uint64_t rebases() const { return rebases_; }
+
+  // ~max_stamp_skew (s); MonitorCore sets it from MonitorParams::max_stamp_skew.
+  void setMaxStampSkew(double seconds) { max_stamp_skew_ = seconds; }
+  double maxStampSkew() const { return max_stamp_skew_; }
+
+  // Window over which an element's motion is range-checked each cycle (s): the largest horizon.
+  static constexpr double kMotionCheckWindow = 60.0;
+  // "" when `m` stays inside the library's range (vadop/limits.h) over [t0, t1], else why not.
+  static std::string motionRangeError(const vadop::Motion& m, double t0, double t1);
+  // Element `element` was left out of the prediction (the world refused it): marks its body
+  // bad input (status and a throttled warning), at ROS time `now`.
+  void markElementBad(size_t element, const std::string& why, const ros::Time& now);
 
   double staleTimeout() const { return stale_timeout_; }
   const std::string& fixedFrame() const { return fixed_frame_; }
@@ -186,8 +232,12 @@ class BodyRegistry {
  private:
   void addUrdfGeometry(size_t body_index, const std::string& description, const UrdfShapes& urdf,
                        bool links_from_tf, const std::string& tf_prefix);
-  void rejectInput(Body& b, const std::string& why, const ros::Time& receipt);
-  bool acceptStamp(Body& b, ros::Time stamp, const ros::Time& receipt);
+  // A dropped message (count_message) or a left-out element: status, throttled warning.
+  void rejectInput(Body& b, const std::string& why, const ros::Time& receipt, bool count_message = true);
+  InputResult acceptStamp(Body& b, ros::Time stamp, const ros::Time& receipt);
+  // tf.lookup that never throws (tf2 itself computes ros::Durations from arbitrary stamps).
+  static bool lookup(TransformSource& tf, const std::string& target, const std::string& source,
+                     const ros::Time& time, Eigen::Isometry3d& pose, ros::Time& stamp, std::string& error);
   void resolveReference(Body& b, const std::string& body_frame);
   bool bodyMotion(Body& b, const ros::Time& now, TransformSource& tf, Eigen::Isometry3d& pose,
                   Eigen::Vector3d& v, Eigen::Vector3d& w, ros::Time& t_ref, std::string& frame);
@@ -199,6 +249,8 @@ class BodyRegistry {
   std::vector<Element> elements_;
   ros::Time base_;
   bool has_base_ = false;
+  uint64_t rebases_ = 0;
+  double max_stamp_skew_ = 5.0;  // MonitorParams' default until setMaxStampSkew
 };
 
 }  // namespace vadop_ros

@@ -34,8 +34,21 @@ struct CycleStats {
   size_t candidates = 0;         // narrow-phase calls (World::lastCandidateCount)
   size_t raw_impacts = 0;        // before filtering
   size_t impacts = 0;            // published
-  std::string error;             // predict failed this cycle (nothing published but an empty array)
+  // World::predict threw and the cycle recovered by leaving out the elements named here (the
+  // rest was predicted and published).
+  std::string recovered;
+  std::string error;             // predict failed this cycle, also after the retry (an empty array)
 };
+
+// The values dynamic_reconfigure may change at run time, with their ranges (the start-up
+// ranges of params.cpp and those of cfg/Monitor.cfg).
+struct RuntimeSettings {
+  double horizon = 2.0;  // s, [0, kMaxHorizon]
+  double rate = 30.0;    // Hz, [kMinRate, kMaxRate] (params.h)
+  double padding = 0.0;  // m, [0, kMaxPadding]
+};
+constexpr double kMaxHorizon = 60.0;
+constexpr double kMaxPadding = 10.0;
 
 class MonitorCore {
  public:
@@ -59,21 +72,34 @@ class MonitorCore {
   // Markers of the last cycle (swept volumes, impacts); see markers.h.
   visualization_msgs::MarkerArray markers() const;
 
-  // dynamic_reconfigure. A new padding re-adds every element with its new shape at the next cycle.
-  void setHorizon(double horizon) { params_.horizon = horizon; }
-  void setPadding(double padding);
+  // dynamic_reconfigure: the one place its values are checked (the node's callback and the
+  // fuzz target call it). Each value NaN/Inf or outside its range is refused: the current
+  // value is kept and a line naming the parameter is appended to `errors`. Returns the values
+  // in effect afterwards (the node writes them back into the config it publishes). A new
+  // padding re-adds every element with its new shape at the next cycle. The rate is only
+  // stored (params().rate): the node sets its timer from the returned value.
+  RuntimeSettings reconfigure(const RuntimeSettings& requested, std::vector<std::string>* errors = nullptr);
+  RuntimeSettings settings() const;
+  // Single values through the same checks; false (value kept) when refused.
+  bool setHorizon(double horizon);
+  bool setPadding(double padding);
   double horizon() const { return params_.horizon; }
   double padding() const { return params_.padding; }
 
   // Time jumped backwards: forget every state (and the world's moving elements).
   void reset();
 
+  Predictor& predictorForTesting() { return predictor_; }
+
   // One line per impact: "robot_1 <-> robot_2/mast in 0.83 s at (x, y, z), closing 1.2 m/s".
   static std::string describe(const vadop::Impact& impact);
 
  private:
   bool pairIgnored(size_t ea, size_t eb) const;
-  void syncWorld();
+  void syncWorld(const ros::Time& now);
+  // World::predict threw `error`: leaves out of the world every element whose motion is out of
+  // range over the window or that the message names; false when none could be found.
+  bool leaveOutOffenders(const std::string& error, const ros::Time& now);
 
   MonitorParams params_;
   BodyRegistry registry_;
@@ -83,6 +109,10 @@ class MonitorCore {
   CycleStats stats_;
   std::vector<double> soonest_;
   double t0_ = 0.0;  // registry seconds of the last cycle
+  // Elements the world refused at predict, kept out while their motion stays the same.
+  std::vector<char> refused_;
+  std::vector<vadop::Motion> refused_motion_;
+  double last_error_log_ = -1e300;  // wall seconds
 };
 
 }  // namespace vadop_ros

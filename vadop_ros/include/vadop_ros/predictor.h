@@ -16,6 +16,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -38,6 +39,9 @@ struct RawImpact {
   double closing_speed = 0.0;  // (v_a - v_b) . normal at the point, at `time`
 };
 
+// Bit-identical motions (the world is only told about a change).
+bool sameMotion(const vadop::Motion& a, const vadop::Motion& b);
+
 class Predictor {
  public:
   // Throws vadop::InvalidArgument when the configuration is rejected.
@@ -59,6 +63,10 @@ class Predictor {
 
   // Contacts over [t0, t0 + horizon], sorted by time. Throws vadop::InvalidArgument.
   std::vector<RawImpact> predict(double t0, double horizon);
+
+  // Tests only: called before every predict with each element in the world (index, id); it
+  // may throw to simulate a world that refuses one element (MonitorCore's recovery).
+  std::function<void(size_t element, const std::string& id)> before_predict_for_testing;
 
   size_t size() const;
   size_t lastCandidateCount() const;
