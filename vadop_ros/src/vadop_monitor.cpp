@@ -145,39 +145,61 @@ class MonitorNode {
     core_->registry().onTwist(i, msg, ros::Time::now());
   }
 
-  void onReconfigure(const vadop::MonitorConfig& c) {
-    core_->setHorizon(c.horizon);
-    core_->setPadding(c.padding);
-    if (c.rate != rate_) {
-      rate_ = c.rate;
+  // dynamic_reconfigure clamps to the ranges of cfg/Monitor.cfg, but NaN passes its min/max:
+  // MonitorCore::reconfigure checks every value (the one place), keeps the previous value of a
+  // refused one, and the kept values are written back into `c`, which the server stores and
+  // publishes, so dynparam shows what is in effect.
+  void onReconfigure(vadop::MonitorConfig& c) {
+    RuntimeSettings requested;
+    requested.horizon = c.horizon;
+    requested.rate = c.rate;
+    requested.padding = c.padding;
+    std::vector<std::string> errors;
+    const RuntimeSettings s = core_->reconfigure(requested, &errors);
+    for (const std::string& e : errors) ROS_ERROR("vadop_monitor: dynamic_reconfigure: %s", e.c_str());
+    c.horizon = s.horizon;
+    c.rate = s.rate;
+    c.padding = s.padding;
+    if (s.rate != rate_) {
+      rate_ = s.rate;
       window_.setRate(rate_);
       if (timer_.isValid()) timer_.setPeriod(ros::Duration(1.0 / rate_));
     }
-    ROS_INFO("vadop_monitor: horizon %.2f s, rate %.1f Hz, padding %.3f m", c.horizon, c.rate, c.padding);
+    ROS_INFO("vadop_monitor: horizon %.2f s, rate %.1f Hz, padding %.3f m", s.horizon, s.rate, s.padding);
   }
 
   void onTimer() {
     const ros::Time now = ros::Time::now();
     if (now.isZero()) return;  // use_sim_time and no /clock yet
     if (!last_now_.isZero() && now < last_now_) {
+      // int64 nanoseconds: a ros::Duration of two arbitrary times may be out of its range.
       ROS_WARN("vadop_monitor: time jumped back by %.3f s (bag restarted?): forgetting every state",
-               (last_now_ - now).toSec());
+               secondsBetween(last_now_, now));
       core_->reset();
       tf_buffer_.clear();
     }
     last_now_ = now;
-    const vadop::ImpactArray& impacts = core_->cycle(now, tf_source_);
-    window_.add(core_->lastStats());
-    impacts_pub_.publish(impacts);
-    if (core_->params().publish_markers && markers_pub_.getNumSubscribers() > 0) {
-      markers_pub_.publish(core_->markers());
+    // The cycle does not throw on any input; should it still, this cycle is lost, not the node.
+    try {
+      const vadop::ImpactArray& impacts = core_->cycle(now, tf_source_);
+      window_.add(core_->lastStats());
+      impacts_pub_.publish(impacts);
+      if (core_->params().publish_markers && markers_pub_.getNumSubscribers() > 0) {
+        markers_pub_.publish(core_->markers());
+      }
+      if (core_->params().log_impacts && !impacts.impacts.empty()) {
+        std::string text;
+        for (const vadop::Impact& i : impacts.impacts) text += "\n  " + MonitorCore::describe(i);
+        ROS_INFO_THROTTLE(1.0, "vadop_monitor: %zu predicted impact(s):%s", impacts.impacts.size(), text.c_str());
+      }
+    } catch (const std::exception& e) {
+      ROS_ERROR_THROTTLE(5.0, "vadop_monitor: cycle failed: %s", e.what());
     }
-    if (core_->params().log_impacts && !impacts.impacts.empty()) {
-      std::string text;
-      for (const vadop::Impact& i : impacts.impacts) text += "\n  " + MonitorCore::describe(i);
-      ROS_INFO_THROTTLE(1.0, "vadop_monitor: %zu predicted impact(s):%s", impacts.impacts.size(), text.c_str());
+    try {
+      updater_.update();
+    } catch (const std::exception& e) {
+      ROS_ERROR_THROTTLE(5.0, "vadop_monitor: diagnostics failed: %s", e.what());
     }
-    updater_.update();
   }
 
   ros::NodeHandle nh_, pnh_;
