@@ -1,13 +1,17 @@
 // libFuzzer target: arbitrary bytes -> scene reader -> (when it parses) the prediction
 // pipeline with each broad phase -> impact lines -> ImpactQueue.
 //
-// Expected behaviour: parseScene accepts the input or throws vadop::InvalidArgument. Anything
-// else is a bug the fuzzer reports: a crash, a sanitizer finding (ASan, UBSan, LeakSanitizer),
-// another exception escaping, a hang or time-out, or a broken invariant below (__builtin_trap):
-//  - the three broad phases give byte-identical output;
+// Expected behaviour: parseScene accepts the input or throws vadop::InvalidArgument with a
+// one-line message of at most vadop::kMaxMessageBytes. Anything else is a bug the fuzzer
+// reports: a crash, a sanitizer finding (ASan, UBSan, LeakSanitizer), another exception
+// escaping, a hang or time-out, or a broken invariant below (__builtin_trap):
+//  - the three broad phases give byte-identical output (vadop_predict's: contact lines and
+//    undecided lines merged, predictionToJsonLines);
 //  - impacts lie in [0, horizon], a was listed before b, point and normal are finite, the
-//    normal is unit;
-//  - every output line reads back (nlohmann) to the same ids and the same doubles;
+//    normal is unit; undecided pairs (World::lastUndecided) are not hits, lie in [0, horizon]
+//    and have a before b;
+//  - every output line reads back (nlohmann) to the same ids and the same doubles, contact
+//    lines and undecided lines each in their own order, all sorted by (time, a, b);
 //  - an ImpactQueue fed the impacts pops them in the same order, and invalidation removes
 //    exactly the impacts of a body.
 //
@@ -33,6 +37,7 @@
 #include <cstdlib>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 namespace {
@@ -71,8 +76,10 @@ vadop::World makeWorld(vadop::BroadPhaseKind kind) {
   return vadop::World(config);
 }
 
-// Predicts with `world` and removes the scene's bodies again.
-std::vector<vadop::WorldImpact> predict(const vadop::Scene& scene, vadop::World& world, std::string* lines) {
+// Predicts with `world` (contacts, and the undecided pairs into *undecided when given), prints
+// both as vadop_predict does, and removes the scene's bodies again.
+std::vector<vadop::WorldImpact> predict(const vadop::Scene& scene, vadop::World& world, std::string* lines,
+                                        std::vector<vadop::WorldImpact>* undecided = nullptr) {
   vadop::addToWorld(scene, world);
   std::vector<vadop::WorldImpact> impacts;
   try {
@@ -81,8 +88,9 @@ std::vector<vadop::WorldImpact> predict(const vadop::Scene& scene, vadop::World&
     for (const auto& b : scene.bodies) world.remove(b.id);
     throw;
   }
+  *lines = vadop::predictionToJsonLines(impacts, world.lastUndecided());
+  if (undecided) *undecided = world.lastUndecided();
   for (const auto& b : scene.bodies) world.remove(b.id);
-  *lines = vadop::impactsToJsonLines(impacts);
   return impacts;
 }
 
@@ -95,8 +103,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {
     scene = vadop::parseScene(text);
   } catch (const vadop::InvalidArgument& e) {
-    // The message is one line (the tool prints it as such).
-    check(std::string(e.what()).find('\n') == std::string::npos);
+    // The message is one line of bounded length (the tool prints it as such).
+    const std::string message = e.what();
+    check(message.find('\n') == std::string::npos && message.size() <= vadop::kMaxMessageBytes);
     return 0;
   }
   if (!withinCaps(scene)) return 0;
@@ -108,14 +117,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const bool fresh = std::getenv("VADOP_FUZZ_FRESH") != nullptr;
   static vadop::World shared = makeWorld(vadop::BroadPhaseKind::kVadop);
   std::string lines, sap_lines, brute_lines;
-  std::vector<vadop::WorldImpact> impacts;
+  std::vector<vadop::WorldImpact> impacts, undecided;
   try {
     if (fresh) {
       vadop::World own = makeWorld(vadop::BroadPhaseKind::kVadop);
-      impacts = predict(scene, own, &lines);
+      impacts = predict(scene, own, &lines, &undecided);
     } else {
       check(shared.size() == 0);
-      impacts = predict(scene, shared, &lines);
+      impacts = predict(scene, shared, &lines, &undecided);
     }
     vadop::World sap = makeWorld(vadop::BroadPhaseKind::kSap);
     vadop::World brute = makeWorld(vadop::BroadPhaseKind::kBrute);
@@ -131,24 +140,47 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   check(lines == sap_lines);
   check(lines == brute_lines);
 
-  // Invariants of every impact, and the printed lines read back exactly.
-  std::istringstream in(lines);
-  std::string line;
+  // Invariants of every impact and undecided pair, and the printed lines read back exactly: each
+  // line is the next contact or the next undecided pair, and the lines are sorted by (time, a, b).
   for (const auto& w : impacts) {
     const vadop::Impact& i = w.impact;
-    check(i.hit && i.time >= 0.0 && i.time <= scene.horizon);
+    check(i.hit && !i.undecided && i.time >= 0.0 && i.time <= scene.horizon);
     check(w.a_key < w.b_key && w.a != w.b);
     check(i.point.allFinite() && i.normal.allFinite() && std::abs(i.normal.norm() - 1.0) < 1e-6);
-    check(static_cast<bool>(std::getline(in, line)));
-    const auto j = nlohmann::json::parse(line);
-    check(j.at("a").get<std::string>() == w.a && j.at("b").get<std::string>() == w.b);
-    check(j.at("time").get<double>() == i.time);
-    for (int k = 0; k < 3; ++k) {
-      check(j.at("point").at(k).get<double>() == i.point[k]);
-      check(j.at("normal").at(k).get<double>() == i.normal[k]);
-    }
   }
-  check(!std::getline(in, line));
+  for (const auto& w : undecided) {
+    check(!w.impact.hit && w.impact.undecided && w.impact.time >= 0.0 && w.impact.time <= scene.horizon);
+    check(w.a_key < w.b_key && w.a != w.b);
+  }
+  std::istringstream in(lines);
+  std::string line;
+  size_t next_impact = 0, next_undecided = 0;
+  const vadop::WorldImpact* previous = nullptr;
+  while (std::getline(in, line)) {
+    const auto j = nlohmann::json::parse(line);
+    const vadop::WorldImpact* w = nullptr;
+    if (j.contains("undecided_after")) {
+      check(next_undecided < undecided.size() && j.size() == 3);
+      w = &undecided[next_undecided++];
+      check(j.at("undecided_after").get<double>() == w->impact.time);
+    } else {
+      check(next_impact < impacts.size() && j.size() == 5);
+      w = &impacts[next_impact++];
+      const vadop::Impact& i = w->impact;
+      check(j.at("time").get<double>() == i.time);
+      for (int k = 0; k < 3; ++k) {
+        check(j.at("point").at(k).get<double>() == i.point[k]);
+        check(j.at("normal").at(k).get<double>() == i.normal[k]);
+      }
+    }
+    check(j.at("a").get<std::string>() == w->a && j.at("b").get<std::string>() == w->b);
+    if (previous) {
+      const auto key = [](const vadop::WorldImpact* x) { return std::make_tuple(x->impact.time, x->a_key, x->b_key); };
+      check(key(previous) < key(w));
+    }
+    previous = w;
+  }
+  check(next_impact == impacts.size() && next_undecided == undecided.size());
 
   // The queue pops the impacts in the same order; invalidating a body removes exactly its impacts.
   vadop::ImpactQueue queue;

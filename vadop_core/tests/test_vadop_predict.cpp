@@ -493,6 +493,45 @@ TEST(VadopPredict, ValuesAtTheEdgeOfTheRangeWork) {
   EXPECT_EQ(longest.out, "");
 }
 
+TEST(VadopPredict, UndecidedPairsPrintAsSuchNeverAsContacts) {
+  // With a budget of one distance evaluation the spinning arm and the wall are undecided (the arm's
+  // corner passes 2.4e-6 m from the wall at t = 0.0997); the spheres (closed form) still touch
+  // at t = 0.25 - 2.5e-7. Undecided lines are never contacts, the same for every broad phase.
+  TempDir dir;
+  const std::string scene = dir.file("scene.json", R"({"horizon": 1, "bodies": [
+      {"id": "arm", "shape": {"type": "box", "size": [2, 0.2, 0.2]}, "position": [0, 0, 0], "angular_velocity": [0, 0, -1]},
+      {"id": "wall", "shape": {"type": "box", "size": [1, 1, 1]}, "position": [1.50499, 0, 0]},
+      {"id": "l", "shape": {"type": "sphere", "radius": 0.5}, "position": [10, 0, 0], "linear_velocity": [1, 0, 0]},
+      {"id": "r", "shape": {"type": "sphere", "radius": 0.5}, "position": [11.5, 0, 0], "linear_velocity": [-1, 0, 0]}]})");
+  const ToolRun full = run(shellQuote(scene));
+  ASSERT_EQ(full.status, 0) << full.err;
+  EXPECT_EQ(full.out.find("undecided"), std::string::npos) << full.out;
+  std::map<std::string, std::string> by_kind;
+  for (const char* broad : {"vadop", "vadop_sap", "sap", "brute"}) {
+    const ToolRun r = run(shellQuote(scene) + " --max-iterations 1 --broadphase " + broad);
+    ASSERT_EQ(r.status, 0) << broad << ": " << r.err;
+    EXPECT_EQ(r.err, "");
+    const auto out = lines(r.out);
+    ASSERT_EQ(out.size(), 2u) << broad << ": " << r.out;
+    // Sorted together by time: the undecided line's undecided_after against the contact's time.
+    const size_t u = out[0].find("undecided_after") != std::string::npos ? 0 : 1;
+    const auto open = nlohmann::json::parse(out[u]);
+    const auto contact = nlohmann::json::parse(out[1 - u]);
+    EXPECT_EQ(out[u].rfind(R"({"a":"arm","b":"wall","undecided_after":)", 0), 0u) << out[u];
+    EXPECT_EQ(open.size(), 3u) << out[u];
+    const double after = open["undecided_after"].get<double>();
+    EXPECT_GE(after, 0.0);
+    EXPECT_LT(after, 1.0);
+    EXPECT_EQ(out[1 - u].rfind(R"({"a":"l","b":"r","time":0.2499997)", 0), 0u) << out[1 - u];
+    EXPECT_EQ(u == 0, after <= contact["time"].get<double>()) << r.out;
+    by_kind[broad] = r.out;
+  }
+  EXPECT_EQ(by_kind["vadop"], by_kind["sap"]);
+  EXPECT_EQ(by_kind["vadop"], by_kind["brute"]);
+  EXPECT_EQ(by_kind["vadop"], by_kind["vadop_sap"]);
+  expectRejected(run("--max-iterations 0"), "budget 0", {"--max-iterations"});
+}
+
 TEST(VadopPredict, HelpPrintsUsage) {
   const ToolRun r = run("--help");
   EXPECT_EQ(r.status, 0);

@@ -30,6 +30,7 @@ namespace {
 
 const char* const kUsage =
     "usage: vadop_predict [scene.json | -] [--broadphase vadop|vadop_sap|sap|brute] [--axes M] [--phi DEG]\n"
+    "                     [--max-iterations N]\n"
     "\n"
     "Predicts every contact between the bodies of a JSON scene within [0, horizon] and prints one\n"
     "JSON object per line, sorted by time then input order:\n"
@@ -45,6 +46,8 @@ const char* const kUsage =
     "  --axes M           VADOP axis pool size, an integer in [3, 4096] (default 32)\n"
     "  --phi DEG          VADOP zone half-width in degrees, in [0, 90], at least the pool's\n"
     "                     covering radius; 0 selects that radius (default 25)\n"
+    "  --max-iterations N narrow-phase budget per pair, an integer in [1, 100000000] (default\n"
+    "                     10000); a pair not decided within it prints as undecided\n"
     "  --help             this text\n"
     "\n"
     "Exit status: 0 success, 2 bad input or options (message on stderr, nothing on stdout),\n"
@@ -87,6 +90,16 @@ int parseAxes(const std::string& v) {
   return static_cast<int>(m);
 }
 
+int parseMaxIterations(const std::string& v) {
+  errno = 0;
+  char* end = nullptr;
+  const long n = std::strtol(v.c_str(), &end, 10);
+  if (v.empty() || *end != '\0' || errno != 0 || n < 1 || n > 100000000) {
+    badOption("--max-iterations must be an integer in [1, 100000000], got '" + shown(v) + "'");
+  }
+  return static_cast<int>(n);
+}
+
 double parsePhi(const std::string& v) {
   char* end = nullptr;
   const double phi = std::strtod(v.c_str(), &end);
@@ -118,7 +131,9 @@ Options parse(int argc, char** argv) {
         arg = arg.substr(0, eq);
         has_value = true;
       }
-      if (arg != "--broadphase" && arg != "--axes" && arg != "--phi") badOption("unknown option " + shown(arg));
+      if (arg != "--broadphase" && arg != "--axes" && arg != "--phi" && arg != "--max-iterations") {
+        badOption("unknown option " + shown(arg));
+      }
       if (!has_value) {
         if (i + 1 >= argc) badOption("missing value after " + shown(arg));
         value = argv[++i];
@@ -131,6 +146,8 @@ Options parse(int argc, char** argv) {
         }
       } else if (arg == "--axes") {
         o.config.vadop.axes = parseAxes(value);
+      } else if (arg == "--max-iterations") {
+        o.config.toi.max_iterations = parseMaxIterations(value);
       } else {
         o.config.vadop.phi_deg = parsePhi(value);
       }

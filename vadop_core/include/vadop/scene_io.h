@@ -24,7 +24,7 @@
 // size[i], point coordinates and |point|) <= kMaxSize; |velocity[i]| and |velocity| <=
 // kMaxLinearSpeed (m/s) / kMaxAngularSpeed (rad/s); horizon <= kMaxTime. Each is checked where
 // it is read, so the message names body, index and field:
-//   body "a" (index 0): position[0] = 1e+12 is beyond 1e+07 m
+//   body "a" (index 0): position[0] = 1000000000000 is beyond 10000000 m
 // Input limits (below): at most kMaxSceneBytes of text and kMaxSceneDepth levels of nesting.
 // Strict: unknown keys (a typo such as "linear_velocty" would otherwise silently mean a zero
 // velocity), duplicate keys, wrong types or array sizes, numbers that overflow a double (1e999)
