@@ -11,6 +11,7 @@
 // VADOP_SOAK_FRAMES sets the total number of frames (default: a fast CI subset).
 #include "vadop/broad_phase.h"
 #include "vadop/error.h"
+#include "vadop/limits.h"
 #include "vadop/sweep_prune.h"
 #include "vadop/vadop_grid.h"
 
@@ -589,8 +590,7 @@ TEST(VadopGrid, LazyIntervalsReportTheUpdatesVolumeAfterSetMotion) {
 }
 
 TEST(VadopGrid, LargeBodiesAndFarCoordinatesAreStillExact) {
-  // A 1 km wall among 1 m cells is too large for the grid: it must still meet its neighbours;
-  // bodies 1e12 m out force coarser cells, so that cell coordinates cannot overflow.
+  // A 1 km wall among 1 m cells is too large for the grid: it must still meet its neighbours.
   VadopGridBroadPhase bp(VadopConfig{}, 1.0);
   const BodyId wall = bp.add(makeBox(Eigen::Vector3d(1000, 0.1, 10)), linear({0, 0, 0}, {0, 0, 0}));
   const BodyId near = bp.add(makeSphere(0.3), linear({400, 0.3, 0}, {0, 0, 0}));
@@ -598,14 +598,20 @@ TEST(VadopGrid, LargeBodiesAndFarCoordinatesAreStillExact) {
   bp.update(0, 0.1);
   EXPECT_EQ(bp.pairs(), (std::vector<Pair>{makePair(wall, near)}));
   EXPECT_EQ(bp.stats().large_bodies, 1u);
-  const BodyId x1 = bp.add(makeSphere(1), linear({1e12, 0, 0}, {0, 0, 0}));
-  const BodyId x2 = bp.add(makeSphere(1), linear({1e12 + 1.5, 0, 0}, {0, 0, 0}));
-  const BodyId x3 = bp.add(makeSphere(1), linear({-1e12, 0, 0}, {0, 0, 0}));
-  bp.update(0.1, 0.2);
-  EXPECT_EQ(bp.pairs(), (std::vector<Pair>{makePair(wall, near), makePair(x1, x2)}));
-  EXPECT_GT(bp.stats().cell_size, 1.0);
   (void)far;
+  // Bodies far out force coarser cells, so that cell coordinates cannot overflow. (This used
+  // bodies at 1e12 m with 1 m cells; positions are now limited to kMaxCoordinate = 1e7 m
+  // (limits.h), so 1 cm cells at +-1e7 m, 1e9 cells out, beyond the grid's 2^29.)
+  VadopGridBroadPhase fine(VadopConfig{}, 0.01);
+  const BodyId x1 = fine.add(makeSphere(0.001), linear({kMaxCoordinate, 0, 0}, {0, 0, 0}));
+  const BodyId x2 = fine.add(makeSphere(0.001), linear({kMaxCoordinate - 0.0015, 0, 0}, {0, 0, 0}));
+  const BodyId x3 = fine.add(makeSphere(0.001), linear({-kMaxCoordinate, 0, 0}, {0, 0, 0}));
+  const BodyId x4 = fine.add(makeSphere(0.001), linear({kMaxCoordinate - 0.005, 0, 0}, {0, 0, 0}));
+  fine.update(0.1, 0.2);
+  EXPECT_EQ(fine.pairs(), (std::vector<Pair>{makePair(x1, x2)}));
+  EXPECT_GT(fine.stats().cell_size, 0.01);
   (void)x3;
+  (void)x4;
 }
 
 TEST(VadopGrid, BadInputThrowsAndChangesNothing) {
