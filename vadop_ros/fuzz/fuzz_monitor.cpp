@@ -30,6 +30,7 @@
 #include <map>
 #include <memory>
 #include <set>
+#include <stdexcept>
 #include <string>
 
 namespace {
@@ -92,14 +93,38 @@ static_obstacles:
   - {name: post, shape: {type: cylinder, radius: 0.1, length: 2}, pose: {position: [0, 3, 0]}}
 )";
 
+// The default loader, its results (and errors: a package:// URI runs rospack) kept across
+// inputs: one core per input must cost microseconds, not a process.
+vadop_ros::MeshData cachedMesh(const std::string& uri, const Eigen::Vector3d& scale) {
+  static const vadop_ros::MeshLoader load = vadop_ros::makeDefaultMeshLoader();
+  static std::map<std::string, std::pair<vadop_ros::MeshData, std::string>> cache;
+  const std::string key = uri + " " + std::to_string(scale.x()) + " " + std::to_string(scale.y()) + " " +
+                          std::to_string(scale.z());
+  auto it = cache.find(key);
+  if (it == cache.end()) {
+    std::pair<vadop_ros::MeshData, std::string> entry;
+    try {
+      entry.first = load(uri, scale);
+    } catch (const std::exception& e) {
+      entry.second = e.what();
+    }
+    it = cache.emplace(key, std::move(entry)).first;
+  }
+  if (!it->second.second.empty()) throw std::runtime_error(it->second.second);
+  return it->second.first;
+}
+
 std::unique_ptr<MonitorCore> makeCore() {
   static const std::string urdf = urdfText();
-  return std::make_unique<MonitorCore>(vadop_ros::parseParams(vadop_test::yaml(kConfig)),
-                                       [](const std::string& name, std::string& value) {
-                                         if (name != "/robot_description") return false;
-                                         value = urdf;
-                                         return true;
-                                       });
+  static const vadop_ros::MonitorParams params = vadop_ros::parseParams(vadop_test::yaml(kConfig));
+  return std::make_unique<MonitorCore>(
+      params,
+      [](const std::string& name, std::string& value) {
+        if (name != "/robot_description") return false;
+        value = urdf;
+        return true;
+      },
+      cachedMesh);
 }
 
 [[noreturn]] void broken(const std::string& what) {
