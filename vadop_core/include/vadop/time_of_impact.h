@@ -16,7 +16,10 @@
 // Method: closed form for sphere-sphere; otherwise conservative advancement on our own GJK
 // (distance.h) whose certified lower bound along a separating direction is advanced with a
 // bound on the motion that includes rotation (see detail::advanceStep). Linear-only motion
-// uses the exact linear law of the separation along the normal. Meshes are triangle soups
+// uses the exact linear law of the separation along the normal. Where rotation keeps those
+// steps short (fast spinners), whole stretches of the window are certified clear at once by
+// swept volumes (detail::sweptLowerBound: each body's revolution hull plus its pivot's path)
+// and by the swept bounding spheres about the pivots. Meshes are triangle soups
 // (surfaces): a body wholly inside a closed mesh does not touch it.
 #pragma once
 
