@@ -435,3 +435,39 @@ TEST(MonitorCore, ReconfigureKeepsNaNAndOutOfRangeValuesOut) {
   EXPECT_EQ(core.horizon(), 60.0);
   expectHeadOn(core.cycle(ros::Time(1.1), tf), 1.3);  // padding 0.1: gap 2.8 m at 1.1 s
 }
+
+// A pair the narrow phase cannot decide within its budget (a box spinning 1 cm from another,
+// with a budget of one evaluation) is never a contact: predict returns nothing, and the pair
+// is listed as undecided with a time inside the window.
+TEST(Predictor, UndecidedPairsAreListedApartFromContacts) {
+  vadop_ros::PredictorConfig config;
+  config.max_iterations = 1;
+  vadop_ros::Predictor predictor(config);
+  std::string error;
+  const vadop::Shape bar = vadop::makeBox(Eigen::Vector3d(2.0, 0.1, 0.1));
+  const vadop::Shape post = vadop::makeBox(Eigen::Vector3d(0.1, 0.1, 0.1));
+  ASSERT_TRUE(predictor.set(0, "bar", bar,
+                            vadop::makeMotion(Eigen::Vector3d::Zero(), Eigen::Quaterniond::Identity(),
+                                              Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 0, 20.0), 0.0),
+                            error))
+      << error;
+  ASSERT_TRUE(predictor.set(1, "post", post,
+                            vadop::makeMotion(Eigen::Vector3d(1.06, 0.0, 0.0), Eigen::Quaterniond::Identity(),
+                                              Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 0.0),
+                            error))
+      << error;
+  const auto hits = predictor.predict(0.0, 10.0);
+  EXPECT_TRUE(hits.empty());
+  ASSERT_EQ(predictor.lastUndecided().size(), 1u);
+  const vadop_ros::RawImpact& u = predictor.lastUndecided()[0];
+  EXPECT_EQ(u.a, 0u);
+  EXPECT_EQ(u.b, 1u);
+  EXPECT_GE(u.time, 0.0);
+  EXPECT_LE(u.time, 10.0);
+  // With the default budget the same pair is decided: clear.
+  vadop_ros::Predictor decided{vadop_ros::PredictorConfig{}};
+  ASSERT_TRUE(decided.set(0, "bar", bar, predictor.motion(0), error));
+  ASSERT_TRUE(decided.set(1, "post", post, predictor.motion(1), error));
+  EXPECT_TRUE(decided.predict(0.0, 10.0).empty());
+  EXPECT_TRUE(decided.lastUndecided().empty());
+}

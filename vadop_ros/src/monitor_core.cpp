@@ -260,6 +260,21 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
   }
   // The world sorts by time; the clamp to 0 keeps that order.
   stats_.impacts = impacts_.impacts.size();
+  for (const RawImpact& u : predictor_.lastUndecided()) {
+    if (pairIgnored(u.a, u.b)) continue;
+    if (stats_.undecided++ > 0) continue;
+    auto label = [&](const Element& e) {
+      return e.link.empty() ? bodies[e.body].name : bodies[e.body].name + "/" + e.link;
+    };
+    char after[64];
+    std::snprintf(after, sizeof after, " after %.3f s", std::max(0.0, u.time - t0_));
+    stats_.undecided_first = label(elements[u.a]) + " <-> " + label(elements[u.b]) + after;
+  }
+  if (stats_.undecided > 0 && throttleOk(last_undecided_log_)) {
+    ROS_WARN_NAMED("vadop_monitor", "%zu pair(s) not decided within the narrow phase's budget, the first %s: "
+                   "clear until then, unknown after (not reported as impacts; throttled to one line per 5 s)",
+                   stats_.undecided, stats_.undecided_first.c_str());
+  }
   stats_.cycle_seconds = secondsSince(start);
   return impacts_;
 }

@@ -38,6 +38,9 @@ void CycleTimeWindow::report(diagnostic_updater::DiagnosticStatusWrapper& stat, 
     stat.summary(DiagnosticStatus::ERROR, "prediction failed: " + last_.error);
   } else if (!last_.recovered.empty()) {
     stat.summary(DiagnosticStatus::WARN, "prediction recovered: " + last_.recovered);
+  } else if (last_.undecided > 0) {
+    stat.summaryf(DiagnosticStatus::WARN, "%zu pair(s) undecided within the narrow phase's budget, the first %s",
+                  last_.undecided, last_.undecided_first.c_str());
   } else if (overruns_ > 0) {
     stat.summaryf(DiagnosticStatus::WARN, "%zu of %zu cycles overran the period (%.1f ms)", overruns_, count_,
                   period * 1e3);
@@ -58,6 +61,7 @@ void CycleTimeWindow::report(diagnostic_updater::DiagnosticStatusWrapper& stat, 
   stat.add("narrow-phase candidates", last_.candidates);
   stat.add("impacts (before filtering)", last_.raw_impacts);
   stat.add("impacts", last_.impacts);
+  stat.add("undecided pairs", last_.undecided);
   count_ = 0;
   sum_ = max_ = 0.0;
   overruns_ = 0;

@@ -18,6 +18,7 @@ vadop::WorldConfig worldConfig(const PredictorConfig& c) {
   w.broad_phase = vadop::BroadPhaseKind::kVadop;
   w.vadop.axes = c.axes;
   w.vadop.phi_deg = c.phi_deg;
+  w.toi.max_iterations = c.max_iterations;
   return w;
 }
 
@@ -40,6 +41,7 @@ struct Predictor::Impl {
   vadop::World world;
   std::vector<Slot> slots;
   std::unordered_map<uint64_t, size_t> by_key;
+  std::vector<RawImpact> undecided;  // of the last predict
 };
 
 Predictor::Predictor(const PredictorConfig& config) : impl_(std::make_unique<Impl>(config)) {}
@@ -85,6 +87,7 @@ const vadop::Motion& Predictor::motion(size_t i) const { return impl_->slots.at(
 const vadop::Shape& Predictor::shape(size_t i) const { return impl_->world.shape(impl_->slots.at(i).id); }
 size_t Predictor::size() const { return impl_->world.size(); }
 size_t Predictor::lastCandidateCount() const { return impl_->world.lastCandidateCount(); }
+const std::vector<RawImpact>& Predictor::lastUndecided() const { return impl_->undecided; }
 
 std::vector<RawImpact> Predictor::predict(double t0, double horizon) {
   if (before_predict_for_testing) {
@@ -92,7 +95,18 @@ std::vector<RawImpact> Predictor::predict(double t0, double horizon) {
       if (impl_->slots[i].in) before_predict_for_testing(i, impl_->slots[i].id);
     }
   }
+  impl_->undecided.clear();
   const std::vector<vadop::WorldImpact> hits = impl_->world.predict(t0, horizon);
+  for (const vadop::WorldImpact& w : impl_->world.lastUndecided()) {
+    const auto ia = impl_->by_key.find(w.a_key);
+    const auto ib = impl_->by_key.find(w.b_key);
+    if (ia == impl_->by_key.end() || ib == impl_->by_key.end()) continue;
+    RawImpact r;
+    r.a = ia->second;
+    r.b = ib->second;
+    r.time = w.impact.time;
+    impl_->undecided.push_back(r);
+  }
   std::vector<RawImpact> out;
   out.reserve(hits.size());
   for (const vadop::WorldImpact& w : hits) {

@@ -34,6 +34,10 @@ struct CycleStats {
   size_t candidates = 0;         // narrow-phase calls (World::lastCandidateCount)
   size_t raw_impacts = 0;        // before filtering
   size_t impacts = 0;            // published
+  // Pairs (after filtering) the narrow phase could not decide within its budget: neither
+  // published as impacts nor known to be clear after `undecided_first`'s time; a warning.
+  size_t undecided = 0;
+  std::string undecided_first;   // "a/link <-> b/link after 0.42 s" of the earliest one
   // World::predict threw and the cycle recovered by leaving out the elements named here (the
   // rest was predicted and published).
   std::string recovered;
@@ -113,6 +117,7 @@ class MonitorCore {
   std::vector<char> refused_;
   std::vector<vadop::Motion> refused_motion_;
   double last_error_log_ = -1e300;  // wall seconds
+  double last_undecided_log_ = -1e300;  // wall seconds
 };
 
 }  // namespace vadop_ros

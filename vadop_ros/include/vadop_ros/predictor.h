@@ -26,6 +26,7 @@ namespace vadop_ros {
 struct PredictorConfig {
   int axes = 32;         // VADOP pool size
   double phi_deg = 25.0; // VADOP zone half-width
+  int max_iterations = 10000;  // the narrow phase's budget per pair (vadop::ToiOptions)
 };
 
 // One contact predicted by the world, between two elements (indices given to sync()).
@@ -63,6 +64,10 @@ class Predictor {
 
   // Contacts over [t0, t0 + horizon], sorted by time. Throws vadop::InvalidArgument.
   std::vector<RawImpact> predict(double t0, double horizon);
+  // The pairs of the last predict that the narrow phase could not decide within its budget
+  // (vadop::World::lastUndecided): `time` is the end of the interval certified clear; point,
+  // normal and closing_speed are not set. Not contacts: predict does not return them.
+  const std::vector<RawImpact>& lastUndecided() const;
 
   // Tests only: called before every predict with each element in the world (index, id); it
   // may throw to simulate a world that refuses one element (MonitorCore's recovery).
