@@ -21,7 +21,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -82,7 +81,6 @@ std::string shellQuote(const std::string& s) {
 struct ToolRun {
   int status = -1;
   std::string out, err;
-  double seconds = 0.0;  // wall clock
 };
 
 std::string toolPath() {
@@ -99,10 +97,8 @@ ToolRun run(const std::string& args, const std::string& input_file = "/dev/null"
   const std::string tool = wrapper + " " + shellQuote(toolPath()) + " " + args;
   const std::string cmd = (pipe ? "cat " + shellQuote(input_file) + " | " + tool : tool + " < " + shellQuote(input_file)) +
                           " > " + shellQuote(out) + " 2> " + shellQuote(err);
-  const auto start = std::chrono::steady_clock::now();
   const int raw = std::system(cmd.c_str());
   ToolRun r;
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
   r.out = slurp(out);
   r.err = slurp(err);
@@ -316,12 +312,10 @@ TEST(VadopPredict, NestingOf80000LevelsIsRejectedWithoutRecursing) {
 
 TEST(VadopPredict, InputIsReadUpToTheSizeLimitOnly) {
   // Issue 13, 9: /dev/zero was read until allocation failed (~1 GB, 10 s and more).
-  const ToolRun file = run("/dev/zero", "/dev/null", "timeout 20");
-  expectRejected(file, "/dev/zero", {"/dev/zero", "larger than 64 MiB"});
-  EXPECT_LT(file.seconds, 2.0);
-  const ToolRun in = run("-", "/dev/zero", "timeout 20");
-  expectRejected(in, "stdin from /dev/zero", {"standard input", "larger than 64 MiB"});
-  EXPECT_LT(in.seconds, 2.0);
+  // No wall-clock assertion (the machine may be loaded): the old tool never got to a message
+  // naming the limit (killed by the timeout, or out of memory), which expectRejected requires.
+  expectRejected(run("/dev/zero", "/dev/null", "timeout 20"), "/dev/zero", {"/dev/zero", "larger than 64 MiB"});
+  expectRejected(run("-", "/dev/zero", "timeout 20"), "stdin from /dev/zero", {"standard input", "larger than 64 MiB"});
   // A pipe, and a regular file, one byte over the limit.
   TempDir dir;
   const std::string pad = dir.file("pad");
