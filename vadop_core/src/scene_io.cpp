@@ -212,6 +212,15 @@ json parseJson(const std::string& text) {
   // its full length, and a NUL byte where the parser stopped is reported as such.
   const size_t nul = text.find('\0');
   json root;
+  // nlohmann's message without its "[json.exception...] parse error at " prefix, after the location.
+  auto malformed = [&locator](const json::exception& e) {
+    std::string msg = e.what();
+    const std::string prefix = "parse error at ";
+    const size_t p = msg.find(prefix);
+    msg = p != std::string::npos ? msg.substr(p + prefix.size()) : msg.substr(msg.find(']') + 1);
+    const std::string at = locator.where();
+    throw InvalidArgument(oneLine((at.empty() ? std::string() : at + ": ") + "malformed JSON at " + msg));
+  };
   try {
     root = json::parse(text.begin(), text.end(), std::ref(locator));
   } catch (const Locator::Stop& e) {
@@ -222,12 +231,7 @@ json parseJson(const std::string& text) {
       throw InvalidArgument(oneLine((at.empty() ? std::string() : at + ": ") + "malformed JSON at byte " +
                                     std::to_string(nul + 1) + ": a NUL byte (not allowed in JSON text)"));
     }
-    std::string msg = e.what();
-    const std::string prefix = "parse error at ";
-    const size_t p = msg.find(prefix);
-    msg = p != std::string::npos ? msg.substr(p + prefix.size()) : msg.substr(msg.find(']') + 1);
-    const std::string at = locator.where();
-    throw InvalidArgument(oneLine((at.empty() ? std::string() : at + ": ") + "malformed JSON at " + msg));
+    malformed(e);
   } catch (const json::out_of_range& e) {
     // 406: a number that overflows a double (JSON itself has no NaN or Inf).
     std::string token = e.what();
@@ -238,12 +242,7 @@ json parseJson(const std::string& text) {
     throw InvalidArgument(oneLine((at.empty() ? "scene" : at) + " must be finite, got " + token +
                                   " (out of the range of a double)"));
   } catch (const json::exception& e) {
-    std::string msg = e.what();
-    const std::string prefix = "parse error at ";
-    const size_t p = msg.find(prefix);
-    msg = p != std::string::npos ? msg.substr(p + prefix.size()) : msg.substr(msg.find(']') + 1);
-    const std::string at = locator.where();
-    throw InvalidArgument(oneLine((at.empty() ? std::string() : at + ": ") + "malformed JSON at " + msg));
+    malformed(e);
   }
   if (nul != std::string::npos) {  // the parse ended at the NUL byte: what follows is not JSON
     throw InvalidArgument("malformed JSON at byte " + std::to_string(nul + 1) +

@@ -97,26 +97,25 @@ std::vector<RawImpact> Predictor::predict(double t0, double horizon) {
   }
   impl_->undecided.clear();
   const std::vector<vadop::WorldImpact> hits = impl_->world.predict(t0, horizon);
-  for (const vadop::WorldImpact& w : impl_->world.lastUndecided()) {
+  // The elements of a world pair (false when one of them is not ours).
+  auto elementsOf = [this](const vadop::WorldImpact& w, RawImpact& r) {
     const auto ia = impl_->by_key.find(w.a_key);
     const auto ib = impl_->by_key.find(w.b_key);
-    if (ia == impl_->by_key.end() || ib == impl_->by_key.end()) continue;
-    RawImpact r;
+    if (ia == impl_->by_key.end() || ib == impl_->by_key.end()) return false;
     r.a = ia->second;
     r.b = ib->second;
     r.time = w.impact.time;
-    impl_->undecided.push_back(r);
+    return true;
+  };
+  for (const vadop::WorldImpact& w : impl_->world.lastUndecided()) {
+    RawImpact r;
+    if (elementsOf(w, r)) impl_->undecided.push_back(r);
   }
   std::vector<RawImpact> out;
   out.reserve(hits.size());
   for (const vadop::WorldImpact& w : hits) {
-    const auto ia = impl_->by_key.find(w.a_key);
-    const auto ib = impl_->by_key.find(w.b_key);
-    if (ia == impl_->by_key.end() || ib == impl_->by_key.end()) continue;
     RawImpact r;
-    r.a = ia->second;
-    r.b = ib->second;
-    r.time = w.impact.time;
+    if (!elementsOf(w, r)) continue;
     r.point = w.impact.point;
     r.normal = w.impact.normal;
     r.initially_touching = w.impact.initially_touching;
