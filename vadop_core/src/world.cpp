@@ -131,6 +131,12 @@ void World::setMotion(const std::string& id, const Motion& motion) {
   broad_phase_->setMotion(bid, motion);
 }
 
+void World::setFilter(const std::string& id, uint32_t group, uint32_t mask) {
+  Record& r = records_[bodyId(id, "setFilter")];
+  r.group = group;
+  r.mask = mask;
+}
+
 std::vector<std::string> World::ids() const {
   std::vector<const Record*> alive;
   alive.reserve(by_name_.size());
@@ -202,11 +208,14 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
   size_t calls = 0;
   for (const Pair& p : broad_phase_->pairs()) {
     if (mask && !(*mask)[p.a] && !(*mask)[p.b]) continue;
-    ++calls;
     BodyId ia = p.a, ib = p.b;
     if (records_[ib].key < records_[ia].key) std::swap(ia, ib);  // a = the body added first
     const Record* ra = &records_[ia];
     const Record* rb = &records_[ib];
+    // The pair filters, before the narrow phase.
+    if (!(ra->group & rb->mask) || !(rb->group & ra->mask)) continue;
+    if (pair_filter_ && !pair_filter_(ra->key, rb->key)) continue;
+    ++calls;
     const Motion& ma = broad_phase_->motion(ia);
     const Motion& mb = broad_phase_->motion(ib);
     const Impact hit = timeOfImpact(*ra->prepared, ma, *rb->prepared, mb, t0, t1, config_.toi);

@@ -8,6 +8,14 @@
 // chosen: each is complete, and each sees the shapes padded by the narrow phase's tolerance,
 // so every pair the narrow phase can report (gap <= tolerance) is a candidate for all of them.
 //
+// Pair filters (as Box2D's shouldCollide and Bullet's broadphase filter callback) leave
+// candidate pairs out BEFORE the narrow phase: a pair is tested only when
+//   (a.group & b.mask) != 0 && (b.group & a.mask) != 0      (setFilter; default group 1, mask ~0)
+// and, when a predicate is set (setPairFilter), should_test(a_key, b_key) is true. Filtered
+// pairs cost no narrow-phase call, are not in lastCandidateCount() and never in lastUndecided().
+// The filters see each candidate pair once, whatever the broad phase, so the result still does
+// not depend on the broad phase (given a predicate that depends only on its arguments).
+//
 // Names are any non-empty strings. Bad input throws vadop::InvalidArgument naming the body and
 // leaves the world unchanged (strong guarantee). Not thread-safe.
 #pragma once
@@ -20,6 +28,7 @@
 #include "vadop/vadop.h"
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -72,6 +81,23 @@ class World {
   // or the motion invalid.
   void setMotion(const std::string& id, const Motion& motion);
 
+  // Collision filtering (see the top of this file). A body's group (its category bits) and
+  // mask (the groups it is tested against): the pair (a, b) reaches the narrow phase only when
+  // (a.group & b.mask) && (b.group & a.mask). add() gives group 1 and mask 0xffffffff (every
+  // pair tested); a body removed and added again gets these defaults back. Takes effect at the
+  // next predict. Throws when the id is unknown (nothing changed).
+  static constexpr uint32_t kDefaultGroup = 1u;
+  static constexpr uint32_t kDefaultMask = 0xffffffffu;
+  void setFilter(const std::string& id, uint32_t group, uint32_t mask);
+  // For rules masks cannot express (per-pair rules, globs): called on each candidate pair that
+  // passes the masks, with the insertion-order keys (World::key) a_key < b_key; the pair goes to
+  // the narrow phase only when it returns true. Keys rather than names: no string work per
+  // pair. Must be a pure function of its arguments for the result to be independent of the
+  // broad phase; what it throws propagates out of predict (statistics unchanged). An empty
+  // function (the default) tests every pair.
+  using PairPredicate = std::function<bool(uint64_t a_key, uint64_t b_key)>;
+  void setPairFilter(PairPredicate should_test) { pair_filter_ = std::move(should_test); }
+
   bool contains(const std::string& id) const { return by_name_.count(id) != 0; }
   size_t size() const { return by_name_.size(); }
   // Ids in insertion order.
@@ -92,7 +118,8 @@ class World {
 
   const WorldConfig& config() const { return config_; }
   const BroadPhase& broadPhase() const { return *broad_phase_; }
-  // Narrow-phase calls made by the last predict (its candidate pairs, after any `only` filter).
+  // Narrow-phase calls made by the last predict: its candidate pairs after any `only` filter
+  // and after the pair filters (setFilter, setPairFilter); filtered pairs are not counted.
   size_t lastCandidateCount() const { return last_candidates_; }
   // The pairs of the last predict that the narrow phase could not decide within its budget
   // (Impact::undecided: clear up to impact.time, unknown after), in the order of predict's
@@ -105,6 +132,8 @@ class World {
     uint64_t key = 0;
     // The shape as given, prepared for the narrow phase (the broad phase holds it padded).
     std::optional<PreparedShape> prepared;
+    uint32_t group = kDefaultGroup;  // setFilter
+    uint32_t mask = kDefaultMask;
   };
   const Record& record(const std::string& id, const char* operation) const;
   BodyId bodyId(const std::string& id, const char* operation) const;
@@ -117,6 +146,7 @@ class World {
   uint64_t next_key_ = 0;
   size_t last_candidates_ = 0;
   std::vector<WorldImpact> last_undecided_;
+  PairPredicate pair_filter_;
 };
 
 }  // namespace vadop
