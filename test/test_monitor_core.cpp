@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <vadop/error.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -114,7 +115,73 @@ static_obstacles:
     EXPECT_FALSE(i.body_a.front() == 'w' && i.body_b.front() == 'w');  // static-static
     EXPECT_EQ(i.body_a, "b");
   }
-  EXPECT_GE(core.lastStats().raw_impacts, out.impacts.size() + 2);  // a-b and w1-w2 filtered
+  // Issue 14, item 5: a-b and w1-w2 are filtered before the narrow phase, so never raw impacts.
+  EXPECT_EQ(core.lastStats().raw_impacts, out.impacts.size());
+  EXPECT_EQ(core.lastStats().ignored_tested, 0u);
+}
+
+// Issue 14, item 5: ignored pairs never produce narrow-phase calls. The same scene with and
+// without ~ignore_pairs: one candidate fewer (a-b), the static pair w1-w2 in neither, the
+// impacts identical but for a-b.
+TEST(MonitorCore, IgnoredPairsNeverReachTheNarrowPhase) {
+  const std::string scene = R"(
+bodies:
+  - {name: a, odom_topic: /a, shape: {type: sphere, radius: 0.5}}
+  - {name: b, odom_topic: /b, shape: {type: sphere, radius: 0.5}}
+static_obstacles:
+  - {name: w1, shape: {type: box, size: [1, 1, 1]}, pose: {position: [0, 5, 0]}}
+  - {name: w2, shape: {type: box, size: [1, 1, 1]}, pose: {position: [0.5, 5, 0]}}
+)";
+  std::vector<std::string> lines[2];
+  size_t candidates[2] = {0, 0};
+  for (int filtered = 0; filtered < 2; ++filtered) {
+    MonitorCore core = makeCore((filtered ? "ignore_pairs: [[\"a\", \"b*\"]]\n" : "") + scene);
+    FakeTf tf;
+    core.registry().onOdometry(0, odom(1.0, 0.0, 0.0, 0.0), ros::Time(1.0));
+    core.registry().onOdometry(1, odom(1.0, 0.5, 0.0, 0.0, 2.0), ros::Time(1.0));
+    const auto& out = core.cycle(ros::Time(1.0), tf);
+    candidates[filtered] = core.lastStats().candidates;
+    EXPECT_EQ(core.lastStats().ignored_tested, 0u);
+    EXPECT_EQ(core.lastStats().raw_impacts, out.impacts.size());
+    for (const auto& i : out.impacts) {
+      EXPECT_FALSE(i.body_a.front() == 'w' && i.body_b.front() == 'w');
+      if (filtered == 0 && i.body_a == "a" && i.body_b == "b") continue;
+      lines[filtered].push_back(MonitorCore::describe(i));
+    }
+  }
+  EXPECT_EQ(candidates[1] + 1, candidates[0]);
+  EXPECT_FALSE(lines[1].empty());
+  EXPECT_EQ(lines[1], lines[0]);
+}
+
+// The groups and the predicate of Predictor reach the world: pairs left out cost no call.
+TEST(Predictor, GroupsAndIgnoredPairsLeaveCandidatesOutBeforeTheNarrowPhase) {
+  using vadop_ros::Predictor;
+  using vadop_ros::PredictorConfig;
+  Predictor p(PredictorConfig{});
+  std::string error;
+  const vadop::Motion still = vadop::makeMotion(Eigen::Vector3d::Zero(), Eigen::Quaterniond::Identity(),
+                                                Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 0.0);
+  // Three overlapping spheres: 0 and 1 in a group that does not collide with itself.
+  ASSERT_TRUE(p.set(0, "s0", vadop::makeSphere(1.0), still, error, 2u, ~2u));
+  ASSERT_TRUE(p.set(1, "s1", vadop::makeSphere(1.0), still, error, 2u, ~2u));
+  ASSERT_TRUE(p.set(2, "s2", vadop::makeSphere(1.0), still, error));
+  EXPECT_EQ(p.predict(0.0, 1.0).size(), 2u);
+  EXPECT_EQ(p.lastCandidateCount(), 2u);
+  std::vector<std::pair<size_t, size_t>> asked;
+  p.setIgnored([&](size_t a, size_t b) {
+    asked.emplace_back(a, b);
+    return a == 0 && b == 2;
+  });
+  const auto out = p.predict(0.0, 1.0);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].a, 1u);
+  EXPECT_EQ(out[0].b, 2u);
+  EXPECT_EQ(p.lastCandidateCount(), 1u);
+  std::sort(asked.begin(), asked.end());
+  EXPECT_EQ(asked, (std::vector<std::pair<size_t, size_t>>{{0, 2}, {1, 2}}));
+  p.setIgnored(nullptr);
+  EXPECT_EQ(p.predict(0.0, 1.0).size(), 2u);
 }
 
 TEST(MonitorCore, BadMessageDoesNotHideOtherBodies) {

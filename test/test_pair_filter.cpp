@@ -62,3 +62,28 @@ TEST(PairFilter, EitherOrder) {
   EXPECT_FALSE(f.ignored({"robot_1", "base"}, {"robot_1", "mast"}));
   EXPECT_FALSE(PairFilter().ignored({"a", ""}, {"b", ""}));
 }
+// Issue 14, item 5: the per-element bitsets (MonitorCore's filter before the narrow phase)
+// agree with ignored() on every pair, with more than 64 pattern pairs (two words).
+TEST(PairFilter, PrecomputedMatchesAgreeWithIgnored) {
+  std::vector<std::pair<std::string, std::string>> pats = {{"a", "b*"}, {"robot_*/mast", "robot_1/*"}, {"*", "w"}};
+  for (int k = 0; k < 70; ++k) pats.emplace_back("x" + std::to_string(k), "*/l" + std::to_string(k % 3));
+  const vadop_ros::PairFilter f(pats);
+  const std::vector<vadop_ros::ElementKey> es = {{"a", ""},       {"b", ""},          {"bb", "l1"}, {"robot_1", "mast"},
+                                                 {"robot_2", "mast"}, {"robot_1", "base"}, {"w", ""},    {"x69", ""},
+                                                 {"y", "l0"},     {"y", "l2"},        {"z", ""}};
+  std::vector<vadop_ros::PairFilter::Matches> ms;
+  for (const auto& e : es) ms.push_back(f.matches(e));
+  size_t ignored = 0;
+  for (size_t i = 0; i < es.size(); ++i) {
+    for (size_t j = 0; j < es.size(); ++j) {
+      EXPECT_EQ(vadop_ros::PairFilter::ignored(ms[i], ms[j]), f.ignored(es[i], es[j])) << i << " " << j;
+      ignored += f.ignored(es[i], es[j]);
+    }
+  }
+  EXPECT_GT(ignored, 0u);
+  EXPECT_LT(ignored, es.size() * es.size());
+  // x69 (pattern pair 72, second word) with y/l0 (69 % 3 = 0).
+  EXPECT_TRUE(vadop_ros::PairFilter::ignored(ms[7], ms[8]));
+  EXPECT_FALSE(vadop_ros::PairFilter::ignored(ms[7], ms[9]));
+}
+

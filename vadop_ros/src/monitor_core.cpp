@@ -62,6 +62,14 @@ MonitorCore::MonitorCore(const MonitorParams& params, const ParamReader& read_pa
   registry_.setMaxStampSkew(params.max_stamp_skew);
   refused_.assign(registry_.elements().size(), 0);
   refused_motion_.resize(registry_.elements().size());
+  // ~ignore_pairs matched once per element (the elements are fixed), not per candidate pair.
+  if (!filter_.empty()) {
+    for (const Element& e : registry_.elements()) {
+      element_matches_.push_back(filter_.matches({registry_.bodies()[e.body].name, e.link}));
+    }
+  }
+  // `this` in the world: MonitorCore is neither copyable nor movable (Predictor is neither).
+  predictor_.setIgnored([this](size_t a, size_t b) { return pairIgnored(a, b); });
 }
 
 RuntimeSettings MonitorCore::settings() const {
@@ -136,9 +144,13 @@ void MonitorCore::syncWorld(const ros::Time& now) {
       continue;
     }
     if (!registry_.bodies()[e.body].is_static) ++moving;
+    // Static elements: a group that does not collide with itself (pairIgnored's first rule).
+    const bool is_static = registry_.bodies()[e.body].is_static;
+    const uint32_t group = is_static ? kStaticGroup : kMovingGroup;
+    const uint32_t mask = is_static ? ~kStaticGroup : ~0u;
     const bool ok = (!predictor_.contains(i) && params_.padding > 0.0)
-                        ? predictor_.set(i, e.id, vadop::inflate(e.shape, params_.padding), e.motion, error)
-                        : predictor_.set(i, e.id, e.shape, e.motion, error);
+                        ? predictor_.set(i, e.id, vadop::inflate(e.shape, params_.padding), e.motion, error, group, mask)
+                        : predictor_.set(i, e.id, e.shape, e.motion, error, group, mask);
     if (!ok) {
       predictor_.unset(i);
       registry_.markElementBad(i, "refused by the world: " + error, now);  // throttled per body
@@ -165,7 +177,7 @@ bool MonitorCore::pairIgnored(size_t ea, size_t eb) const {
       if ((pc.first == a.link && pc.second == b.link) || (pc.first == b.link && pc.second == a.link)) return true;
     }
   }
-  if (!filter_.empty() && filter_.ignored({ba.name, a.link}, {bb.name, b.link})) return true;
+  if (!filter_.empty() && PairFilter::ignored(element_matches_[ea], element_matches_[eb])) return true;
   return false;
 }
 
@@ -235,7 +247,10 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
   const auto& bodies = registry_.bodies();
   impacts_.impacts.reserve(raw.size());
   for (const RawImpact& hit : raw) {
-    if (pairIgnored(hit.a, hit.b)) continue;
+    if (pairIgnored(hit.a, hit.b)) {
+      ++stats_.ignored_tested;
+      continue;
+    }
     const Element& ea = elements[hit.a];
     const Element& eb = elements[hit.b];
     vadop::Impact msg;
@@ -261,7 +276,10 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
   // The world sorts by time; the clamp to 0 keeps that order.
   stats_.impacts = impacts_.impacts.size();
   for (const RawImpact& u : predictor_.lastUndecided()) {
-    if (pairIgnored(u.a, u.b)) continue;
+    if (pairIgnored(u.a, u.b)) {
+      ++stats_.ignored_tested;
+      continue;
+    }
     if (stats_.undecided++ > 0) continue;
     auto label = [&](const Element& e) {
       return e.link.empty() ? bodies[e.body].name : bodies[e.body].name + "/" + e.link;

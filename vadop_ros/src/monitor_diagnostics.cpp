@@ -62,6 +62,7 @@ void CycleTimeWindow::report(diagnostic_updater::DiagnosticStatusWrapper& stat, 
   stat.add("impacts (before filtering)", last_.raw_impacts);
   stat.add("impacts", last_.impacts);
   stat.add("undecided pairs", last_.undecided);
+  stat.add("ignored pairs tested", last_.ignored_tested);
   count_ = 0;
   sum_ = max_ = 0.0;
   overruns_ = 0;

@@ -1,5 +1,7 @@
 #include "vadop_ros/pair_filter.h"
 
+#include <algorithm>
+
 namespace vadop_ros {
 
 bool globMatch(const std::string& pattern, const std::string& text) {
@@ -32,6 +34,27 @@ bool PairFilter::ignored(const ElementKey& a, const ElementKey& b) const {
   for (const auto& pq : patterns_) {
     if (patternMatches(pq.first, a) && patternMatches(pq.second, b)) return true;
     if (patternMatches(pq.first, b) && patternMatches(pq.second, a)) return true;
+  }
+  return false;
+}
+
+PairFilter::Matches PairFilter::matches(const ElementKey& e) const {
+  Matches m;
+  const size_t words = (patterns_.size() + 63) / 64;
+  m.first.assign(words, 0);
+  m.second.assign(words, 0);
+  for (size_t k = 0; k < patterns_.size(); ++k) {
+    const uint64_t bit = uint64_t{1} << (k % 64);
+    if (patternMatches(patterns_[k].first, e)) m.first[k / 64] |= bit;
+    if (patternMatches(patterns_[k].second, e)) m.second[k / 64] |= bit;
+  }
+  return m;
+}
+
+bool PairFilter::ignored(const Matches& a, const Matches& b) {
+  const size_t words = std::min(a.first.size(), b.first.size());
+  for (size_t w = 0; w < words; ++w) {
+    if ((a.first[w] & b.second[w]) | (b.first[w] & a.second[w])) return true;
   }
   return false;
 }

@@ -48,12 +48,13 @@ Predictor::Predictor(const PredictorConfig& config) : impl_(std::make_unique<Imp
 Predictor::~Predictor() = default;
 
 bool Predictor::set(size_t i, const std::string& id, const vadop::Shape& shape, const vadop::Motion& motion,
-                    std::string& error) {
+                    std::string& error, uint32_t group, uint32_t mask) {
   if (i >= impl_->slots.size()) impl_->slots.resize(i + 1);
   Impl::Slot& s = impl_->slots[i];
   try {
     if (!s.in) {
       impl_->world.add(id, shape, motion);
+      impl_->world.setFilter(id, group, mask);  // the id is in: does not throw
       s.in = true;
       s.id = id;
       s.key = impl_->world.key(id);
@@ -68,6 +69,19 @@ bool Predictor::set(size_t i, const std::string& id, const vadop::Shape& shape, 
     error = e.what();
     return false;
   }
+}
+
+void Predictor::setIgnored(std::function<bool(size_t a, size_t b)> ignored) {
+  if (!ignored) {
+    impl_->world.setPairFilter(nullptr);
+    return;
+  }
+  impl_->world.setPairFilter([impl = impl_.get(), ignored = std::move(ignored)](uint64_t ka, uint64_t kb) {
+    const auto ia = impl->by_key.find(ka);
+    const auto ib = impl->by_key.find(kb);
+    if (ia == impl->by_key.end() || ib == impl->by_key.end()) return true;  // not ours: tested
+    return !ignored(ia->second, ib->second);
+  });
 }
 
 void Predictor::unset(size_t i) {

@@ -33,6 +33,10 @@ struct CycleStats {
   size_t moving_elements = 0;
   size_t candidates = 0;         // narrow-phase calls (World::lastCandidateCount)
   size_t raw_impacts = 0;        // before filtering
+  // Narrow-phase calls on pairs the filters (pairIgnored) then rejected: the raw impacts and
+  // undecided pairs they reject. 0 by construction: the filters run before the narrow phase
+  // (Predictor::setIgnored); diagnostics 'cycle' "ignored pairs tested".
+  size_t ignored_tested = 0;
   size_t impacts = 0;            // published
   // Pairs (after filtering) the narrow phase could not decide within its budget: neither
   // published as impacts nor known to be clear after `undecided_first`'s time; a warning.
@@ -99,7 +103,14 @@ class MonitorCore {
   static std::string describe(const vadop::Impact& impact);
 
  private:
+  // The one definition of the pairs never reported (static-static, links of one body rigid
+  // with each other, self-collision rules, adjacent links, ~ignore_pairs). The world calls it
+  // before the narrow phase (Predictor::setIgnored); static elements also get a group of their
+  // own that does not collide with itself (kStaticGroup), which leaves static-static pairs out
+  // before even this call.
   bool pairIgnored(size_t ea, size_t eb) const;
+  static constexpr uint32_t kMovingGroup = 1u;
+  static constexpr uint32_t kStaticGroup = 2u;
   void syncWorld(const ros::Time& now);
   // World::predict threw `error`: leaves out of the world every element whose motion is out of
   // range over the window or that the message names; false when none could be found.
@@ -108,6 +119,7 @@ class MonitorCore {
   MonitorParams params_;
   BodyRegistry registry_;
   PairFilter filter_;
+  std::vector<PairFilter::Matches> element_matches_;  // ~ignore_pairs per element (elements())
   Predictor predictor_;
   vadop::ImpactArray impacts_;
   CycleStats stats_;

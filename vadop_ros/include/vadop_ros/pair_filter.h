@@ -9,6 +9,7 @@
 // (x, y) with p matching x and q matching y, or p matching y and q matching x.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
@@ -36,6 +37,15 @@ class PairFilter {
   // True when ~ignore_pairs ignores the pair (in either order).
   bool ignored(const ElementKey& a, const ElementKey& b) const;
   bool empty() const { return patterns_.empty(); }
+
+  // The same test precomputed per element, for many pairs (no string work per pair): bit k of
+  // `first` (`second`) is set when the first (second) pattern of pair k matches the element.
+  // ignored(matches(a), matches(b)) == ignored(a, b).
+  struct Matches {
+    std::vector<uint64_t> first, second;  // ceil(pairs / 64) words each
+  };
+  Matches matches(const ElementKey& e) const;
+  static bool ignored(const Matches& a, const Matches& b);
 
  private:
   std::vector<std::pair<std::string, std::string>> patterns_;

@@ -52,15 +52,22 @@ class Predictor {
   Predictor& operator=(const Predictor&) = delete;
 
   // Element i: present (with this shape and motion) or absent this cycle. `shape` is used when
-  // the element enters the world. Returns false (and sets error) when the world rejected it.
+  // the element enters the world, with the collision group and mask (vadop::World::setFilter:
+  // the pair (a, b) reaches the narrow phase only when (a.group & b.mask) && (b.group & a.mask)).
+  // Returns false (and sets error) when the world rejected it.
   bool set(size_t i, const std::string& id, const vadop::Shape& shape, const vadop::Motion& motion,
-           std::string& error);
+           std::string& error, uint32_t group = 1u, uint32_t mask = 0xffffffffu);
   void unset(size_t i);
   // Every element leaves the world (padding changed: they come back with new shapes).
   void clear();
   bool contains(size_t i) const;
   const vadop::Motion& motion(size_t i) const;  // as given to the world
   const vadop::Shape& shape(size_t i) const;    // as given to the world (padded)
+
+  // Pairs of elements (a added to the world first) never given to the narrow phase: called on
+  // each candidate pair that passes the groups and masks, before the narrow phase
+  // (vadop::World::setPairFilter). Must depend only on its arguments. Empty: none.
+  void setIgnored(std::function<bool(size_t a, size_t b)> ignored);
 
   // Contacts over [t0, t0 + horizon], sorted by time. Throws vadop::InvalidArgument.
   std::vector<RawImpact> predict(double t0, double horizon);
@@ -74,6 +81,7 @@ class Predictor {
   std::function<void(size_t element, const std::string& id)> before_predict_for_testing;
 
   size_t size() const;
+  // Narrow-phase calls of the last predict (pairs left out by the filters are not counted).
   size_t lastCandidateCount() const;
 
  private:
