@@ -11,6 +11,9 @@
 //   vadop_monitor_bench [--bodies 100,1000,5000] [--cycles 150] [--warmup 15] [--rate 30]
 //                       [--horizon 2] [--area 6] [--turn 0.5] [--markers] [--seed 1]
 // --area: m^2 of floor per body (density); --turn: largest turn rate (rad/s) of a body.
+// --links K (K >= 2): each body is a K-link robot instead, a URDF with links rigid with the
+// body (fixed joints, no tf): a cylinder base (r 0.3 m) and K - 1 boxes stacked on it as a mast;
+// the links of one body are never tested against each other (MonitorCore::pairIgnored).
 //   vadop_monitor_bench --startup 5000,50000   start-up instead: parseParams + MonitorCore for N
 //                       bodies (primitive and 3-link URDF templates), no ROS transport
 //
@@ -112,8 +115,21 @@ double percentile(std::vector<double> v, double p) {
   return v[i];
 }
 
+// A K-link robot: base cylinder, then K - 1 boxes 0.1 x 0.1 x 0.4 m stacked by fixed joints.
+std::string chainUrdf(int links) {
+  std::string s = "<robot name='r'><link name='l0'><collision><origin xyz='0 0 0.2'/><geometry>"
+                  "<cylinder radius='0.3' length='0.4'/></geometry></collision></link>";
+  for (int k = 1; k < links; ++k) {
+    const std::string name = "l" + std::to_string(k), parent = "l" + std::to_string(k - 1);
+    s += "<link name='" + name + "'><collision><origin xyz='0 0 0.2'/><geometry><box size='0.1 0.1 0.4'/>"
+         "</geometry></collision></link><joint name='j" + std::to_string(k) + "' type='fixed'><parent link='" +
+         parent + "'/><child link='" + name + "'/><origin xyz='0 0 0.4'/></joint>";
+  }
+  return s + "</robot>";
+}
+
 Result run(size_t n, int cycles, int warmup, double rate, double horizon, double area, double turn, bool markers,
-           unsigned seed) {
+           unsigned seed, int links) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   const double half = 0.5 * std::sqrt(area * static_cast<double>(n));
@@ -127,6 +143,11 @@ Result run(size_t n, int cycles, int warmup, double rate, double horizon, double
     vadop_ros::BodyParams b;
     b.name = "body_" + std::to_string(i);
     b.topic = "/" + b.name + "/odom";
+    if (links >= 2) {
+      b.robot_description = "/robot_description";
+      p.bodies.push_back(b);
+      continue;
+    }
     b.has_shape = true;
     switch (i % 4) {
       case 0: b.shape = vadop::makeSphere(0.3); break;
@@ -136,7 +157,11 @@ Result run(size_t n, int cycles, int warmup, double rate, double horizon, double
     }
     p.bodies.push_back(b);
   }
-  vadop_ros::MonitorCore core(p, [](const std::string&, std::string&) { return false; });
+  const std::string urdf = links >= 2 ? chainUrdf(links) : "";
+  vadop_ros::MonitorCore core(p, [&](const std::string&, std::string& value) {
+    value = urdf;
+    return !urdf.empty();
+  });
 
   std::vector<SimBody> sim(n);
   for (auto& s : sim) {
@@ -241,6 +266,7 @@ int main(int argc, char** argv) {
   double rate = 30.0, horizon = 2.0, area = 6.0, turn = 0.5;
   bool markers = false;
   unsigned seed = 1;
+  int links = 1;
   std::vector<size_t> startup_sizes;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -261,11 +287,12 @@ int main(int argc, char** argv) {
       else if (a == "--turn") turn = std::stod(next());
       else if (a == "--seed") seed = static_cast<unsigned>(std::stoul(next()));
       else if (a == "--markers") markers = true;
+      else if (a == "--links") links = std::stoi(next());
       else if (a == "--startup") startup_sizes = parseList(next());
       else {
         std::fprintf(stderr,
                      "usage: %s [--bodies 100,1000,5000] [--cycles 150] [--warmup 15] [--rate 30] [--horizon 2] "
-                     "[--area 6] [--turn 0.5] [--markers] [--seed 1] | --startup 5000,50000\n",
+                     "[--area 6] [--turn 0.5] [--markers] [--seed 1] [--links K] | --startup 5000,50000\n",
                      argv[0]);
         return a == "--help" || a == "-h" ? 0 : 2;
       }
@@ -278,7 +305,7 @@ int main(int argc, char** argv) {
     startup(startup_sizes);
     return 0;
   }
-  if (cycles < 1 || warmup < 0 || !(rate > 0) || !(horizon >= 0) || !(area > 0) || !(turn >= 0) || sizes.empty()) {
+  if (cycles < 1 || warmup < 0 || !(rate > 0) || !(horizon >= 0) || !(area > 0) || !(turn >= 0) || sizes.empty() || links < 1) {
     std::fprintf(stderr, "bad arguments\n");
     return 2;
   }
@@ -287,16 +314,18 @@ int main(int argc, char** argv) {
   std::printf("  %d cycles after %d warm-up, %.0f Hz (period %.2f ms), horizon %.1f s, %.1f m^2 per body, "
               "0.3-1.5 m/s, turning at up to %.2f rad/s%s\n",
               cycles, warmup, rate, period_ms, horizon, area, turn, markers ? ", markers built every cycle" : "");
+  if (links >= 2) std::printf("  each body a %d-link robot (URDF, links rigid with the body)\n", links);
   std::printf("  wall = steady clock; cpu = CPU time of the thread (what one core spends, whatever the load)\n");
   std::printf("%7s %9s %9s %9s %9s %9s %9s %8s %10s %10s %9s %11s %9s\n", "bodies", "cpu_mean", "cpu_p95",
               "wall_mean", "wall_med", "wall_p95", "wall_max", "feed", "predict", "markers", "cpu%per", "candidates",
               "impacts");
   int verdict = -1;
   for (const size_t n : sizes) {
-    const Result r = run(n, cycles, warmup, rate, horizon, area, turn, markers, seed);
+    const Result r = run(n, cycles, warmup, rate, horizon, area, turn, markers, seed, links);
     std::printf("%7zu %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %8.3f %10.3f %10.3f %8.1f%% %11.1f %9.1f\n", r.n,
                 r.cpu_mean, r.cpu_p95, r.mean, r.median, r.p95, r.max, r.feed_mean, r.predict_mean, r.markers_mean,
                 100.0 * r.cpu_mean / period_ms, r.candidates, r.impacts);
+    if (links >= 2) std::printf("  (%zu elements in the world)\n", r.elements);
     std::fflush(stdout);
     if (n == 1000) verdict = r.cpu_mean < period_ms / 3.0 ? 1 : 0;
   }
