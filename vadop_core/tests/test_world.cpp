@@ -367,6 +367,11 @@ TEST(World, SetFilterOnAnUnknownBodyThrowsNamingItAndChangesNothing) {
     EXPECT_NE(std::string(e.what()).find("ghost"), std::string::npos) << e.what();
   }
   EXPECT_EQ(w.predict(0.0, 1.0).size(), 1u);
+  // Both directions are checked: a (added first) with mask 0 is tested against nothing.
+  w.setFilter("a", World::kDefaultGroup, 0u);
+  EXPECT_TRUE(w.predict(0.0, 1.0).empty());
+  EXPECT_EQ(w.lastCandidateCount(), 0u);
+  w.setFilter("a", World::kDefaultGroup, World::kDefaultMask);
   w.remove("b");
   EXPECT_THROW(w.setFilter("b", 0u, 0u), InvalidArgument);
   EXPECT_EQ(w.size(), 1u);
