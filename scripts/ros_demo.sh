@@ -3,7 +3,7 @@
 # a room (several on collision courses), vadop_monitor, and the predicted impacts printed as
 # readable lines; rviz (rviz/vadop.rviz) as well when $DISPLAY is set, headless otherwise.
 #
-#   scripts/ros_demo.sh [SECONDS] [roslaunch args...]     e.g. scripts/ros_demo.sh 60 agents:=40
+#   bash scripts/ros_demo.sh [SECONDS] [roslaunch args...]     e.g. bash scripts/ros_demo.sh 60 agents:=40
 #
 # SECONDS (default 30) bounds the demo: the simulator stops after it and ends the launch; a
 # timeout stops everything 30 s later in any case. Builds the catkin package first (plain
