@@ -195,6 +195,7 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
     const double arm = m.hasPivot() ? m.pivot_offset.norm() : 0.0;
     for (int k = 0; k < 3; ++k) {
       const double reach = std::max(std::abs(c0[k]), std::abs(c1[k])) + arm;
+      if (reach <= kMaxReach) continue;  // the message (two formatted numbers) only on failure
       const std::string error = rangeError(reach, kMaxReach,
                                            "position[" + std::to_string(k) + "] over [" + formatNumber(t0) + ", " +
                                                formatNumber(t1) + "] (bound)",
