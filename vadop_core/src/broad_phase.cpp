@@ -8,6 +8,34 @@
 
 namespace vadop {
 
+namespace {
+void requireInterval(double t0, double t1, const char* operation) {
+  if (!std::isfinite(t0) || !std::isfinite(t1) || t1 < t0) {
+    throw InvalidArgument(std::string(operation) + ": need finite t0 <= t1, got [" + std::to_string(t0) +
+                          ", " + std::to_string(t1) + "]");
+  }
+}
+void sortUnique(std::vector<BodyId>& v) {
+  std::sort(v.begin(), v.end());
+  v.erase(std::unique(v.begin(), v.end()), v.end());
+}
+
+// The capsule swept by the ball about the pivot that holds the shape in every orientation.
+struct Capsule {
+  Eigen::Vector3d p0, p1;
+  double r;
+};
+Capsule sweptCapsule(const Shape& shape, const Motion& m, double t0, double t1) {
+  const double r = shape.bounding_radius + (m.hasPivot() ? m.pivot_offset.norm() : 0.0);
+  return {m.pivotAt(t0), m.pivotAt(t1), r};
+}
+bool capsulesMayTouch(const Capsule& a, const Capsule& b) {
+  // The relative widening keeps the test conservative under rounding.
+  const double reach = (a.r + b.r) * (1.0 + 1e-12) + 1e-12;
+  return segmentSegmentDistanceSquared(a.p0, a.p1, b.p0, b.p1) <= reach * reach;
+}
+}  // namespace
+
 BodyId BroadPhase::add(const Shape& shape, const Motion& motion) {
   return add(std::make_shared<const Shape>(shape), motion);
 }
@@ -63,13 +91,40 @@ void BroadPhase::setMotion(BodyId id, const Motion& motion) {
 }
 
 void BroadPhase::update(double t0, double t1) {
-  if (!std::isfinite(t0) || !std::isfinite(t1) || t1 < t0) {
-    throw InvalidArgument("update: need finite t0 <= t1, got [" + std::to_string(t0) + ", " +
-                          std::to_string(t1) + "]");
-  }
+  requireInterval(t0, t1, "update");
   pairs_.clear();
   computePairs(t0, t1, pairs_);
   std::sort(pairs_.begin(), pairs_.end());
+}
+
+
+void BroadPhase::query(BodyId id, double t0, double t1, std::vector<BodyId>& out) {
+  requireKnown(id, "query");
+  requireInterval(t0, t1, "query");
+  std::vector<BodyId> found;
+  queryCandidates(*bodies_[id].shape, bodies_[id].motion, id, t0, t1, found);
+  sortUnique(found);
+  out.swap(found);
+}
+
+void BroadPhase::query(const Shape& shape, const Motion& motion, double t0, double t1,
+                       std::vector<BodyId>& out) {
+  validateShape(shape, "query: shape");
+  validateMotion(motion, "query: motion");
+  requireInterval(t0, t1, "query");
+  std::vector<BodyId> found;
+  queryCandidates(shape, motion, kNoBody, t0, t1, found);
+  sortUnique(found);
+  out.swap(found);
+}
+
+void BroadPhase::queryCandidates(const Shape& shape, const Motion& motion, BodyId self, double t0,
+                                 double t1, std::vector<BodyId>& out) {
+  const Capsule q = sweptCapsule(shape, motion, t0, t1);
+  for (BodyId i = 0; i < bodies_.size(); ++i) {
+    if (!bodies_[i].alive || i == self) continue;
+    if (capsulesMayTouch(q, sweptCapsule(*bodies_[i].shape, bodies_[i].motion, t0, t1))) out.push_back(i);
+  }
 }
 
 const Shape& BroadPhase::shape(BodyId id) const {
@@ -114,29 +169,18 @@ double segmentSegmentDistanceSquared(const Eigen::Vector3d& p0, const Eigen::Vec
 
 void BruteForceBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& out) {
   const auto& b = bodies();
-  struct Capsule {
-    Eigen::Vector3d p0, p1;
-    double r;
-    BodyId id;
-  };
   std::vector<Capsule> caps;
+  std::vector<BodyId> ids;
   caps.reserve(size());
+  ids.reserve(size());
   for (BodyId i = 0; i < b.size(); ++i) {
     if (!b[i].alive) continue;
-    // The ball about the pivot that holds the shape in every orientation, swept along the
-    // pivot's straight path.
-    const Motion& m = b[i].motion;
-    const double r = b[i].shape->bounding_radius + (m.hasPivot() ? m.pivot_offset.norm() : 0.0);
-    caps.push_back({m.pivotAt(t0), m.pivotAt(t1), r, i});
+    caps.push_back(sweptCapsule(*b[i].shape, b[i].motion, t0, t1));
+    ids.push_back(i);
   }
   for (size_t i = 0; i < caps.size(); ++i) {
     for (size_t j = i + 1; j < caps.size(); ++j) {
-      const double r = caps[i].r + caps[j].r;
-      // The relative widening keeps the test conservative under rounding.
-      const double reach = r * (1.0 + 1e-12) + 1e-12;
-      if (segmentSegmentDistanceSquared(caps[i].p0, caps[i].p1, caps[j].p0, caps[j].p1) <= reach * reach) {
-        out.push_back(makePair(caps[i].id, caps[j].id));
-      }
+      if (capsulesMayTouch(caps[i], caps[j])) out.push_back(makePair(ids[i], ids[j]));
     }
   }
 }

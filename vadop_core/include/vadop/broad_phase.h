@@ -33,6 +33,17 @@ class BroadPhase {
   // Candidate pairs of the last update, sorted, a < b in each.
   const std::vector<Pair>& pairs() const { return pairs_; }
 
+  // Single-body queries (the gate's "what does this body reach if it moves so?"): the bodies
+  // whose swept volumes over [t0, t1] (finite, t0 <= t1) may intersect that of body `id`, with
+  // every motion as currently set (a setMotion since the last update counts at once). Complete
+  // like update(): every body whose swept volume intersects is listed; an engine may list more
+  // (its own bound, stated with it). Never `id` itself; `out` is replaced, sorted, no repeats.
+  // Throws vadop::InvalidArgument for an unknown id or a bad interval (out untouched).
+  void query(BodyId id, double t0, double t1, std::vector<BodyId>& out);
+  // The same for a shape moving with `motion` that is not in the broad phase (a candidate
+  // command, a planned path). Throws for an invalid shape or motion.
+  void query(const Shape& shape, const Motion& motion, double t0, double t1, std::vector<BodyId>& out);
+
   bool contains(BodyId id) const { return id < bodies_.size() && bodies_[id].alive; }
   size_t size() const { return alive_count_; }
   const Shape& shape(BodyId id) const;
@@ -55,6 +66,13 @@ class BroadPhase {
   // old motion can still be computed).
   virtual void onMotionChanging(BodyId) {}
   virtual void computePairs(double t0, double t1, std::vector<Pair>& out) = 0;
+  // The query after validation: append the candidates of `shape` moving with `motion` over
+  // [t0, t1], excluding `self` (the querying body, or kNoBody), in any order; the base class
+  // sorts and removes repeats. The default scans every body with the swept bounding-sphere
+  // capsules of BruteForceBroadPhase: O(n), correct for every engine.
+  static constexpr BodyId kNoBody = ~BodyId{0};
+  virtual void queryCandidates(const Shape& shape, const Motion& motion, BodyId self, double t0,
+                               double t1, std::vector<BodyId>& out);
 
   const std::vector<Body>& bodies() const { return bodies_; }
   void requireKnown(BodyId id, const char* operation) const;
