@@ -27,7 +27,7 @@ PACKAGES=(
   libeigen3-dev libfcl-dev libccd-dev libbullet-dev libassimp-dev
   nlohmann-json3-dev libyaml-cpp-dev libcli11-dev
   # tests and benchmarks
-  libgtest-dev libgmock-dev googletest libbenchmark-dev
+  libgtest-dev libgmock-dev googletest libbenchmark-dev catkin-lint
   # plots
   python3-matplotlib python3-numpy
 )
