@@ -41,6 +41,23 @@ constexpr double kMaxCellCoordinate = 1 << 29;
 
 VadopGridBroadPhase::VadopGridBroadPhase(const VadopConfig& config, double cell_size, double incremental)
     : config_(config) {
+  setOptions(cell_size, incremental);
+  pool_ = makeAxisPool(config.axes);
+  phi_ = validateVadopConfig(config_, *pool_);
+  zones_ = axisZones(config_, phi_);
+  words_ = (static_cast<size_t>(pool_->size()) + 63) / 64;
+}
+
+VadopGridBroadPhase::VadopGridBroadPhase(BoxOnly, double cell_size, double incremental) {
+  setOptions(cell_size, incremental);
+  words_ = 1;  // every axis set stays empty: the boxes alone decide
+}
+
+std::unique_ptr<VadopGridBroadPhase> VadopGridBroadPhase::makeBoxOnly(double cell_size, double incremental) {
+  return std::unique_ptr<VadopGridBroadPhase>(new VadopGridBroadPhase(BoxOnly{}, cell_size, incremental));
+}
+
+void VadopGridBroadPhase::setOptions(double cell_size, double incremental) {
   if (!std::isfinite(cell_size) || cell_size < 0.0) {
     throw InvalidArgument("cell_size must be finite and >= 0 (0 = automatic), got " + formatNumber(cell_size));
   }
@@ -48,11 +65,12 @@ VadopGridBroadPhase::VadopGridBroadPhase(const VadopConfig& config, double cell_
     throw InvalidArgument("incremental must be in [0, 1] (0 = off), got " + formatNumber(incremental));
   }
   incremental_ = incremental;
-  pool_ = makeAxisPool(config.axes);
-  phi_ = validateVadopConfig(config_, *pool_);
-  zones_ = axisZones(config_, phi_);
   cell_size_ = cell_size;
-  words_ = (static_cast<size_t>(pool_->size()) + 63) / 64;
+}
+
+const AxisPool& VadopGridBroadPhase::pool() const {
+  if (!pool_) throw InvalidArgument("pool: the box-only grid has no axis pool");
+  return *pool_;
 }
 
 size_t VadopGridBroadPhase::memoryBytes() const {
@@ -92,13 +110,13 @@ std::vector<VadopGridBroadPhase::AxisSpan> VadopGridBroadPhase::volume(BodyId id
   } else {  // lazy and not needed by the update; the motion is unchanged since (onMotionChanging)
     forEachProjected(s, [&](uint32_t k, const Interval& iv) { out.push_back({k, iv}); });
   }
-  const uint32_t m = static_cast<uint32_t>(pool_->size());
+  const uint32_t m = pool_ ? static_cast<uint32_t>(pool_->size()) : 0;
   for (uint32_t k = 0; k < 3; ++k) out.push_back({m + k, Interval{box_[6 * s + k], box_[6 * s + 3 + k]}});
   return out;
 }
 
 Eigen::Vector3d VadopGridBroadPhase::axisDirection(uint32_t axis) const {
-  const uint32_t m = static_cast<uint32_t>(pool_->size());
+  const uint32_t m = pool_ ? static_cast<uint32_t>(pool_->size()) : 0;
   if (axis < m) return pool_->axis(static_cast<int>(axis));
   if (axis < m + 3) return Eigen::Vector3d::Unit(static_cast<int>(axis - m));
   throw InvalidArgument("axisDirection: axis " + std::to_string(axis) + " out of range [0, " +
@@ -221,6 +239,13 @@ void VadopGridBroadPhase::testLargeAgainstAll(const std::vector<uint32_t>& large
 }
 
 void VadopGridBroadPhase::buildGrid(double h) {
+  // The previous grid's dense lookup stays valid for queries until now: empty it.
+  if (dense_) {
+    for (const Cell& c : cells_) dense_cell_[denseIndex(c.x, c.y, c.z)] = kEmpty;
+    dense_ = false;
+  }
+  cells_ready_ = false;
+  grid_cell_size_ = h;
   const size_t slots = slot_body_.size();
   const double inv = 1.0 / h;
   // Exact: |v * inv| < 2^29 by the choice of h (kMaxCellCoordinate).
@@ -301,9 +326,7 @@ void VadopGridBroadPhase::buildGrid(double h) {
       }
     }
   }
-  if (dense) {  // left all empty for the next frame
-    for (const Cell& c : cells_) dense_cell_[denseIndex(c.x, c.y, c.z)] = kEmpty;
-  }
+  dense_ = dense;  // the lookup stays for queries; emptied by the next build
   // Counting sort of the incidences by cell.
   cell_start_.assign(cells_.size() + 1, 0);
   for (uint32_t c : entry_cell_) ++cell_start_[c + 1];
@@ -325,108 +348,115 @@ void VadopGridBroadPhase::buildGrid(double h) {
   stats_.cells = cells_.size();
   stats_.cell_entries = cell_entries_.size();
   stats_.large_bodies = large_.size();
+  cells_ready_ = true;
 }
 
-void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& out) {
-  stats_ = Stats{};
-  using Clock = std::chrono::steady_clock;
-  const auto start = Clock::now();
-  const auto& b = bodies();
-  const double frame = t1 - t0;
-
-  // 1. New axis sets for the bodies whose motion changed (kept under the hysteresis rule).
-  for (BodyId id : dirty_) {
-    if (id >= b.size() || !dirty_flag_[id]) continue;
-    dirty_flag_[id] = 0;
-    if (!b[id].alive) continue;
-    std::vector<uint32_t>& axes = scratch_axes_;
-    axes.clear();
-    uint64_t* bits = &axis_bits_[id * words_];
-    detail::forEachSetBit(bits, words_, [&](uint32_t k) { axes.push_back(k); });
-    if (updateAxes(b[id].motion, b[id].shape->bounding_radius, frame, *pool_, config_, zones_, axes)) {
-      ++stats_.reinserted;
-      std::fill_n(bits, words_, 0);
-      for (uint32_t k : axes) bits[k / 64] |= uint64_t{1} << (k % 64);
+uint32_t VadopGridBroadPhase::findCell(int32_t x, int32_t y, int32_t z) const {
+  if (dense_) {
+    if (x < dense_min_[0] || y < dense_min_[1] || z < dense_min_[2] || x >= dense_min_[0] + dense_dim_[0] ||
+        y >= dense_min_[1] + dense_dim_[1] || z >= dense_min_[2] + dense_dim_[2]) {
+      return kEmpty;
     }
+    return dense_cell_[denseIndex(x, y, z)];
   }
-  dirty_.clear();
+  if (table_cell_.empty()) return kEmpty;
+  const uint64_t h = detail::mixCellKey((static_cast<uint64_t>(static_cast<uint32_t>(x)) * 0x9e3779b1u) ^
+                                        (static_cast<uint64_t>(static_cast<uint32_t>(y)) << 21) ^
+                                        (static_cast<uint64_t>(static_cast<uint32_t>(z)) << 42));
+  for (size_t i = h & table_mask_;; i = (i + 1) & table_mask_) {
+    const uint32_t cell = table_cell_[i];
+    if (cell == kEmpty) return kEmpty;
+    const Cell& k = table_key_[i];
+    if (k.x == x && k.y == y && k.z == z) return cell;
+  }
+}
 
-  // 2. Per alive body, in id order: swept AABB and intervals on its pool axes. Sized first and
-  //    written in place: this loop runs over every body every frame.
-  const size_t slots = size();
-  const size_t total_axes = countAliveAxes();
-  slot_body_.resize(slots);
-  offset_.resize(slots);
-  box_.resize(6 * slots);
-  intervals_.resize(total_axes);
-  frame_t0_ = t0;
-  frame_t1_ = t1;
-  // Lazy intervals when the incremental mode will be tried (filled for all if it declines).
-  const bool lazy = incremental_ > 0.0 && (fat_valid_ || retry_wait_ == 0);
-  interval_ready_.assign(slots, lazy ? 0 : 1);
-  bits_.resize(words_ * slots);
-  rank_.assign(words_ * slots, 0);
-  std::fill(slot_of_.begin(), slot_of_.end(), kNoSlot);
-  std::vector<double>& extent = scratch_extent_;
-  extent.resize(slots);
-  // Bounds of all boxes: the grid's extent (cell size choice, coordinate range).
-  double world_lo[3] = {kInf, kInf, kInf}, world_hi[3] = {-kInf, -kInf, -kInf};
-  uint32_t s = 0, next_interval = 0;
-  for (BodyId id = 0; id < b.size(); ++id) {
-    if (!b[id].alive) continue;
-    slot_of_[id] = s;
-    slot_body_[s] = id;
-    const SweptBody swept(*b[id].shape, b[id].motion, t0, t1);
-    double* box = &box_[6 * s];
-    double ext = 0.0;
+void VadopGridBroadPhase::queryCandidates(const Shape& shape, const Motion& motion, BodyId self, double t0,
+                                          double t1, std::vector<BodyId>& out) {
+  const size_t slots = slot_body_.size();
+  // Only within the last frame: there every unchanged body's frame box holds its path.
+  if (!framed_ || t0 < frame_t0_ || t1 > frame_t1_ || dirty_.size() > slots / 4 + 16) {
+    BroadPhase::queryCandidates(shape, motion, self, t0, t1, out);
+    return;
+  }
+  const auto& b = bodies();
+  double q[6];
+  {
+    const SweptBody swept(shape, motion, t0, t1);
     for (int k = 0; k < 3; ++k) {
       const Interval iv = swept.project(Eigen::Vector3d::Unit(k));
-      box[k] = iv.lo;
-      box[3 + k] = iv.hi;
-      ext = std::max(ext, iv.hi - iv.lo);
-      world_lo[k] = std::min(world_lo[k], iv.lo);
-      world_hi[k] = std::max(world_hi[k], iv.hi);
+      q[k] = iv.lo;
+      q[3 + k] = iv.hi;
     }
-    extent[s] = ext;
-    offset_[s] = next_interval;
-    uint64_t* bits = &bits_[words_ * s];
-    std::copy_n(&axis_bits_[id * words_], words_, bits);
-    uint16_t* rank = &rank_[words_ * s];
-    for (size_t w = 1; w < words_; ++w) rank[w] = static_cast<uint16_t>(rank[w - 1] + __builtin_popcountll(bits[w - 1]));
-    if (!lazy) {
-      Interval* iv = &intervals_[next_interval];
-      detail::forEachSetBit(bits, words_, [&](uint32_t k) { *iv++ = swept.project(pool_->axis(static_cast<int>(k))); });
+  }
+  auto boxesOverlap = [&q](const double* x) {
+    return !(x[0] > q[3] || q[0] > x[3] || x[1] > q[4] || q[1] > x[4] || x[2] > q[5] || q[2] > x[5]);
+  };
+  // A slot's frame box still describes its body when the body is alive, holds that slot and
+  // has not been given a new motion since (dirty_flag_).
+  auto current = [&](uint32_t s) {
+    const BodyId id = slot_body_[s];
+    return id != self && id < b.size() && b[id].alive && slot_of_[id] == s && !dirty_flag_[id];
+  };
+  if (slots > 0 && !cells_ready_) {  // incremental mode: the frame's cells, once
+    const Stats kept = stats_;         // the last update's statistics stay its own
+    buildGrid(chooseCellSize(world_lo_, world_hi_));
+    stats_ = kept;
+  }
+  if (slots > 0) {
+    const double inv = 1.0 / grid_cell_size_;
+    auto cellOf = [inv](double v) { return detail::floorToInt(v * inv); };
+    // A query box spanning many cells (or beyond the cell key range) scans the slots instead.
+    const double span = (1.0 + (q[3] - q[0]) * inv) * (1.0 + (q[4] - q[1]) * inv) * (1.0 + (q[5] - q[2]) * inv);
+    const double reach = std::max({std::abs(q[0]), std::abs(q[1]), std::abs(q[2]), std::abs(q[3]), std::abs(q[4]), std::abs(q[5])}) * inv;
+    if (!(span <= static_cast<double>(std::min<size_t>(kMaxCellsPerBody, slots))) || !(reach < kMaxCellCoordinate)) {
+      for (uint32_t s = 0; s < slots; ++s) {
+        if (current(s) && boxesOverlap(&box_[6 * s])) out.push_back(slot_body_[s]);
+      }
+    } else {
+      const int32_t lx = cellOf(q[0]), ly = cellOf(q[1]), lz = cellOf(q[2]);
+      const int32_t hx = cellOf(q[3]), hy = cellOf(q[4]), hz = cellOf(q[5]);
+      for (int32_t z = lz; z <= hz; ++z) {
+        for (int32_t y = ly; y <= hy; ++y) {
+          for (int32_t x = lx; x <= hx; ++x) {
+            const uint32_t c = findCell(x, y, z);
+            if (c == kEmpty) continue;
+            for (uint32_t e = cell_start_[c]; e < cell_start_[c + 1]; ++e) {
+              const CellEntry& ce = cell_entries_[e];
+              if (boxesOverlap(ce.box) && current(ce.slot)) out.push_back(slot_body_[ce.slot]);
+            }
+          }
+        }
+      }
+      for (uint32_t s : large_) {
+        if (current(s) && boxesOverlap(&box_[6 * s])) out.push_back(slot_body_[s]);
+      }
     }
-    next_interval += rank[words_ - 1] + static_cast<uint32_t>(__builtin_popcountll(bits[words_ - 1]));
-    ++s;
   }
-  auto grid_from = Clock::now();
-  stats_.update_seconds = std::chrono::duration<double>(grid_from - start).count();
-  if (slots < 2) {
-    stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
-    return;
+  // Bodies added or given a new motion since the update: their own swept boxes over [t0, t1].
+  for (BodyId id : dirty_) {
+    if (id == self || id >= b.size() || !b[id].alive || !dirty_flag_[id]) continue;
+    const SweptBody swept(*b[id].shape, b[id].motion, t0, t1);
+    double x[6];
+    for (int k = 0; k < 3; ++k) {
+      const Interval iv = swept.project(Eigen::Vector3d::Unit(k));
+      x[k] = iv.lo;
+      x[3 + k] = iv.hi;
+    }
+    if (boxesOverlap(x)) out.push_back(id);
   }
+}
 
-  // 2b. Incremental mode, while the scene is slow enough.
-  if (incremental_ > 0.0 && computeFromFatBoxes(frame, out)) {
-    stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
-    return;
-  }
-  if (lazy) {  // declined: the full path tests most slots
-    const auto project_from = Clock::now();
-    for (uint32_t slot = 0; slot < slots; ++slot) requireIntervals(slot);
-    grid_from = Clock::now();
-    stats_.update_seconds += std::chrono::duration<double>(grid_from - project_from).count();
-  }
-
-  // 3. Cell size, unless configured: the candidate (a multiple of the median box extent) with
-  //    the least estimated cost, kIncidenceCost per (body, cell) incidence I(h) plus one per
-  //    box test, about I^2 / (2 C) for C = min(I, volume / h^3) occupied cells. Large cells
-  //    suit slow bodies (few incidences), small ones fast bodies (long boxes crowd a big cell).
-  //    I(h) is estimated from at most kSample bodies.
+double VadopGridBroadPhase::chooseCellSize(const double* world_lo, const double* world_hi) {
+  const size_t slots = slot_body_.size();
   double h = cell_size_;
-  if (h == 0.0) {
-    std::vector<double>& e = extent;
+  if (h == 0.0 && slots > 0) {
+    std::vector<double>& e = scratch_extent_;
+    e.resize(slots);
+    for (size_t s = 0; s < slots; ++s) {
+      const double* bx = &box_[6 * s];
+      e[s] = std::max({bx[3] - bx[0], bx[4] - bx[1], bx[5] - bx[2]});
+    }
     const size_t mid = e.size() / 2;
     std::nth_element(e.begin(), e.begin() + static_cast<long>(mid), e.end());
     const double median = e[mid];
@@ -453,7 +483,106 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
   }
   double max_abs = 0.0;
   for (int k = 0; k < 3; ++k) max_abs = std::max({max_abs, std::abs(world_lo[k]), std::abs(world_hi[k])});
-  h = std::max({h, max_abs / kMaxCellCoordinate, 1e-9});
+  return std::max({h, max_abs / kMaxCellCoordinate, 1e-9});
+}
+
+void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& out) {
+  stats_ = Stats{};
+  using Clock = std::chrono::steady_clock;
+  const auto start = Clock::now();
+  const auto& b = bodies();
+  const double frame = t1 - t0;
+
+  // 1. New axis sets for the bodies whose motion changed (kept under the hysteresis rule).
+  for (BodyId id : dirty_) {
+    if (id >= b.size() || !dirty_flag_[id]) continue;
+    dirty_flag_[id] = 0;
+    if (!b[id].alive || !pool_) continue;
+    std::vector<uint32_t>& axes = scratch_axes_;
+    axes.clear();
+    uint64_t* bits = &axis_bits_[id * words_];
+    detail::forEachSetBit(bits, words_, [&](uint32_t k) { axes.push_back(k); });
+    if (updateAxes(b[id].motion, b[id].shape->bounding_radius, frame, *pool_, config_, zones_, axes)) {
+      ++stats_.reinserted;
+      std::fill_n(bits, words_, 0);
+      for (uint32_t k : axes) bits[k / 64] |= uint64_t{1} << (k % 64);
+    }
+  }
+  dirty_.clear();
+
+  // 2. Per alive body, in id order: swept AABB and intervals on its pool axes. Sized first and
+  //    written in place: this loop runs over every body every frame.
+  const size_t slots = size();
+  const size_t total_axes = countAliveAxes();
+  slot_body_.resize(slots);
+  offset_.resize(slots);
+  box_.resize(6 * slots);
+  intervals_.resize(total_axes);
+  frame_t0_ = t0;
+  frame_t1_ = t1;
+  framed_ = true;
+  cells_ready_ = false;
+  // Lazy intervals when the incremental mode will be tried (filled for all if it declines).
+  const bool lazy = incremental_ > 0.0 && (fat_valid_ || retry_wait_ == 0);
+  interval_ready_.assign(slots, lazy ? 0 : 1);
+  bits_.resize(words_ * slots);
+  rank_.assign(words_ * slots, 0);
+  std::fill(slot_of_.begin(), slot_of_.end(), kNoSlot);
+  // Bounds of all boxes: the grid's extent (cell size choice, coordinate range).
+  double world_lo[3] = {kInf, kInf, kInf}, world_hi[3] = {-kInf, -kInf, -kInf};
+  uint32_t s = 0, next_interval = 0;
+  for (BodyId id = 0; id < b.size(); ++id) {
+    if (!b[id].alive) continue;
+    slot_of_[id] = s;
+    slot_body_[s] = id;
+    const SweptBody swept(*b[id].shape, b[id].motion, t0, t1);
+    double* box = &box_[6 * s];
+    for (int k = 0; k < 3; ++k) {
+      const Interval iv = swept.project(Eigen::Vector3d::Unit(k));
+      box[k] = iv.lo;
+      box[3 + k] = iv.hi;
+      world_lo[k] = std::min(world_lo[k], iv.lo);
+      world_hi[k] = std::max(world_hi[k], iv.hi);
+    }
+    offset_[s] = next_interval;
+    uint64_t* bits = &bits_[words_ * s];
+    std::copy_n(&axis_bits_[id * words_], words_, bits);
+    uint16_t* rank = &rank_[words_ * s];
+    for (size_t w = 1; w < words_; ++w) rank[w] = static_cast<uint16_t>(rank[w - 1] + __builtin_popcountll(bits[w - 1]));
+    if (!lazy) {
+      Interval* iv = &intervals_[next_interval];
+      detail::forEachSetBit(bits, words_, [&](uint32_t k) { *iv++ = swept.project(pool_->axis(static_cast<int>(k))); });
+    }
+    next_interval += rank[words_ - 1] + static_cast<uint32_t>(__builtin_popcountll(bits[words_ - 1]));
+    ++s;
+  }
+  std::copy_n(world_lo, 3, world_lo_);
+  std::copy_n(world_hi, 3, world_hi_);
+  auto grid_from = Clock::now();
+  stats_.update_seconds = std::chrono::duration<double>(grid_from - start).count();
+  if (slots < 2) {
+    stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
+    return;
+  }
+
+  // 2b. Incremental mode, while the scene is slow enough.
+  if (incremental_ > 0.0 && computeFromFatBoxes(frame, out)) {
+    stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
+    return;
+  }
+  if (lazy) {  // declined: the full path tests most slots
+    const auto project_from = Clock::now();
+    for (uint32_t slot = 0; slot < slots; ++slot) requireIntervals(slot);
+    grid_from = Clock::now();
+    stats_.update_seconds += std::chrono::duration<double>(grid_from - project_from).count();
+  }
+
+  // 3. Cell size, unless configured: the candidate (a multiple of the median box extent) with
+  //    the least estimated cost, kIncidenceCost per (body, cell) incidence I(h) plus one per
+  //    box test, about I^2 / (2 C) for C = min(I, volume / h^3) occupied cells. Large cells
+  //    suit slow bodies (few incidences), small ones fast bodies (long boxes crowd a big cell).
+  //    I(h) is estimated from at most kSample bodies.
+  const double h = chooseCellSize(world_lo, world_hi);
   stats_.cell_size = h;
   buildGrid(h);
 

@@ -40,6 +40,7 @@ std::unique_ptr<BroadPhase> makeBroadPhase(const WorldConfig& c) {
     case BroadPhaseKind::kVadopSap: return std::make_unique<SweepPruneBroadPhase>(c.vadop);
     case BroadPhaseKind::kSap: return SweepPruneBroadPhase::makeEveryAxis(3);
     case BroadPhaseKind::kBrute: return std::make_unique<BruteForceBroadPhase>();
+    case BroadPhaseKind::kGrid: return VadopGridBroadPhase::makeBoxOnly();
   }
   throw InvalidArgument("World: unknown broad phase kind " + std::to_string(static_cast<int>(c.broad_phase)));
 }
@@ -52,6 +53,7 @@ const char* toString(BroadPhaseKind kind) {
     case BroadPhaseKind::kVadopSap: return "vadop_sap";
     case BroadPhaseKind::kSap: return "sap";
     case BroadPhaseKind::kBrute: return "brute";
+    case BroadPhaseKind::kGrid: return "grid";
   }
   return "unknown";
 }
@@ -61,7 +63,8 @@ BroadPhaseKind parseBroadPhaseKind(const std::string& name) {
   if (name == "vadop_sap") return BroadPhaseKind::kVadopSap;
   if (name == "sap") return BroadPhaseKind::kSap;
   if (name == "brute") return BroadPhaseKind::kBrute;
-  throw InvalidArgument("unknown broad phase " + quoted(name) + " (expected vadop, vadop_sap, sap or brute)");
+  if (name == "grid") return BroadPhaseKind::kGrid;
+  throw InvalidArgument("unknown broad phase " + quoted(name) + " (expected vadop, vadop_sap, sap, grid or brute)");
 }
 
 World::World(const WorldConfig& config) : config_(config) {
@@ -169,12 +172,15 @@ uint64_t World::key(const std::string& id) const { return record(id, "key").key;
 std::vector<WorldImpact> World::predict(double t0, double horizon) { return run(t0, horizon, nullptr); }
 
 std::vector<WorldImpact> World::predict(double t0, double horizon, const std::vector<std::string>& only) {
-  std::vector<char> mask(records_.size(), 0);
-  for (const std::string& id : only) mask[bodyId(id, "predict")] = 1;
-  return run(t0, horizon, &mask);
+  std::vector<BodyId> ids;
+  ids.reserve(only.size());
+  for (const std::string& id : only) ids.push_back(bodyId(id, "predict"));
+  std::sort(ids.begin(), ids.end());
+  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+  return run(t0, horizon, &ids);
 }
 
-std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector<char>* mask) {
+std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector<BodyId>* only) {
   if (!std::isfinite(t0)) throw InvalidArgument("predict: t0 must be finite, got " + formatNumber(t0));
   if (!std::isfinite(horizon) || horizon < 0.0) {
     throw InvalidArgument("predict: horizon must be finite and >= 0, got " + formatNumber(horizon));
@@ -188,8 +194,9 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
   // A cheap bound of each coordinate of the body's origin over [t0, t1]: the pivot moves in a
   // straight line (its coordinates are largest at an end) and the origin stays within
   // |pivot_offset| of it. Motions are within range (validateMotion), so nothing overflows.
-  for (const auto& kv : by_name_) {
-    const Motion& m = broad_phase_->motion(kv.second);
+  // Every body for a full predict; for a query, the bodies it involves (before anything runs).
+  auto checkReach = [&](BodyId id) {
+    const Motion& m = broad_phase_->motion(id);
     const Eigen::Vector3d c0 = m.hasPivot() ? m.pivotAt(t0) : m.positionAt(t0);
     const Eigen::Vector3d c1 = m.hasPivot() ? m.pivotAt(t1) : m.positionAt(t1);
     const double arm = m.hasPivot() ? m.pivot_offset.norm() : 0.0;
@@ -200,15 +207,36 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
                                            "position[" + std::to_string(k) + "] over [" + formatNumber(t0) + ", " +
                                                formatNumber(t1) + "] (bound)",
                                            "m");
-      if (!error.empty()) throw InvalidArgument("predict: body " + quoted(kv.first) + ": " + error);
+      if (!error.empty()) throw InvalidArgument("predict: body " + quoted(records_[id].name) + ": " + error);
     }
+  };
+  if (!only) {
+    for (const auto& kv : by_name_) checkReach(kv.second);
   }
 
-  broad_phase_->update(t0, t1);
+  // The candidate pairs: the whole broad phase, or the queries of `only` (a pair of two of them
+  // once: from the query of its smaller id).
+  std::vector<Pair> queried;
+  if (only) {
+    std::vector<char> in_only(records_.size(), 0);
+    for (BodyId id : *only) in_only[id] = 1;
+    std::vector<BodyId> found;
+    for (BodyId id : *only) checkReach(id);
+    for (BodyId id : *only) {
+      broad_phase_->query(id, t0, t1, found);
+      for (BodyId other : found) {
+        if (in_only[other] && other < id) continue;
+        if (!in_only[other]) checkReach(other);
+        queried.push_back(makePair(id, other));
+      }
+    }
+    std::sort(queried.begin(), queried.end());
+  } else {
+    broad_phase_->update(t0, t1);
+  }
   std::vector<WorldImpact> out, undecided;
   size_t calls = 0;
-  for (const Pair& p : broad_phase_->pairs()) {
-    if (mask && !(*mask)[p.a] && !(*mask)[p.b]) continue;
+  for (const Pair& p : only ? queried : broad_phase_->pairs()) {
     BodyId ia = p.a, ib = p.b;
     if (records_[ib].key < records_[ia].key) std::swap(ia, ib);  // a = the body added first
     const Record* ra = &records_[ia];

@@ -1,6 +1,6 @@
 // vadop_predict, the command-line tool, run as a process (VADOP_PREDICT_BIN):
 //  - a small analytic scene whose output lines are computed by hand;
-//  - --broadphase vadop|vadop_sap|sap|brute print byte-identical output on random 1,000-body scenes
+//  - --broadphase vadop|vadop_sap|sap|grid|brute print byte-identical output on random 1,000-body scenes
 //    (and the same as the World API);
 //  - bad input or options: exit status 2, a one-line message naming body and field on stderr,
 //    nothing on stdout; --help: usage, exit 0;
@@ -171,8 +171,9 @@ TEST(VadopPredict, BroadPhasesPrintByteIdenticalOutputOnRandomScenes) {
     const ToolRun sap = run("--broadphase sap " + shellQuote(scene));
     const ToolRun vadop_sap = run("--broadphase vadop_sap " + shellQuote(scene));
     const ToolRun brute = run("--broadphase=brute " + shellQuote(scene));
+    const ToolRun grid = run("--broadphase grid " + shellQuote(scene));
     const ToolRun tuned = run(shellQuote(scene) + " --axes 64 --phi 0");
-    for (const ToolRun* r : {&vadop, &sap, &brute, &tuned}) {
+    for (const ToolRun* r : {&vadop, &sap, &vadop_sap, &brute, &grid, &tuned}) {
       ASSERT_EQ(r->status, 0) << r->err;
       EXPECT_EQ(r->err, "");
     }
@@ -181,6 +182,7 @@ TEST(VadopPredict, BroadPhasesPrintByteIdenticalOutputOnRandomScenes) {
     EXPECT_EQ(vadop.out, sap.out) << "seed " << seed;
     EXPECT_EQ(vadop.out, vadop_sap.out) << "seed " << seed;
     EXPECT_EQ(vadop.out, brute.out) << "seed " << seed;
+    EXPECT_EQ(vadop.out, grid.out) << "seed " << seed;
     EXPECT_EQ(vadop.out, tuned.out) << "seed " << seed;
     // And the library, through the World API.
     const Scene s = parseScene(text);

@@ -212,7 +212,7 @@ TEST(World, FastSpinnersGiveNoContactForEveryBroadPhase) {
   };
   for (const SpinCase& c : {SpinCase{20.0, 60.0, false}, SpinCase{1000.0, 10.0, false}, SpinCase{20.0, 60.0, true},
                             SpinCase{1000.0, 10.0, true}}) {
-    for (const BroadPhaseKind kind : {BroadPhaseKind::kVadop, BroadPhaseKind::kVadopSap, BroadPhaseKind::kSap,
+    for (const BroadPhaseKind kind : {BroadPhaseKind::kVadop, BroadPhaseKind::kVadopSap, BroadPhaseKind::kSap, BroadPhaseKind::kGrid,
                                       BroadPhaseKind::kBrute}) {
       WorldConfig config;
       config.broad_phase = kind;
@@ -236,7 +236,7 @@ TEST(World, FastSpinnersGiveNoContactForEveryBroadPhase) {
 // lists them (same order as predict's result), the same for every broad phase.
 TEST(World, UndecidedPairsAreListedApartFromContacts) {
   std::vector<std::string> first;
-  for (const BroadPhaseKind kind : {BroadPhaseKind::kVadop, BroadPhaseKind::kVadopSap, BroadPhaseKind::kSap,
+  for (const BroadPhaseKind kind : {BroadPhaseKind::kVadop, BroadPhaseKind::kVadopSap, BroadPhaseKind::kSap, BroadPhaseKind::kGrid,
                                     BroadPhaseKind::kBrute}) {
     WorldConfig config;
     config.broad_phase = kind;
@@ -291,7 +291,7 @@ TEST(World, UndecidedPairsAreListedApartFromContacts) {
 // narrow-phase call, are not returned, and the result is the same for every broad phase.
 TEST(World, PairFiltersApplyBeforeTheNarrowPhase) {
   std::vector<std::string> first;
-  for (const BroadPhaseKind kind : {BroadPhaseKind::kVadop, BroadPhaseKind::kVadopSap, BroadPhaseKind::kSap,
+  for (const BroadPhaseKind kind : {BroadPhaseKind::kVadop, BroadPhaseKind::kVadopSap, BroadPhaseKind::kSap, BroadPhaseKind::kGrid,
                                     BroadPhaseKind::kBrute}) {
     WorldConfig config;
     config.broad_phase = kind;
@@ -446,8 +446,10 @@ TEST(World, BroadPhaseKindNames) {
   EXPECT_EQ(parseBroadPhaseKind("vadop_sap"), BroadPhaseKind::kVadopSap);
   EXPECT_EQ(parseBroadPhaseKind("sap"), BroadPhaseKind::kSap);
   EXPECT_EQ(parseBroadPhaseKind("brute"), BroadPhaseKind::kBrute);
+  EXPECT_EQ(parseBroadPhaseKind("grid"), BroadPhaseKind::kGrid);
   EXPECT_THROW(parseBroadPhaseKind("kdop"), InvalidArgument);
-  for (auto k : {BroadPhaseKind::kVadop, BroadPhaseKind::kVadopSap, BroadPhaseKind::kSap, BroadPhaseKind::kBrute}) {
+  for (auto k : {BroadPhaseKind::kVadop, BroadPhaseKind::kVadopSap, BroadPhaseKind::kSap, BroadPhaseKind::kGrid,
+                 BroadPhaseKind::kBrute}) {
     EXPECT_EQ(parseBroadPhaseKind(toString(k)), k);
   }
 }
@@ -467,20 +469,24 @@ TEST(World, BroadPhasesGiveIdenticalResultsOnRandomScenes) {
   for (uint64_t seed = 1; seed <= 3; ++seed) {
     const Scene scene = parseScene(testing_scene::randomSceneJson(seed));
     ASSERT_EQ(scene.bodies.size(), 1000u);
-    size_t cand_vadop = 0, cand_vadop_sap = 0, cand_sap = 0, cand_brute = 0;
+    size_t cand_vadop = 0, cand_vadop_sap = 0, cand_sap = 0, cand_grid = 0, cand_brute = 0;
     const std::string vadop = predictLines(scene, BroadPhaseKind::kVadop, &cand_vadop);
     const std::string vadop_sap = predictLines(scene, BroadPhaseKind::kVadopSap, &cand_vadop_sap);
     const std::string sap = predictLines(scene, BroadPhaseKind::kSap, &cand_sap);
+    const std::string grid = predictLines(scene, BroadPhaseKind::kGrid, &cand_grid);
     const std::string brute = predictLines(scene, BroadPhaseKind::kBrute, &cand_brute);
     const size_t lines = static_cast<size_t>(std::count(vadop.begin(), vadop.end(), '\n'));
     EXPECT_GT(lines, 200u) << "seed " << seed << ": too few contacts to compare";
     EXPECT_EQ(vadop, vadop_sap) << "seed " << seed;
     EXPECT_EQ(vadop, sap) << "seed " << seed;
+    EXPECT_EQ(vadop, grid) << "seed " << seed;
     EXPECT_EQ(vadop, brute) << "seed " << seed;
+    // The plain grid and sweep and prune test the same swept AABBs: the same candidates.
+    EXPECT_EQ(cand_grid, cand_sap) << "seed " << seed;
     // The broad phases differ (else the comparison would be vacuous).
     EXPECT_TRUE(cand_vadop != cand_sap || cand_sap != cand_brute);
-    std::printf("seed %llu: 1000 bodies, %zu impacts; candidates vadop %zu, vadop_sap %zu, sap %zu, brute %zu\n",
-                static_cast<unsigned long long>(seed), lines, cand_vadop, cand_vadop_sap, cand_sap, cand_brute);
+    std::printf("seed %llu: 1000 bodies, %zu impacts; candidates vadop %zu, vadop_sap %zu, sap %zu, grid %zu, brute %zu\n",
+                static_cast<unsigned long long>(seed), lines, cand_vadop, cand_vadop_sap, cand_sap, cand_grid, cand_brute);
     total_impacts += lines;
   }
   RecordProperty("impacts", static_cast<int>(total_impacts));
@@ -494,7 +500,7 @@ TEST(World, IncrementalUpdatesMatchAWorldBuiltFromScratch) {
   const Scene scene = parseScene(testing_scene::randomSceneJson(11, p));
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<double> u(-3.0, 3.0);
-  for (auto kind : {BroadPhaseKind::kVadop, BroadPhaseKind::kSap, BroadPhaseKind::kBrute}) {
+  for (auto kind : {BroadPhaseKind::kVadop, BroadPhaseKind::kSap, BroadPhaseKind::kGrid, BroadPhaseKind::kBrute}) {
     WorldConfig c;
     c.broad_phase = kind;
     World inc(c);

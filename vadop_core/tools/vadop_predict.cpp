@@ -29,7 +29,7 @@
 namespace {
 
 const char* const kUsage =
-    "usage: vadop_predict [scene.json | -] [--broadphase vadop|vadop_sap|sap|brute] [--axes M] [--phi DEG]\n"
+    "usage: vadop_predict [scene.json | -] [--broadphase vadop|vadop_sap|sap|grid|brute] [--axes M] [--phi DEG]\n"
     "                     [--max-iterations N]\n"
     "\n"
     "Predicts every contact between the bodies of a JSON scene within [0, horizon] and prints one\n"
@@ -41,7 +41,8 @@ const char* const kUsage =
     "\n"
     "  scene.json         the scene (at most 64 MiB); '-' or none: standard input\n"
     "  --broadphase NAME  vadop (default: VADOP volumes on a grid), vadop_sap (VADOP with sweep\n"
-    "                     and prune per axis), sap (sweep and prune of AABBs) or brute (all pairs);\n"
+    "                     and prune per axis), sap (sweep and prune of AABBs), grid (uniform grid\n"
+    "                     of swept AABBs) or brute (all pairs);\n"
     "                     the output does not depend on it\n"
     "  --axes M           VADOP axis pool size, an integer in [3, 4096] (default 32)\n"
     "  --phi DEG          VADOP zone half-width in degrees, in [0, 90], at least the pool's\n"

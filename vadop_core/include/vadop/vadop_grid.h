@@ -36,12 +36,20 @@ class VadopGridBroadPhase : public BroadPhase {
   explicit VadopGridBroadPhase(const VadopConfig& config, double cell_size = 0.0,
                                double incremental = kDefaultIncremental);
 
-  std::string name() const override { return "vadop"; }
+  // The plain uniform grid of swept AABBs ("grid"): the same cells, cell-size rule and
+  // incremental mode without velocity-aligned axes, so a pair is a candidate iff the swept
+  // AABBs overlap. The strongest simple baseline, and what the axes are measured against (as
+  // SweepPruneBroadPhase::makeEveryAxis(3) is for sweep and prune). Throws as the constructor.
+  static std::unique_ptr<VadopGridBroadPhase> makeBoxOnly(double cell_size = 0.0,
+                                                          double incremental = kDefaultIncremental);
+
+  std::string name() const override { return pool_ ? "vadop" : "grid"; }
   size_t memoryBytes() const override;
 
-  const AxisPool& pool() const { return *pool_; }
-  double phi() const { return phi_; }  // radians
-  bool velocityAligned() const { return true; }
+  // The axis pool of a velocity-aligned engine; throws vadop::InvalidArgument for makeBoxOnly's.
+  const AxisPool& pool() const;
+  double phi() const { return phi_; }  // radians; 0 without pool
+  bool velocityAligned() const { return pool_ != nullptr; }
 
   using AxisSpan = SweepPruneBroadPhase::AxisSpan;
   // The body's volume of the last update: its pool axes (ascending) with their intervals,
@@ -51,6 +59,15 @@ class VadopGridBroadPhase : public BroadPhase {
   // Unit direction of a span's axis (pool axis, or x, y, z past the pool).
   Eigen::Vector3d axisDirection(uint32_t axis) const;
 
+  // Queries (BroadPhase::query) over [t0, t1] within the frame of the last update are answered
+  // from that frame's cells: the bodies whose frame boxes overlap the query's swept AABB over
+  // [t0, t1] (a frame box holds the body's swept box over every sub-interval), plus the bodies
+  // added or given a new motion since, tested by their swept AABBs over [t0, t1]. Cost: the
+  // cells the query box spans and their occupancy, plus the changed bodies; the first query
+  // after an update in the incremental mode builds the frame's cells once (O(n)). The answer
+  // is every body whose swept AABB may overlap the query's (no pool-axis pruning: a superset of
+  // the update's candidates by at most the bodies whose boxes overlap but whose pool intervals
+  // do not). Other intervals fall back to BroadPhase's scan of every body.
   struct Stats {
     size_t cells = 0;           // occupied cells
     size_t cell_entries = 0;    // (body, cell) incidences
@@ -75,8 +92,17 @@ class VadopGridBroadPhase : public BroadPhase {
   void onSetMotion(BodyId id) override;
   void onMotionChanging(BodyId id) override;
   void computePairs(double t0, double t1, std::vector<Pair>& out) override;
+  void queryCandidates(const Shape& shape, const Motion& motion, BodyId self, double t0, double t1,
+                       std::vector<BodyId>& out) override;
 
  private:
+  struct BoxOnly {};
+  VadopGridBroadPhase(BoxOnly, double cell_size, double incremental);
+  void setOptions(double cell_size, double incremental);
+  // Cell size by the estimated cost of the frame's boxes (step 3 of computePairs).
+  double chooseCellSize(const double* world_lo, const double* world_hi);
+  // Cell index of (x, y, z) in the frame's grid, or kEmpty: for queries after buildGrid.
+  uint32_t findCell(int32_t x, int32_t y, int32_t z) const;
   static constexpr uint32_t kNoSlot = ~uint32_t{0};
   struct Cell {
     int32_t x, y, z;
@@ -129,6 +155,11 @@ class VadopGridBroadPhase : public BroadPhase {
   std::vector<Interval> intervals_;
   std::vector<uint8_t> interval_ready_;
   double frame_t0_ = 0.0, frame_t1_ = 0.0;  // of the last update
+  bool framed_ = false;      // an update has run (the slots and boxes describe its frame)
+  bool cells_ready_ = false; // cells_ and its lookup hold the grid of the last update's boxes
+  bool dense_ = false;       // that lookup is dense_cell_ (else the hash table)
+  double grid_cell_size_ = 1.0;  // of cells_
+  double world_lo_[3] = {0, 0, 0}, world_hi_[3] = {0, 0, 0};  // bounds of the frame's boxes
   std::vector<int32_t> lo_cell_;       // 3 per slot: cell of the box's lo corner
 
   // Grid of the frame: cells in a hash table, bodies per cell by counting sort.

@@ -42,10 +42,11 @@ enum class BroadPhaseKind {
   kVadopSap,  // VADOP with sweep and prune on each pool axis (SweepPruneBroadPhase), as in the paper
   kSap,    // sweep and prune of swept AABBs on x, y, z
   kBrute,  // every pair, by swept bounding spheres: ground truth for small scenes
+  kGrid,   // the uniform grid of swept AABBs (VadopGridBroadPhase::makeBoxOnly): the plain baseline
 };
 
 const char* toString(BroadPhaseKind kind);
-// "vadop", "vadop_sap", "sap" or "brute"; throws vadop::InvalidArgument otherwise.
+// "vadop", "vadop_sap", "sap", "grid" or "brute"; throws vadop::InvalidArgument otherwise.
 BroadPhaseKind parseBroadPhaseKind(const std::string& name);
 
 struct WorldConfig {
@@ -113,7 +114,10 @@ class World {
   // range within the window.
   std::vector<WorldImpact> predict(double t0, double horizon);
   // The same, restricted to the pairs involving at least one of `only` (for example the bodies
-  // whose velocity just changed, in the response loop of ImpactQueue). Throws on unknown ids.
+  // whose velocity just changed, or a robot's links under a candidate command). Answered by the
+  // broad phase's single-body queries (BroadPhase::query), without a full broad-phase pass: the
+  // grid engines then cost about the neighbours of `only`, not n (see vadop_grid.h). Throws on
+  // unknown ids (nothing changed).
   std::vector<WorldImpact> predict(double t0, double horizon, const std::vector<std::string>& only);
 
   const WorldConfig& config() const { return config_; }
@@ -137,7 +141,7 @@ class World {
   };
   const Record& record(const std::string& id, const char* operation) const;
   BodyId bodyId(const std::string& id, const char* operation) const;
-  std::vector<WorldImpact> run(double t0, double horizon, const std::vector<char>* mask);
+  std::vector<WorldImpact> run(double t0, double horizon, const std::vector<BodyId>* only);
 
   WorldConfig config_;
   std::unique_ptr<BroadPhase> broad_phase_;
