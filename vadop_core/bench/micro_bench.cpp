@@ -6,8 +6,12 @@
 
 #include "vadop/sweep_prune.h"
 #include "vadop/time_of_impact.h"
+#include "vadop/world.h"
 
 #include <benchmark/benchmark.h>
+
+#include <random>
+#include <string>
 
 namespace {
 
@@ -55,6 +59,54 @@ BENCHMARK(BM_Frame)
     ->ArgsProduct({{0, 1, 2, 3, 4}, {3000}, {1, 10, 100}})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(10);
+
+// World::predict(t0, h, {one body}) after a full predict of the same window (the gate's query:
+// what does this body touch?), at equal density for growing n: the paper's scene (spheres of
+// radius 1, 1% density, 1 radius per frame, one frame). Args: kind (0 vadop, 1 grid, 2 sap,
+// 3 brute), n, pattern: 0 = each query a random body of all n (every lookup a cache miss at
+// 10^5: the name's hash table, the body's records), 1 = the same 16 bodies in turn (gates asking
+// for their robots). Counter: candidate pairs (narrow-phase calls) per query. The query path
+// itself costs the neighbours, not n; pattern 0 adds the memory latency of a larger world.
+void BM_PredictOne(benchmark::State& state) {
+  const vadop::BroadPhaseKind kinds[] = {vadop::BroadPhaseKind::kVadop, vadop::BroadPhaseKind::kGrid,
+                                         vadop::BroadPhaseKind::kSap, vadop::BroadPhaseKind::kBrute};
+  SceneParams p;
+  p.n = static_cast<int>(state.range(1));
+  const Scene scene = makeScene(p);
+  vadop::WorldConfig c;
+  c.broad_phase = kinds[state.range(0)];
+  vadop::World world(c);
+  const vadop::Shape sphere = vadop::makeSphere(p.radius);
+  std::vector<std::string> ids;
+  for (int i = 0; i < p.n; ++i) {
+    ids.push_back("b" + std::to_string(i));
+    vadop::Motion m;
+    m.position = scene.position[i];
+    m.linear_velocity = scene.velocity[i];
+    world.add(ids.back(), sphere, m);
+  }
+  const double h = 1.0 / p.fps;
+  world.predict(0.0, h);
+  std::mt19937 rng(1);
+  std::uniform_int_distribution<int> pick(0, p.n - 1);
+  std::vector<std::string> fixed;
+  for (int i = 0; i < 16; ++i) fixed.push_back(ids[pick(rng)]);
+  const bool random = state.range(2) == 0;
+  double calls = 0, queries = 0;
+  size_t next = 0;
+  for (auto _ : state) {
+    const std::string& id = random ? ids[pick(rng)] : fixed[next++ % fixed.size()];
+    benchmark::DoNotOptimize(world.predict(0.0, h, {id}));
+    calls += static_cast<double>(world.lastCandidateCount());
+    queries += 1;
+  }
+  state.counters["candidates"] = calls / queries;
+}
+BENCHMARK(BM_PredictOne)
+    ->ArgsProduct({{0, 1}, {10000, 100000}, {0, 1}})
+    ->Args({2, 10000, 0})
+    ->Args({3, 10000, 0})
+    ->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

@@ -218,15 +218,15 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
   // once: from the query of its smaller id).
   std::vector<Pair> queried;
   if (only) {
-    std::vector<char> in_only(records_.size(), 0);
-    for (BodyId id : *only) in_only[id] = 1;
+    // `only` is sorted: membership by binary search, no O(n) mask per query.
+    auto in_only = [only](BodyId id) { return std::binary_search(only->begin(), only->end(), id); };
     std::vector<BodyId> found;
     for (BodyId id : *only) checkReach(id);
     for (BodyId id : *only) {
       broad_phase_->query(id, t0, t1, found);
       for (BodyId other : found) {
-        if (in_only[other] && other < id) continue;
-        if (!in_only[other]) checkReach(other);
+        if (other < id && in_only(other)) continue;
+        if (!in_only(other)) checkReach(other);
         queried.push_back(makePair(id, other));
       }
     }
