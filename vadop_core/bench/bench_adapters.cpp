@@ -212,108 +212,15 @@ class BulletBroadPhase : public TimedBroadPhase {
   size_t alive_ = 0;
 };
 
-// ---------------------------------------------------------------------------------------------
-// Uniform grid (the bench's reference for large n)
-
-class GridBroadPhase : public TimedBroadPhase {
+// FCL rebuild that drops every fifth candidate pair: the self-test of the miss detection.
+class FaultyBroadPhase : public FclBroadPhase {
  public:
-  std::string name() const override { return "grid"; }
-  size_t memoryBytes() const override {
-    return packed_.capacity() * sizeof(Box) + (cell_start_.capacity() + cell_body_.capacity() + ids_.capacity() +
-                                              cell_of_.capacity()) * sizeof(uint32_t);
-  }
-
- protected:
-  void onAdd(vadop::BodyId) override {}
-  void onRemove(vadop::BodyId) override {}
-  void onSetMotion(vadop::BodyId) override {}
-
-  void computePairs(double t0, double t1, std::vector<vadop::Pair>& out) override {
-    const auto c0 = Clock::now();
-    const auto& b = bodies();
-    packed_.clear();
-    ids_.clear();
-    Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = -lo;
-    ext_.clear();
-    for (vadop::BodyId id = 0; id < b.size(); ++id) {
-      if (!b[id].alive) continue;
-      packed_.push_back(sweptBox(b[id].motion, b[id].shape->bounding_radius, t0, t1));
-      ids_.push_back(id);
-      lo = lo.cwiseMin(packed_.back().lo);
-      hi = hi.cwiseMax(packed_.back().hi);
-      ext_.push_back((packed_.back().hi - packed_.back().lo).maxCoeff());
-    }
-    update_s_ = seconds(c0, Clock::now());
-    const size_t n = packed_.size();
-    if (n < 2) return;
-    // Cells no smaller than 98% of the boxes, about one box per cell; boxes listed by their
-    // lo corner. The few larger boxes ("big") are paired with the small ones by a range query
-    // and with each other exhaustively.
-    std::vector<double> e = ext_;
-    const size_t kth = std::min(n - 1, static_cast<size_t>(0.98 * n));
-    std::nth_element(e.begin(), e.begin() + kth, e.end());
-    const double side = (hi - lo).maxCoeff();
-    const double h = std::max(e[kth], side / std::cbrt(static_cast<double>(n)));
-    const int g = std::max(1, static_cast<int>(std::ceil(side / h)) + 1);
-    auto cell = [&](double x, int axis) {
-      const double c = std::floor((x - lo[axis]) / h);
-      return c <= 0.0 ? 0 : (c >= g - 1 ? g - 1 : static_cast<int>(c));
-    };
-    const size_t cells = static_cast<size_t>(g) * g * g;
-    cell_start_.assign(cells + 1, 0);
-    cell_of_.resize(n);
-    cell_body_.resize(n);
-    for (size_t i = 0; i < n; ++i) {
-      const Box& bx = packed_[i];
-      cell_of_[i] = static_cast<uint32_t>((static_cast<size_t>(cell(bx.lo.z(), 2)) * g + cell(bx.lo.y(), 1)) * g +
-                                          cell(bx.lo.x(), 0));
-      ++cell_start_[cell_of_[i] + 1];
-    }
-    std::partial_sum(cell_start_.begin(), cell_start_.end(), cell_start_.begin());
-    {
-      std::vector<uint32_t> fill(cell_start_.begin(), cell_start_.end() - 1);
-      for (size_t i = 0; i < n; ++i) cell_body_[fill[cell_of_[i]]++] = static_cast<uint32_t>(i);
-    }
-    big_.clear();
-    for (size_t i = 0; i < n; ++i) {
-      if (ext_[i] > h) big_.push_back(static_cast<uint32_t>(i));
-    }
-    for (size_t i = 0; i < n; ++i) {
-      const Box& bx = packed_[i];
-      const bool i_big = ext_[i] > h;
-      const int x0 = cell(bx.lo.x() - h, 0), x1 = cell(bx.hi.x(), 0);
-      const int y0 = cell(bx.lo.y() - h, 1), y1 = cell(bx.hi.y(), 1);
-      const int z0 = cell(bx.lo.z() - h, 2), z1 = cell(bx.hi.z(), 2);
-      for (int z = z0; z <= z1; ++z)
-        for (int y = y0; y <= y1; ++y) {
-          const size_t row = (static_cast<size_t>(z) * g + y) * g;
-          for (uint32_t k = cell_start_[row + x0]; k < cell_start_[row + x1 + 1]; ++k) {
-            const uint32_t j = cell_body_[k];
-            // Small-small pairs once (j > i); a big body pairs with every small one here.
-            if (ext_[j] > h || (!i_big && j <= i)) continue;
-            if (overlaps(bx, packed_[j])) out.push_back(vadop::makePair(ids_[i], ids_[j]));
-          }
-        }
-    }
-    for (size_t x = 0; x < big_.size(); ++x)
-      for (size_t y = x + 1; y < big_.size(); ++y)
-        if (overlaps(packed_[big_[x]], packed_[big_[y]])) out.push_back(vadop::makePair(ids_[big_[x]], ids_[big_[y]]));
-  }
-
- private:
-  std::vector<Box> packed_;
-  std::vector<vadop::BodyId> ids_;
-  std::vector<double> ext_;
-  std::vector<uint32_t> cell_start_, cell_body_, cell_of_, big_;
-};
-
-class FaultyBroadPhase : public GridBroadPhase {
- public:
-  std::string name() const override { return "faulty_grid"; }
+  FaultyBroadPhase() : FclBroadPhase(FclMode::kRebuild, BoxKind::kSwept) {}
+  std::string name() const override { return "faulty"; }
 
  protected:
   void computePairs(double t0, double t1, std::vector<vadop::Pair>& out) override {
-    GridBroadPhase::computePairs(t0, t1, out);
+    FclBroadPhase::computePairs(t0, t1, out);
     size_t w = 0;
     for (size_t i = 0; i < out.size(); ++i)
       if (i % 5 != 4) out[w++] = out[i];
@@ -328,6 +235,5 @@ std::unique_ptr<TimedBroadPhase> makeFclBroadPhase(FclMode mode, BoxKind boxes) 
   return std::make_unique<FclBroadPhase>(mode, boxes);
 }
 std::unique_ptr<TimedBroadPhase> makeBulletBroadPhase() { return std::make_unique<BulletBroadPhase>(); }
-std::unique_ptr<TimedBroadPhase> makeGridBroadPhase() { return std::make_unique<GridBroadPhase>(); }
 
 }  // namespace vadop_bench

@@ -41,11 +41,7 @@ std::unique_ptr<TimedBroadPhase> makeFclBroadPhase(FclMode mode, BoxKind boxes);
 // adapter drops those (exact box test) so that the narrow phase sees the true box overlaps.
 std::unique_ptr<TimedBroadPhase> makeBulletBroadPhase();
 
-// Uniform grid over the swept boxes, rebuilt every frame: the bench's exact reference for
-// n > 5000, where brute force is too slow (validated against brute force by --preset quick).
-std::unique_ptr<TimedBroadPhase> makeGridBroadPhase();
-
-// Self-test of the bench's miss detection: the grid with every 5th candidate pair dropped.
+// Self-test of the bench's miss detection: FCL rebuild with every 5th candidate pair dropped.
 std::unique_ptr<TimedBroadPhase> makeFaultyBroadPhase();
 
 }  // namespace vadop_bench

@@ -5,6 +5,7 @@
 #include "bench_world.h"
 
 #include "vadop/sweep_prune.h"
+#include "vadop/vadop_grid.h"
 #include "vadop/time_of_impact.h"
 #include "vadop/world.h"
 
@@ -36,7 +37,7 @@ std::unique_ptr<vadop::BroadPhase> make(int which) {
     case 1: return vadop::SweepPruneBroadPhase::makeEveryAxis(3);
     case 2: return makeFclBroadPhase(FclMode::kRebuild, BoxKind::kSwept);
     case 3: return makeBulletBroadPhase();
-    default: return makeGridBroadPhase();
+    default: return vadop::VadopGridBroadPhase::makeBoxOnly();
   }
 }
 
