@@ -14,6 +14,7 @@
 // golden-angle lattice (fibonacciAxes).
 
 #include "vadop/axis_pool.h"
+#include "fibonacci_axes.h"
 
 #include "vadop/error.h"
 

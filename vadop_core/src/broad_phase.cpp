@@ -85,9 +85,8 @@ void BroadPhase::remove(BodyId id) {
 void BroadPhase::setMotion(BodyId id, const Motion& motion) {
   requireKnown(id, "setMotion");
   if (!isValidMotion(motion)) validateMotion(motion, "setMotion: body " + std::to_string(id));
-  onMotionChanging(id);
-  bodies_[id].motion = motion;
   onSetMotion(id);
+  bodies_[id].motion = motion;
 }
 
 void BroadPhase::update(double t0, double t1) {

@@ -1,6 +1,7 @@
 // Static distance (GJK on cores) and the certified conservative-advancement step.
 // See distance.h for the model (cores + rounding, meshes as triangle soups).
 #include "vadop/distance.h"
+#include "advance_step.h"
 
 #include "vadop/error.h"
 

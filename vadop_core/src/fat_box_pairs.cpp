@@ -1,4 +1,4 @@
-#include "vadop/fat_box_pairs.h"
+#include "fat_box_pairs.h"
 
 #include "vadop/error.h"
 #include "grid_cells.h"

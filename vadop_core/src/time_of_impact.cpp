@@ -25,6 +25,7 @@
 // runs out (or no representable progress is possible) the answer is `undecided` at the
 // current t, the end of the certified interval: never a contact, never a miss.
 #include "vadop/time_of_impact.h"
+#include "advance_step.h"
 
 #include "vadop/error.h"
 

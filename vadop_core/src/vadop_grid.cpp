@@ -1,6 +1,7 @@
 #include "vadop/vadop_grid.h"
 
 #include "vadop/error.h"
+#include "fat_box_pairs.h"
 #include "grid_cells.h"
 #include "popcount.h"
 
@@ -57,7 +58,10 @@ std::unique_ptr<VadopGridBroadPhase> VadopGridBroadPhase::makeBoxOnly(double cel
   return std::unique_ptr<VadopGridBroadPhase>(new VadopGridBroadPhase(BoxOnly{}, cell_size, incremental));
 }
 
+VadopGridBroadPhase::~VadopGridBroadPhase() = default;
+
 void VadopGridBroadPhase::setOptions(double cell_size, double incremental) {
+  fat_ = std::make_unique<FatBoxPairs>();
   if (!std::isfinite(cell_size) || cell_size < 0.0) {
     throw InvalidArgument("cell_size must be finite and >= 0 (0 = automatic), got " + formatNumber(cell_size));
   }
@@ -80,7 +84,7 @@ size_t VadopGridBroadPhase::memoryBytes() const {
            box_.capacity() * sizeof(double) + bits_.capacity() * sizeof(uint64_t) +
            rank_.capacity() * sizeof(uint16_t) + intervals_.capacity() * sizeof(Interval) +
            lo_cell_.capacity() * sizeof(int32_t);
-  bytes += fat_.memoryBytes() + fat_ids_.capacity() * sizeof(BodyId) + fat_boxes_.capacity() * sizeof(double);
+  bytes += fat_->memoryBytes() + fat_ids_.capacity() * sizeof(BodyId) + fat_boxes_.capacity() * sizeof(double);
   bytes += table_key_.capacity() * sizeof(Cell) + table_cell_.capacity() * sizeof(uint32_t) +
            cells_.capacity() * sizeof(Cell) + dense_cell_.capacity() * sizeof(uint32_t) +
            cell_entries_.capacity() * sizeof(CellEntry) +
@@ -107,7 +111,7 @@ std::vector<VadopGridBroadPhase::AxisSpan> VadopGridBroadPhase::volume(BodyId id
     uint32_t i = 0;
     detail::forEachSetBit(&bits_[words_ * s], words_,
                           [&](uint32_t k) { out.push_back({k, intervals_[offset_[s] + i++]}); });
-  } else {  // lazy and not needed by the update; the motion is unchanged since (onMotionChanging)
+  } else {  // lazy and not needed by the update; the motion is unchanged since (onSetMotion)
     forEachProjected(s, [&](uint32_t k, const Interval& iv) { out.push_back({k, iv}); });
   }
   const uint32_t m = pool_ ? static_cast<uint32_t>(pool_->size()) : 0;
@@ -138,16 +142,13 @@ void VadopGridBroadPhase::onAdd(BodyId id) {
 }
 
 void VadopGridBroadPhase::onSetMotion(BodyId id) {
+  // volume() reports the last update's intervals: compute a lazy slot's before its motion goes.
+  const uint32_t s = id < slot_of_.size() ? slot_of_[id] : kNoSlot;
+  if (s != kNoSlot) requireIntervals(s);
   if (!dirty_flag_[id]) {
     dirty_flag_[id] = 1;
     dirty_.push_back(id);
   }
-}
-
-void VadopGridBroadPhase::onMotionChanging(BodyId id) {
-  // volume() reports the last update's intervals: compute a lazy slot's before its motion goes.
-  const uint32_t s = id < slot_of_.size() ? slot_of_[id] : kNoSlot;
-  if (s != kNoSlot) requireIntervals(s);
 }
 
 void VadopGridBroadPhase::projectSlot(uint32_t s) {
@@ -160,7 +161,7 @@ void VadopGridBroadPhase::clearAxes(BodyId id) { std::fill_n(&axis_bits_[id * wo
 
 void VadopGridBroadPhase::onRemove(BodyId id) {
   clearAxes(id);
-  fat_.remove(id);
+  fat_->remove(id);
   slot_of_[id] = kNoSlot;
   // A stale entry in dirty_ is harmless: the body is re-selected when the id is reused.
 }
@@ -697,14 +698,14 @@ bool VadopGridBroadPhase::computeFromFatBoxes(double frame, std::vector<Pair>& o
     const size_t mid = slots / 2;
     std::nth_element(extent.begin(), extent.begin() + static_cast<long>(mid), extent.end());
     const double h = cell_size_ > 0.0 ? cell_size_ : 2.0 * extent[mid];
-    fat_.reset(std::max(h, 1e-9), max_abs);
-    fat_.update(fat_ids_, fat_boxes_);
+    fat_->reset(std::max(h, 1e-9), max_abs);
+    fat_->update(fat_ids_, fat_boxes_);
     fat_valid_ = true;
     streak_ = 0;
     stats_.fat_rebuilt = true;
   } else {
     for (uint32_t s = 0; s < slots; ++s) {
-      if (!fat_.contains(slot_body_[s], &box_[6 * s])) {
+      if (!fat_->contains(slot_body_[s], &box_[6 * s])) {
         fat_ids_.push_back(slot_body_[s]);
         appendFatBox(s, frame);
       }
@@ -715,27 +716,27 @@ bool VadopGridBroadPhase::computeFromFatBoxes(double frame, std::vector<Pair>& o
       retry_wait_ = backoff_;
       return false;
     }
-    fat_.update(fat_ids_, fat_boxes_);
+    fat_->update(fat_ids_, fat_boxes_);
     if (++streak_ >= 8) backoff_ = 1;
-    if (fat_.wasteful()) {
+    if (fat_->wasteful()) {
       fat_valid_ = false;  // rebuilt at the next update (this frame's pairs are still exact)
       retry_wait_ = 0;
     }
   }
   stats_.incremental = true;
-  stats_.cell_size = fat_.cellSize();
+  stats_.cell_size = fat_->cellSize();
   stats_.escaped = fat_ids_.size();
-  stats_.fat_pairs = fat_.pairs();
-  stats_.large_bodies = fat_.large().size();
+  stats_.fat_pairs = fat_->pairs();
+  stats_.large_bodies = fat_->large().size();
 
   for (uint32_t s = 0; s < slots; ++s) {
     const BodyId id = slot_body_[s];
-    for (const BodyId j : fat_.partners(id)) {
+    for (const BodyId j : fat_->partners(id)) {
       if (j > id) testPair(s, slot_of_[j], out);
     }
   }
   large_.clear();
-  for (BodyId l : fat_.large()) large_.push_back(slot_of_[l]);
+  for (BodyId l : fat_->large()) large_.push_back(slot_of_[l]);
   testLargeAgainstAll(large_, out);
   return true;
 }

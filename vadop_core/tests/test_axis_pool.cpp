@@ -5,6 +5,7 @@
 // can beat. Pool quality is compared with the golden-angle baseline and the hexagonal bound.
 
 #include "vadop/axis_pool.h"
+#include "fibonacci_axes.h"  // internal (vadop_core/src)
 
 #include "vadop/error.h"
 

@@ -14,6 +14,7 @@
 #include "vadop/limits.h"
 #include "vadop/sweep_prune.h"
 #include "vadop/vadop_grid.h"
+#include "broad_phase_access.h"
 
 #include <gtest/gtest.h>
 
@@ -114,7 +115,7 @@ class RandomScene {
 template <class BP>
 std::vector<Pair> oracle(const BP& bp, const std::vector<BodyId>& ids, size_t* unshared) {
   std::map<BodyId, std::vector<SweepPruneBroadPhase::AxisSpan>> vol;
-  for (BodyId id : ids) vol[id] = bp.volume(id);
+  for (BodyId id : ids) vol[id] = BroadPhaseTestAccess::volume(bp, id);
   std::vector<Pair> out;
   *unshared = 0;
   for (size_t i = 0; i < ids.size(); ++i) {
@@ -145,13 +146,13 @@ std::vector<Pair> oracle(const BP& bp, const std::vector<BodyId>& ids, size_t* u
 
 // Reference 2: intervals bound the projection of the shape at sampled times.
 Eigen::Vector3d axisOf(const SweepPruneBroadPhase& bp, uint32_t axis) { return bp.pool().axis(static_cast<int>(axis)); }
-Eigen::Vector3d axisOf(const VadopGridBroadPhase& bp, uint32_t axis) { return bp.axisDirection(axis); }
+Eigen::Vector3d axisOf(const VadopGridBroadPhase& bp, uint32_t axis) { return BroadPhaseTestAccess::axisDirection(bp, axis); }
 
 template <class BP>
 void checkIntervalsBound(const BP& bp, BodyId id, double t0, double t1) {
   const Shape& s = bp.shape(id);
   const Motion& m = bp.motion(id);
-  for (const auto& span : bp.volume(id)) {
+  for (const auto& span : BroadPhaseTestAccess::volume(bp, id)) {
     const Eigen::Vector3d a = axisOf(bp, span.axis);
     for (int k = 0; k <= 16; ++k) {
       const double t = t0 + (t1 - t0) * k / 16.0;
@@ -174,7 +175,7 @@ void checkZone(const BP& bp, BodyId id, double frame) {
   const bool slow = !(speed * frame >= 0.05 * bp.shape(id).bounding_radius) || speed == 0.0;
   const Eigen::Vector3d u = slow ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d(m.linear_velocity / speed);
   std::set<uint32_t> used;
-  for (const auto& s : bp.volume(id)) used.insert(s.axis);
+  for (const auto& s : BroadPhaseTestAccess::volume(bp, id)) used.insert(s.axis);
   for (int k = 0; k < bp.pool().size(); ++k) {
     const double c = std::abs(u.dot(bp.pool().axis(k)));
     if (c <= std::sin(bp.phi()) - 1e-9) ASSERT_TRUE(used.count(k)) << "body " << id << " misses zone axis " << k;
@@ -397,9 +398,9 @@ TEST(BroadPhase, VelocityAlignmentKeepsProjectionsStill) {
                                                        Eigen::Vector3d::Zero()));
   const double dt = 1.0 / 30.0;
   bp.update(0, dt);
-  const auto first = bp.volume(id);
+  const auto first = BroadPhaseTestAccess::volume(bp, id);
   bp.update(dt, 2 * dt);
-  const auto second = bp.volume(id);
+  const auto second = BroadPhaseTestAccess::volume(bp, id);
   ASSERT_EQ(first.size(), second.size());
   ASSERT_GT(first.size(), 0u);
   const double bound = 30.0 * dt * std::sin(bp.phi() + c.hysteresis_deg * kPi / 180.0) + 1e-9;
@@ -578,7 +579,7 @@ TEST(VadopGrid, LazyIntervalsReportTheUpdatesVolumeAfterSetMotion) {
       eager.setMotion(id, m);
     }
     for (BodyId id : ids) {
-      const auto a = lazy.volume(id), b = eager.volume(id);
+      const auto a = BroadPhaseTestAccess::volume(lazy, id), b = BroadPhaseTestAccess::volume(eager, id);
       ASSERT_EQ(a.size(), b.size()) << "body " << id << " frame " << f;
       for (size_t k = 0; k < a.size(); ++k) {
         ASSERT_EQ(a[k].axis, b[k].axis);
@@ -626,9 +627,9 @@ TEST(VadopGrid, BadInputThrowsAndChangesNothing) {
   EXPECT_THROW(bp.add(makeSphere(1), nan), InvalidArgument);
   EXPECT_THROW(bp.setMotion(a, nan), InvalidArgument);
   EXPECT_THROW(bp.remove(77), InvalidArgument);
-  EXPECT_THROW(bp.volume(77), InvalidArgument);
+  EXPECT_THROW(BroadPhaseTestAccess::volume(bp, 77), InvalidArgument);
   EXPECT_THROW(bp.update(1.0, 0.5), InvalidArgument);
-  EXPECT_THROW(bp.axisDirection(32 + 3), InvalidArgument);
+  EXPECT_THROW(BroadPhaseTestAccess::axisDirection(bp, 32 + 3), InvalidArgument);
   EXPECT_EQ(bp.size(), 2u);
   bp.update(0, 0.1);
   EXPECT_EQ(bp.pairs(), before);
@@ -655,9 +656,9 @@ TEST(VadopGrid, IdsAreReusedAndRemovedBodiesVanish) {
   EXPECT_EQ(bp.pairs().size(), 10u);
   bp.remove(3);
   bp.remove(1);
-  EXPECT_TRUE(bp.volume(0).size() > 3u);
+  EXPECT_TRUE(BroadPhaseTestAccess::volume(bp, 0).size() > 3u);
   EXPECT_EQ(bp.add(makeSphere(1), still), 1u);
-  EXPECT_TRUE(bp.volume(1).empty());  // added since the last update
+  EXPECT_TRUE(BroadPhaseTestAccess::volume(bp, 1).empty());  // added since the last update
   bp.update(0.1, 0.2);
   EXPECT_EQ(bp.pairs().size(), 6u);  // 4 bodies at the origin
   for (const Pair& p : bp.pairs()) EXPECT_TRUE(p.a != 3 && p.b != 3);

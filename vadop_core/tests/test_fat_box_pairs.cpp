@@ -1,7 +1,7 @@
 // FatBoxPairs against a brute-force double loop: after any sequence of updates and removals,
 // each body's partners are exactly the bodies (in the grid) whose boxes overlap its own.
 #include "vadop/error.h"
-#include "vadop/fat_box_pairs.h"
+#include "fat_box_pairs.h"  // internal (vadop_core/src)
 
 #include <gtest/gtest.h>
 

@@ -7,6 +7,7 @@
 #include "vadop/error.h"
 #include "vadop/limits.h"
 #include "vadop/time_of_impact.h"
+#include "advance_step.h"  // internal (vadop_core/src): the swept-volume certificate
 
 #include <gtest/gtest.h>
 

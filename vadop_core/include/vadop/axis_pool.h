@@ -36,8 +36,4 @@ class AxisPool {
 // Throws vadop::InvalidArgument when fewer than 3 axes are given, any is not finite or zero.
 double coveringRadius(const std::vector<Eigen::Vector3d>& axes);
 
-// Baseline used by the tests: m axes from a plain Fibonacci (golden-angle) lattice on the
-// upper hemisphere, unoptimised.
-std::vector<Eigen::Vector3d> fibonacciAxes(int m);
-
 }  // namespace vadop

@@ -61,10 +61,9 @@ class BroadPhase {
   // Hooks called after the base class has validated the call and updated bodies_.
   virtual void onAdd(BodyId id) = 0;
   virtual void onRemove(BodyId id) = 0;  // bodies_[id] still holds the shape and motion
+  // Called after validation, before bodies_[id].motion is replaced: state derived from the old
+  // motion can still be computed, and a throw leaves the motion as it was.
   virtual void onSetMotion(BodyId id) = 0;
-  // Called after validation, before bodies_[id].motion is replaced (state that derives from the
-  // old motion can still be computed).
-  virtual void onMotionChanging(BodyId) {}
   virtual void computePairs(double t0, double t1, std::vector<Pair>& out) = 0;
   // The query after validation: append the candidates of `shape` moving with `motion` over
   // [t0, t1], excluding `self` (the querying body, or kNoBody), in any order; the base class

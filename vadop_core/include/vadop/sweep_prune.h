@@ -39,9 +39,6 @@ class SweepPruneBroadPhase : public BroadPhase {
     uint32_t axis;
     Interval interval;
   };
-  // The body's volume of the last update: its axes (ascending) and intervals. Empty for a
-  // body added since.
-  std::vector<AxisSpan> volume(BodyId id) const;
 
   struct Stats {
     size_t endpoints = 0;      // in all lists
@@ -60,6 +57,11 @@ class SweepPruneBroadPhase : public BroadPhase {
   void computePairs(double t0, double t1, std::vector<Pair>& out) override;
 
  private:
+  friend struct BroadPhaseTestAccess;  // the tests' view of the volumes (tests/broad_phase_access.h)
+  // The body's volume of the last update: its axes (ascending) and intervals. Empty for a
+  // body added since.
+  std::vector<AxisSpan> volume(BodyId id) const;
+
   SweepPruneBroadPhase(std::unique_ptr<AxisPool> pool, const VadopConfig& config, bool aligned);
 
   static constexpr uint32_t kNoAxis = ~uint32_t{0};

@@ -13,7 +13,6 @@
 
 #include "vadop/axis_pool.h"
 #include "vadop/broad_phase.h"
-#include "vadop/fat_box_pairs.h"
 #include "vadop/sweep_prune.h"
 #include "vadop/vadop.h"
 
@@ -22,6 +21,8 @@
 #include <vector>
 
 namespace vadop {
+
+class FatBoxPairs;  // internal (src/fat_box_pairs.h)
 
 class VadopGridBroadPhase : public BroadPhase {
  public:
@@ -35,6 +36,7 @@ class VadopGridBroadPhase : public BroadPhase {
   static constexpr double kDefaultIncremental = 0.25;
   explicit VadopGridBroadPhase(const VadopConfig& config, double cell_size = 0.0,
                                double incremental = kDefaultIncremental);
+  ~VadopGridBroadPhase() override;
 
   // The plain uniform grid of swept AABBs ("grid"): the same cells, cell-size rule and
   // incremental mode without velocity-aligned axes, so a pair is a candidate iff the swept
@@ -52,12 +54,6 @@ class VadopGridBroadPhase : public BroadPhase {
   bool velocityAligned() const { return pool_ != nullptr; }
 
   using AxisSpan = SweepPruneBroadPhase::AxisSpan;
-  // The body's volume of the last update: its pool axes (ascending) with their intervals,
-  // followed by the swept AABB as three spans on the "axes" pool().size() + 0, 1, 2 (x, y, z),
-  // which every body has. Empty for a body added since.
-  std::vector<AxisSpan> volume(BodyId id) const;
-  // Unit direction of a span's axis (pool axis, or x, y, z past the pool).
-  Eigen::Vector3d axisDirection(uint32_t axis) const;
 
   // Queries (BroadPhase::query) over [t0, t1] within the frame of the last update are answered
   // from that frame's cells: the bodies whose frame boxes overlap the query's swept AABB over
@@ -90,12 +86,18 @@ class VadopGridBroadPhase : public BroadPhase {
   void onAdd(BodyId id) override;
   void onRemove(BodyId id) override;
   void onSetMotion(BodyId id) override;
-  void onMotionChanging(BodyId id) override;
   void computePairs(double t0, double t1, std::vector<Pair>& out) override;
   void queryCandidates(const Shape& shape, const Motion& motion, BodyId self, double t0, double t1,
                        std::vector<BodyId>& out) override;
 
  private:
+  friend struct BroadPhaseTestAccess;  // the tests' view of the volumes (tests/broad_phase_access.h)
+  // The body's volume of the last update: its pool axes (ascending) with their intervals,
+  // followed by the swept AABB as three spans on the "axes" pool().size() + 0, 1, 2 (x, y, z),
+  // which every body has. Empty for a body added since.
+  std::vector<AxisSpan> volume(BodyId id) const;
+  // Unit direction of a span's axis (pool axis, or x, y, z past the pool).
+  Eigen::Vector3d axisDirection(uint32_t axis) const;
   struct BoxOnly {};
   VadopGridBroadPhase(BoxOnly, double cell_size, double incremental);
   void setOptions(double cell_size, double incremental);
@@ -191,7 +193,7 @@ class VadopGridBroadPhase : public BroadPhase {
   // frame where too many bodies left their fat boxes, the full path runs for backoff_ frames
   // (doubling up to 64) before the next attempt: a fast scene pays for few attempts.
   double incremental_ = 0.0;
-  FatBoxPairs fat_;
+  std::unique_ptr<FatBoxPairs> fat_;
   bool fat_valid_ = false;
   int retry_wait_ = 0, backoff_ = 1, streak_ = 0;
   std::vector<BodyId> fat_ids_;

@@ -1,0 +1,60 @@
+// The certified steps of conservative advancement under screw motion, shared by the distance
+// code that computes them (distance.cpp) and timeOfImpact that drives them (time_of_impact.cpp).
+// Internal to the library (not installed): the public entry point is timeOfImpact.
+#pragma once
+
+#include "vadop/distance.h"
+#include "vadop/motion.h"
+
+#include <Eigen/Core>
+
+namespace vadop {
+
+namespace detail {
+
+// One step of conservative advancement, used by timeOfImpact. At time t:
+//  - touching: the gap at t is <= touch_gap (closest holds the contact);
+//  - otherwise `step` in [0, horizon] is certified: gap(t') > advance_gap for every
+//    t' in [t, t + step); clear = true when that holds up to t + horizon (inclusive).
+// The certificate: for a separating direction n at t (per triangle pair for meshes, after a
+// bounding-ball screen), the separation along n -- n fixed in the world, or turning with a,
+// or with b -- is bounded below for all later times by concave functions of the elapsed
+// time (exact for translation; first order exact and a Taylor remainder bound for rotation)
+// and by a linear one (|w x n| times the lever arm); step is where the best bound reaches
+// advance_gap. See separationStep in distance.cpp for the formulas.
+struct AdvanceStep {
+  bool touching = false;
+  bool clear = false;
+  double step = 0.0;
+  DistanceResult closest;  // at t
+};
+
+// Requires 0 <= advance_gap < touch_gap. `hint` (may be null) carries a warm-start
+// direction from one call to the next for convex pairs.
+AdvanceStep advanceStep(const PreparedShape& a, const Motion& ma, const PreparedShape& b,
+                        const Motion& mb, double t, double horizon, double touch_gap,
+                        double advance_gap, Eigen::Vector3d* hint);
+
+// The swept-volume certificate, used by timeOfImpact where rotation limits the steps above.
+// Over [ta, tb] (ta <= tb) each body lies in a convex set: a turning body in its revolution
+// hull -- the cylinder about the axis of its angular velocity through its pivot at ta, whose
+// radius is the largest distance of its core from that axis and whose axial extent is the
+// core's support along +-axis (both unchanged by the turning), rounded by the shape's rounding
+// radius -- Minkowski-summed with the pivot's displacement over [ta, tb]; a body that does not
+// turn in its posed shape (a mesh: the convex hull of its vertices) summed with its
+// displacement; a body that turns by at most 0.5 rad over [ta, tb], in its shape posed at ta
+// and grown by that angle times its largest distance from the pivot, plus the displacement.
+// lower_bound is a certified lower bound of the gap between the two sets (the
+// separation along a GJK direction, computed with exact support functions, less a rounding
+// allowance), hence of the gap between the bodies at every t in [ta, tb]; -inf when the sets
+// overlap. The GJK may stop as soon as the bound exceeds stop_above (+inf: run to accuracy).
+struct SweptBound {
+  double lower_bound = 0.0;
+  int iterations = 0;  // GJK iterations
+};
+SweptBound sweptLowerBound(const PreparedShape& a, const Motion& ma, const PreparedShape& b,
+                           const Motion& mb, double ta, double tb, double stop_above);
+
+}  // namespace detail
+
+}  // namespace vadop
