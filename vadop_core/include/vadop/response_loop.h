@@ -1,0 +1,95 @@
+// The response loop of continuous detection: bodies advance over [t0, t1] with their impacts
+// processed in time order. The broad phase finds the interval's candidate pairs, the narrow
+// phase their first contacts, and the earliest pending impact goes to a user callback, which
+// may give any body a new motion; exactly the bodies whose motion changed lose their pending
+// impacts and are re-predicted for the rest of the interval from the broad phase's own
+// single-body queries (BroadPhase::query), until no impact is left before t1.
+//
+// It does not respond by itself (no velocity solver, no masses): the callback decides (elastic
+// bounce, stop, nothing). A contact is reported once: after the impact of (a, b) at time t, a
+// re-prediction of (a, b) whose first contact is at or before t (they still touch) reports
+// nothing, so touching bodies that separate, or that the callback leaves touching, cannot loop;
+// the pair is predicted again when one of the two next changes motion.
+// Not thread-safe. Bad input throws vadop::InvalidArgument and changes nothing.
+#pragma once
+
+#include "vadop/broad_phase.h"
+#include "vadop/distance.h"
+#include "vadop/impact_queue.h"
+#include "vadop/motion.h"
+#include "vadop/shapes.h"
+#include "vadop/time_of_impact.h"
+
+#include <cstddef>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <unordered_map>
+#include <vector>
+
+namespace vadop {
+
+class ResponseLoop {
+ public:
+  // The broad phase must be empty; the loop owns it. Throws for a null broad phase, a
+  // non-empty one, or bad narrow-phase options.
+  explicit ResponseLoop(std::unique_ptr<BroadPhase> broad_phase, const ToiOptions& toi = {});
+
+  // The shape is padded by the narrow phase's tolerance for the broad phase (as World does).
+  BodyId add(const Shape& shape, const Motion& motion);
+  void remove(BodyId id);
+  void setMotion(BodyId id, const Motion& motion);
+  const Motion& motion(BodyId id) const { return bp_->motion(id); }
+  bool contains(BodyId id) const { return bp_->contains(id); }
+  size_t size() const { return bp_->size(); }
+  const BroadPhase& broadPhase() const { return *bp_; }
+
+  struct Contact {
+    BodyId a = 0, b = 0;  // a < b; impact.normal points from a to b
+    Impact impact;
+  };
+  // What the callback may do: read and change motions (a change takes effect at once and
+  // re-predicts that body from the impact's time). Valid only during the call.
+  class Response {
+   public:
+    const Motion& motion(BodyId id) const { return loop_.motion(id); }
+    void setMotion(BodyId id, const Motion& motion);  // throws as ResponseLoop::setMotion
+    double time() const { return time_; }
+
+   private:
+    friend class ResponseLoop;
+    Response(ResponseLoop& loop, double time) : loop_(loop), time_(time) {}
+    ResponseLoop& loop_;
+    double time_;
+    std::vector<BodyId> changed_;
+  };
+  using Callback = std::function<void(const Contact&, Response&)>;
+
+  struct Stats {
+    size_t candidates = 0;   // broad-phase pairs of the interval
+    size_t narrow = 0;       // narrow-phase calls (candidates and re-predictions)
+    size_t contacts = 0;     // callbacks made
+    size_t requeried = 0;    // bodies re-predicted after a change
+    size_t undecided = 0;    // pairs the narrow phase could not decide within its budget
+  };
+  // Advances over [t0, t1] (finite, t0 <= t1): every contact in it, in time order (ties by
+  // the pair's ids), goes to `on_contact`. Returns the interval's statistics. When the
+  // callback throws, the loop stops there: every body keeps the motion last set (the changes
+  // made by that call included), nothing is pending, and the exception propagates; a later
+  // advance starts afresh.
+  Stats advance(double t0, double t1, const Callback& on_contact);
+
+ private:
+  void predict(BodyId a, BodyId b, double from, double t1);
+  bool reportedAt(BodyId a, BodyId b, double t) const;
+
+  std::unique_ptr<BroadPhase> bp_;
+  ToiOptions toi_;
+  std::vector<std::optional<PreparedShape>> prepared_;  // by BodyId
+  ImpactQueue queue_;
+  // The last time each pair was reported (key a << 32 | b), cleared by every advance.
+  std::unordered_map<uint64_t, double> reported_;
+  Stats stats_;
+};
+
+}  // namespace vadop

@@ -1,0 +1,124 @@
+#include "vadop/response_loop.h"
+
+#include "vadop/error.h"
+#include "vadop/limits.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+namespace vadop {
+namespace {
+
+uint64_t pairKey(BodyId a, BodyId b) { return (static_cast<uint64_t>(a) << 32) | b; }
+
+}  // namespace
+
+ResponseLoop::ResponseLoop(std::unique_ptr<BroadPhase> broad_phase, const ToiOptions& toi)
+    : bp_(std::move(broad_phase)), toi_(toi) {
+  if (!bp_) throw InvalidArgument("ResponseLoop: the broad phase is null");
+  if (bp_->size() != 0) throw InvalidArgument("ResponseLoop: the broad phase must be empty");
+  if (!(std::isfinite(toi.tolerance) && toi.tolerance > 0.0)) {
+    throw InvalidArgument("ResponseLoop: toi.tolerance must be finite and > 0, got " + formatNumber(toi.tolerance));
+  }
+  if (toi.max_iterations <= 0) {
+    throw InvalidArgument("ResponseLoop: toi.max_iterations must be > 0, got " + std::to_string(toi.max_iterations));
+  }
+}
+
+BodyId ResponseLoop::add(const Shape& shape, const Motion& motion) {
+  validateShape(shape, "ResponseLoop::add: shape");
+  validateMotion(motion, "ResponseLoop::add: motion");
+  PreparedShape prepared(shape);
+  // The broad phase sees the shape padded by the tolerance: every pair the narrow phase can
+  // report (gap <= tolerance) is then a candidate.
+  const Shape padded = inflate(shape, toi_.tolerance);
+  if (prepared_.size() == prepared_.capacity()) prepared_.reserve(std::max<size_t>(16, 2 * prepared_.capacity()));
+  const BodyId id = bp_->add(padded, motion);  // strong guarantee; nothing below throws
+  if (id >= prepared_.size()) prepared_.resize(id + 1);
+  prepared_[id].emplace(std::move(prepared));
+  return id;
+}
+
+void ResponseLoop::remove(BodyId id) {
+  bp_->remove(id);  // throws for an unknown id
+  prepared_[id].reset();
+}
+
+void ResponseLoop::setMotion(BodyId id, const Motion& motion) { bp_->setMotion(id, motion); }
+
+void ResponseLoop::Response::setMotion(BodyId id, const Motion& motion) {
+  loop_.setMotion(id, motion);
+  changed_.push_back(id);
+}
+
+bool ResponseLoop::reportedAt(BodyId a, BodyId b, double t) const {
+  const auto it = reported_.find(pairKey(a, b));
+  return it != reported_.end() && t <= it->second;
+}
+
+void ResponseLoop::predict(BodyId a, BodyId b, double from, double t1) {
+  if (a > b) std::swap(a, b);
+  ++stats_.narrow;
+  const Impact hit = timeOfImpact(*prepared_[a], bp_->motion(a), *prepared_[b], bp_->motion(b), from, t1, toi_);
+  if (hit.undecided) ++stats_.undecided;  // not a contact (see Impact::undecided)
+  if (!hit.hit || reportedAt(a, b, hit.time)) return;
+  queue_.push(a, b, hit);
+}
+
+ResponseLoop::Stats ResponseLoop::advance(double t0, double t1, const Callback& on_contact) {
+  if (!std::isfinite(t0) || !std::isfinite(t1) || t1 < t0) {
+    throw InvalidArgument("ResponseLoop::advance: need finite t0 <= t1, got [" + formatNumber(t0) + ", " +
+                          formatNumber(t1) + "]");
+  }
+  for (const auto& [value, what] : {std::pair<double, const char*>{t0, "advance: t0"}, {t1, "advance: t1"}}) {
+    const std::string error = rangeError(value, kMaxTime, what, "s");
+    if (!error.empty()) throw InvalidArgument(error);
+  }
+  if (!on_contact) throw InvalidArgument("ResponseLoop::advance: the callback is empty");
+  stats_ = Stats{};
+  queue_.clear();
+  reported_.clear();
+  // Whatever happens below (a throwing callback, a throwing narrow phase), nothing stays
+  // pending: the next advance starts from the motions as they are.
+  struct Reset {
+    ResponseLoop& loop;
+    ~Reset() {
+      loop.queue_.clear();
+      loop.reported_.clear();
+    }
+  } reset{*this};
+
+  bp_->update(t0, t1);
+  stats_.candidates = bp_->pairs().size();
+  for (const Pair& p : bp_->pairs()) predict(p.a, p.b, t0, t1);
+
+  std::vector<BodyId> found;
+  while (!queue_.empty()) {
+    const QueuedImpact q = queue_.pop();
+    const double tc = q.impact.time;
+    const Contact contact{static_cast<BodyId>(q.a), static_cast<BodyId>(q.b), q.impact};
+    reported_[pairKey(contact.a, contact.b)] = tc;
+    ++stats_.contacts;
+    Response response(*this, tc);
+    on_contact(contact, response);
+    std::vector<BodyId>& changed = response.changed_;
+    std::sort(changed.begin(), changed.end());
+    changed.erase(std::unique(changed.begin(), changed.end()), changed.end());
+    // Their pending impacts are stale; each is re-predicted from tc against what it can reach
+    // now (the broad phase's query, with the new motions), each pair once.
+    for (BodyId id : changed) queue_.invalidate(id);
+    for (BodyId id : changed) {
+      if (!bp_->contains(id)) continue;
+      ++stats_.requeried;
+      bp_->query(id, tc, t1, found);
+      for (BodyId other : found) {
+        if (other < id && std::binary_search(changed.begin(), changed.end(), other)) continue;
+        predict(id, other, tc, t1);
+      }
+    }
+  }
+  return stats_;
+}
+
+}  // namespace vadop

@@ -1,0 +1,264 @@
+// ResponseLoop (response_loop.h): contacts in time order with responses that change motions.
+//  - a Newton's cradle, on every engine: the B-C contact exists only after A's response;
+//  - random sphere scenes with elastic responses against an independent brute-force event loop
+//    (every pair re-tested after every response): the same contacts, in the same order, at the
+//    same times, and the same final motions;
+//  - callbacks that change bodies not in the contact, a throwing callback, bad input.
+#include "vadop/error.h"
+#include "vadop/response_loop.h"
+#include "vadop/sweep_prune.h"
+#include "vadop/vadop_grid.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace vadop {
+namespace {
+
+Motion moving(const Eigen::Vector3d& p, const Eigen::Vector3d& v, double t_ref = 0.0) {
+  return makeMotion(p, Eigen::Quaterniond::Identity(), v, Eigen::Vector3d::Zero(), t_ref);
+}
+
+std::vector<std::unique_ptr<BroadPhase>> engines() {
+  std::vector<std::unique_ptr<BroadPhase>> e;
+  e.push_back(std::make_unique<BruteForceBroadPhase>());
+  e.push_back(SweepPruneBroadPhase::makeEveryAxis(3));
+  e.push_back(std::make_unique<SweepPruneBroadPhase>(VadopConfig{}));
+  e.push_back(std::make_unique<VadopGridBroadPhase>(VadopConfig{}));
+  e.push_back(VadopGridBroadPhase::makeBoxOnly());
+  return e;
+}
+
+// Equal masses, elastic: exchange the velocity components along the normal when approaching.
+// Returns the new motions of a and b from time t.
+std::pair<Motion, Motion> elastic(const Motion& ma, const Motion& mb, const Eigen::Vector3d& n, double t) {
+  const Eigen::Vector3d va = ma.linear_velocity, vb = mb.linear_velocity;
+  const double closing = (va - vb).dot(n);
+  if (closing <= 0.0) return {ma, mb};
+  const Eigen::Vector3d dv = closing * n;
+  return {moving(ma.positionAt(t), va - dv, t), moving(mb.positionAt(t), vb + dv, t)};
+}
+
+TEST(ResponseLoop, NewtonsCradleOnEveryEngine) {
+  // A moves at 1 m/s towards B and C at rest: A stops at B (t = 2), B stops at C (t = 4). B-C
+  // is no impact at the start: only the re-prediction after A's response finds it.
+  for (auto& bp : engines()) {
+    const std::string name = bp->name();
+    ResponseLoop loop(std::move(bp));
+    const BodyId a = loop.add(makeSphere(0.5), moving({0, 0, 0}, {1, 0, 0}));
+    const BodyId b = loop.add(makeSphere(0.5), moving({3, 0, 0}, {0, 0, 0}));
+    const BodyId c = loop.add(makeSphere(0.5), moving({6, 0, 0}, {0, 0, 0}));
+    std::vector<std::pair<BodyId, BodyId>> pairs;
+    std::vector<double> times;
+    const auto stats = loop.advance(0.0, 10.0, [&](const ResponseLoop::Contact& k, ResponseLoop::Response& r) {
+      pairs.push_back({k.a, k.b});
+      times.push_back(k.impact.time);
+      EXPECT_EQ(r.time(), k.impact.time);
+      const auto [na, nb] = elastic(r.motion(k.a), r.motion(k.b), k.impact.normal, k.impact.time);
+      r.setMotion(k.a, na);
+      r.setMotion(k.b, nb);
+    });
+    EXPECT_EQ(pairs, (std::vector<std::pair<BodyId, BodyId>>{{a, b}, {b, c}})) << name;
+    ASSERT_EQ(times.size(), 2u) << name;
+    EXPECT_NEAR(times[0], 2.0, 1e-6) << name;
+    EXPECT_NEAR(times[1], 4.0, 1e-6) << name;
+    EXPECT_NEAR(loop.motion(a).linear_velocity.norm(), 0.0, 1e-12) << name;
+    EXPECT_NEAR(loop.motion(b).linear_velocity.norm(), 0.0, 1e-12) << name;
+    EXPECT_NEAR(loop.motion(c).linear_velocity.x(), 1.0, 1e-12) << name;
+    EXPECT_EQ(stats.contacts, 2u) << name;
+    EXPECT_EQ(stats.requeried, 4u) << name;  // a and b, then b and c
+  }
+}
+
+struct Logged {
+  BodyId a, b;
+  double time;
+};
+
+// The reference: after every response, every pair is predicted again from the time the later
+// of its two bodies last changed (where the loop predicts it), and the earliest contact not yet
+// reported for that pair is the next one. O(n^2) per contact; shares only timeOfImpact.
+std::vector<Logged> referenceLoop(const std::vector<Shape>& shapes, std::vector<Motion>& motions, double t0,
+                                  double t1) {
+  const size_t n = shapes.size();
+  std::vector<PreparedShape> prepared(shapes.begin(), shapes.end());
+  std::vector<double> changed_at(n, t0);
+  std::vector<std::vector<double>> reported(n, std::vector<double>(n, -INFINITY));
+  std::vector<Logged> log;
+  for (;;) {
+    bool found = false;
+    Logged best{0, 0, INFINITY};
+    Impact best_hit;
+    for (BodyId a = 0; a < n; ++a) {
+      for (BodyId b = a + 1; b < n; ++b) {
+        const double from = std::max(changed_at[a], changed_at[b]);
+        const Impact hit = timeOfImpact(prepared[a], motions[a], prepared[b], motions[b], from, t1);
+        if (!hit.hit || hit.time <= reported[a][b]) continue;
+        if (hit.time < best.time) {  // ties: the first pair in (a, b) order, as the queue
+          best = {a, b, hit.time};
+          best_hit = hit;
+          found = true;
+        }
+      }
+    }
+    if (!found) return log;
+    log.push_back(best);
+    reported[best.a][best.b] = best.time;
+    const auto [na, nb] = elastic(motions[best.a], motions[best.b], best_hit.normal, best.time);
+    motions[best.a] = na;
+    motions[best.b] = nb;
+    changed_at[best.a] = changed_at[best.b] = best.time;
+    if (log.size() > 10000) throw std::runtime_error("reference does not terminate");
+  }
+}
+
+TEST(ResponseLoop, MatchesABruteForceEventLoopOnRandomScenes) {
+  size_t total = 0;
+  for (uint64_t seed = 1; seed <= 4; ++seed) {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> pos(-2.5, 2.5), vel(-2.0, 2.0), rad(0.2, 0.4);
+    std::vector<Shape> shapes;
+    std::vector<Motion> motions;
+    while (shapes.size() < 60) {  // non-overlapping start
+      const Eigen::Vector3d p(pos(rng), pos(rng), pos(rng));
+      const double r = rad(rng);
+      bool free = true;
+      for (size_t i = 0; i < shapes.size(); ++i) {
+        free = free && (motions[i].position - p).norm() > r + shapes[i].bounding_radius + 0.01;
+      }
+      if (!free) continue;
+      shapes.push_back(makeSphere(r));
+      motions.push_back(moving(p, Eigen::Vector3d(vel(rng), vel(rng), vel(rng))));
+    }
+    std::vector<Motion> ref_motions = motions;
+    const std::vector<Logged> want = referenceLoop(shapes, ref_motions, 0.0, 3.0);
+    ASSERT_GT(want.size(), 10u) << "seed " << seed << ": too few contacts";
+    for (auto& bp : engines()) {
+      const std::string name = bp->name();
+      ResponseLoop loop(std::move(bp));
+      for (size_t i = 0; i < shapes.size(); ++i) ASSERT_EQ(loop.add(shapes[i], motions[i]), i);
+      std::vector<Logged> got;
+      loop.advance(0.0, 3.0, [&](const ResponseLoop::Contact& k, ResponseLoop::Response& r) {
+        got.push_back({k.a, k.b, k.impact.time});
+        const auto [na, nb] = elastic(r.motion(k.a), r.motion(k.b), k.impact.normal, k.impact.time);
+        r.setMotion(k.a, na);
+        r.setMotion(k.b, nb);
+      });
+      ASSERT_EQ(got.size(), want.size()) << name << " seed " << seed;
+      for (size_t i = 0; i < got.size(); ++i) {
+        EXPECT_EQ(got[i].a, want[i].a) << name << " seed " << seed << " contact " << i;
+        EXPECT_EQ(got[i].b, want[i].b) << name << " seed " << seed << " contact " << i;
+        EXPECT_EQ(got[i].time, want[i].time) << name << " seed " << seed << " contact " << i;
+      }
+      for (BodyId i = 0; i < shapes.size(); ++i) {
+        EXPECT_EQ(loop.motion(i).linear_velocity, ref_motions[i].linear_velocity) << name << " body " << i;
+      }
+    }
+    total += want.size();
+  }
+  std::printf("%zu contacts compared per engine\n", total);
+}
+
+TEST(ResponseLoop, CallbacksMayChangeBodiesOutsideTheContact) {
+  // A-B touch at t = 1. C heads for D (contact at t = 3); the response to A-B stops C, so C-D
+  // never happens; it also launches E towards F (contact at t = 2 + 1 = ...), which must be found.
+  ResponseLoop loop(VadopGridBroadPhase::makeBoxOnly());
+  const BodyId a = loop.add(makeSphere(0.5), moving({0, 0, 0}, {1, 0, 0}));
+  const BodyId b = loop.add(makeSphere(0.5), moving({2, 0, 0}, {0, 0, 0}));
+  const BodyId c = loop.add(makeSphere(0.5), moving({0, 10, 0}, {1, 0, 0}));
+  const BodyId d = loop.add(makeSphere(0.5), moving({4, 10, 0}, {0, 0, 0}));
+  const BodyId e = loop.add(makeSphere(0.5), moving({0, 20, 0}, {0, 0, 0}));
+  const BodyId f = loop.add(makeSphere(0.5), moving({3, 20, 0}, {0, 0, 0}));
+  std::vector<std::pair<BodyId, BodyId>> pairs;
+  std::vector<double> times;
+  loop.advance(0.0, 5.0, [&](const ResponseLoop::Contact& k, ResponseLoop::Response& r) {
+    pairs.push_back({k.a, k.b});
+    times.push_back(k.impact.time);
+    if (k.a == a && k.b == b) {
+      r.setMotion(c, moving(r.motion(c).positionAt(r.time()), {0, 0, 0}, r.time()));
+      r.setMotion(e, moving({0, 20, 0}, {2, 0, 0}, r.time()));
+    }
+  });
+  EXPECT_EQ(pairs, (std::vector<std::pair<BodyId, BodyId>>{{a, b}, {e, f}}));
+  ASSERT_EQ(times.size(), 2u);
+  EXPECT_NEAR(times[0], 1.0, 1e-6);
+  EXPECT_NEAR(times[1], 2.0, 1e-6);  // E starts at t = 1, gap 2 m at 2 m/s
+  EXPECT_EQ(loop.motion(c).linear_velocity, Eigen::Vector3d::Zero());
+  (void)d;
+}
+
+TEST(ResponseLoop, AThrowingCallbackStopsTheLoopWithMotionsAsLastSet) {
+  ResponseLoop loop(std::make_unique<VadopGridBroadPhase>(VadopConfig{}));
+  const BodyId a = loop.add(makeSphere(0.5), moving({0, 0, 0}, {1, 0, 0}));
+  const BodyId b = loop.add(makeSphere(0.5), moving({3, 0, 0}, {0, 0, 0}));
+  const BodyId c = loop.add(makeSphere(0.5), moving({6, 0, 0}, {0, 0, 0}));
+  int calls = 0;
+  auto cradle = [&](const ResponseLoop::Contact& k, ResponseLoop::Response& r) {
+    ++calls;
+    const auto [na, nb] = elastic(r.motion(k.a), r.motion(k.b), k.impact.normal, k.impact.time);
+    r.setMotion(k.a, na);
+    r.setMotion(k.b, nb);
+    if (calls == 1) throw std::runtime_error("response failed");
+  };
+  EXPECT_THROW(loop.advance(0.0, 10.0, cradle), std::runtime_error);
+  // The response made before the throw stands: A stopped at B, B moving.
+  EXPECT_NEAR(loop.motion(a).linear_velocity.norm(), 0.0, 1e-12);
+  EXPECT_NEAR(loop.motion(b).linear_velocity.x(), 1.0, 1e-12);
+  EXPECT_EQ(loop.motion(c).linear_velocity, Eigen::Vector3d::Zero());
+  // A later advance starts afresh from those motions: A and B still touch at its start (a
+  // contact at t0, separating: no response), then B reaches C at t = 4.
+  std::vector<std::pair<BodyId, BodyId>> pairs;
+  std::vector<double> times;
+  loop.advance(2.0, 10.0, [&](const ResponseLoop::Contact& k, ResponseLoop::Response& r) {
+    pairs.push_back({k.a, k.b});
+    times.push_back(k.impact.time);
+    cradle(k, r);
+  });
+  EXPECT_EQ(pairs, (std::vector<std::pair<BodyId, BodyId>>{{a, b}, {b, c}}));
+  ASSERT_EQ(times.size(), 2u);
+  EXPECT_EQ(times[0], 2.0);
+  EXPECT_NEAR(times[1], 4.0, 1e-6);
+  EXPECT_NEAR(loop.motion(c).linear_velocity.x(), 1.0, 1e-12);
+}
+
+TEST(ResponseLoop, BadInputThrowsAndChangesNothing) {
+  EXPECT_THROW(ResponseLoop(nullptr), InvalidArgument);
+  auto used = std::make_unique<BruteForceBroadPhase>();
+  used->add(makeSphere(1.0), moving({0, 0, 0}, {0, 0, 0}));
+  EXPECT_THROW(ResponseLoop(std::move(used)), InvalidArgument);
+  ToiOptions bad;
+  bad.tolerance = 0.0;
+  EXPECT_THROW(ResponseLoop(std::make_unique<BruteForceBroadPhase>(), bad), InvalidArgument);
+
+  ResponseLoop loop(VadopGridBroadPhase::makeBoxOnly());
+  const BodyId a = loop.add(makeSphere(0.5), moving({0, 0, 0}, {1, 0, 0}));
+  Shape nan_shape = makeSphere(1.0);
+  nan_shape.bounding_radius = std::nan("");
+  EXPECT_THROW(loop.add(nan_shape, moving({0, 0, 0}, {0, 0, 0})), InvalidArgument);
+  Motion nan_motion = moving({0, 0, 0}, {0, 0, 0});
+  nan_motion.position.x() = std::nan("");
+  EXPECT_THROW(loop.add(makeSphere(1.0), nan_motion), InvalidArgument);
+  EXPECT_THROW(loop.setMotion(a, nan_motion), InvalidArgument);
+  EXPECT_THROW(loop.setMotion(7, moving({0, 0, 0}, {0, 0, 0})), InvalidArgument);
+  EXPECT_THROW(loop.remove(7), InvalidArgument);
+  auto none = [](const ResponseLoop::Contact&, ResponseLoop::Response&) {};
+  EXPECT_THROW(loop.advance(1.0, 0.0, none), InvalidArgument);
+  EXPECT_THROW(loop.advance(0.0, std::nan(""), none), InvalidArgument);
+  EXPECT_THROW(loop.advance(0.0, 1.0, ResponseLoop::Callback{}), InvalidArgument);
+  EXPECT_EQ(loop.size(), 1u);
+  EXPECT_EQ(loop.motion(a).linear_velocity, Eigen::Vector3d(1, 0, 0));
+  // A callback setting a bad motion: the exception propagates, the motion stays.
+  const BodyId b = loop.add(makeSphere(0.5), moving({2, 0, 0}, {0, 0, 0}));
+  EXPECT_THROW(loop.advance(0.0, 5.0,
+                            [&](const ResponseLoop::Contact&, ResponseLoop::Response& r) { r.setMotion(b, nan_motion); }),
+               InvalidArgument);
+  EXPECT_EQ(loop.motion(b).linear_velocity, Eigen::Vector3d::Zero());
+  EXPECT_EQ(loop.motion(b).position, Eigen::Vector3d(2, 0, 0));
+}
+
+}  // namespace
+}  // namespace vadop
