@@ -241,9 +241,9 @@ def main():
 
 def write_summary(rows, labels, ns, speeds, path):
     """Markdown tables: per (n, speed) every method's times, candidates, impacts, misses, memory;
-    then VADOP (its best m) against the best continuous peer."""
+    then VADOP (its best m) against the best continuous peer (the plain grid included)."""
     order = [l for l, _ in labels]
-    peers = {"sap", "fcl_refit", "fcl_rebuild", "bullet"}
+    peers = {"sap", "grid", "fcl_refit", "fcl_rebuild", "bullet"}
     lines = ["# vadop_bench summary", "",
              "cpu = median CPU time of the thread per frame (p95 in parentheses); wall = median wall-clock time per frame (p95 in "
              "parentheses); c_u/c_s/c_t/c_r = medians of each part (wall); cand = candidate pairs per frame; "
