@@ -38,6 +38,21 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // Cell coordinates stay well inside int32.
 constexpr double kMaxCellCoordinate = 1 << 29;
 
+uint64_t cellHash(int32_t x, int32_t y, int32_t z) {
+  return detail::mixCellKey((static_cast<uint64_t>(static_cast<uint32_t>(x)) * 0x9e3779b1u) ^
+                            (static_cast<uint64_t>(static_cast<uint32_t>(y)) << 21) ^
+                            (static_cast<uint64_t>(static_cast<uint32_t>(z)) << 42));
+}
+
+// The swept AABB (lo x y z, hi x y z) of a swept body: its intervals on the coordinate axes.
+void sweptBox(const SweptBody& swept, double* box) {
+  for (int k = 0; k < 3; ++k) {
+    const Interval iv = swept.project(Eigen::Vector3d::Unit(k));
+    box[k] = iv.lo;
+    box[3 + k] = iv.hi;
+  }
+}
+
 }  // namespace
 
 VadopGridBroadPhase::VadopGridBroadPhase(const VadopConfig& config, double cell_size, double incremental)
@@ -167,9 +182,7 @@ void VadopGridBroadPhase::onRemove(BodyId id) {
 }
 
 uint32_t VadopGridBroadPhase::cellIndex(const Cell& c) {
-  const uint64_t h = detail::mixCellKey((static_cast<uint64_t>(static_cast<uint32_t>(c.x)) * 0x9e3779b1u) ^
-                         (static_cast<uint64_t>(static_cast<uint32_t>(c.y)) << 21) ^
-                         (static_cast<uint64_t>(static_cast<uint32_t>(c.z)) << 42));
+  const uint64_t h = cellHash(c.x, c.y, c.z);
   for (size_t i = h & table_mask_;; i = (i + 1) & table_mask_) {
     const uint32_t cell = table_cell_[i];
     if (cell == kEmpty) {
@@ -361,9 +374,7 @@ uint32_t VadopGridBroadPhase::findCell(int32_t x, int32_t y, int32_t z) const {
     return dense_cell_[denseIndex(x, y, z)];
   }
   if (table_cell_.empty()) return kEmpty;
-  const uint64_t h = detail::mixCellKey((static_cast<uint64_t>(static_cast<uint32_t>(x)) * 0x9e3779b1u) ^
-                                        (static_cast<uint64_t>(static_cast<uint32_t>(y)) << 21) ^
-                                        (static_cast<uint64_t>(static_cast<uint32_t>(z)) << 42));
+  const uint64_t h = cellHash(x, y, z);
   for (size_t i = h & table_mask_;; i = (i + 1) & table_mask_) {
     const uint32_t cell = table_cell_[i];
     if (cell == kEmpty) return kEmpty;
@@ -382,14 +393,7 @@ void VadopGridBroadPhase::queryCandidates(const Shape& shape, const Motion& moti
   }
   const auto& b = bodies();
   double q[6];
-  {
-    const SweptBody swept(shape, motion, t0, t1);
-    for (int k = 0; k < 3; ++k) {
-      const Interval iv = swept.project(Eigen::Vector3d::Unit(k));
-      q[k] = iv.lo;
-      q[3 + k] = iv.hi;
-    }
-  }
+  sweptBox(SweptBody(shape, motion, t0, t1), q);
   auto boxesOverlap = [&q](const double* x) {
     return !(x[0] > q[3] || q[0] > x[3] || x[1] > q[4] || q[1] > x[4] || x[2] > q[5] || q[2] > x[5]);
   };
@@ -437,13 +441,8 @@ void VadopGridBroadPhase::queryCandidates(const Shape& shape, const Motion& moti
   // Bodies added or given a new motion since the update: their own swept boxes over [t0, t1].
   for (BodyId id : dirty_) {
     if (id == self || id >= b.size() || !b[id].alive || !dirty_flag_[id]) continue;
-    const SweptBody swept(*b[id].shape, b[id].motion, t0, t1);
     double x[6];
-    for (int k = 0; k < 3; ++k) {
-      const Interval iv = swept.project(Eigen::Vector3d::Unit(k));
-      x[k] = iv.lo;
-      x[3 + k] = iv.hi;
-    }
+    sweptBox(SweptBody(*b[id].shape, b[id].motion, t0, t1), x);
     if (boxesOverlap(x)) out.push_back(id);
   }
 }
@@ -538,12 +537,10 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
     slot_body_[s] = id;
     const SweptBody swept(*b[id].shape, b[id].motion, t0, t1);
     double* box = &box_[6 * s];
+    sweptBox(swept, box);
     for (int k = 0; k < 3; ++k) {
-      const Interval iv = swept.project(Eigen::Vector3d::Unit(k));
-      box[k] = iv.lo;
-      box[3 + k] = iv.hi;
-      world_lo[k] = std::min(world_lo[k], iv.lo);
-      world_hi[k] = std::max(world_hi[k], iv.hi);
+      world_lo[k] = std::min(world_lo[k], box[k]);
+      world_hi[k] = std::max(world_hi[k], box[3 + k]);
     }
     offset_[s] = next_interval;
     uint64_t* bits = &bits_[words_ * s];
