@@ -167,7 +167,7 @@ void VadopGridBroadPhase::onSetMotion(BodyId id) {
 }
 
 void VadopGridBroadPhase::projectSlot(uint32_t s) {
-  Interval* out = &intervals_[offset_[s]];
+  Interval* out = intervals_.data() + offset_[s];
   forEachProjected(s, [&](uint32_t, const Interval& iv) { *out++ = iv; });
   interval_ready_[s] = 1;
 }
@@ -201,8 +201,8 @@ bool VadopGridBroadPhase::overlapOnShared(uint32_t a, uint32_t b) {
   ++stats_.overlap_tests;
   const uint64_t* ba = &bits_[a * words_];
   const uint64_t* bb = &bits_[b * words_];
-  const Interval* ia = &intervals_[offset_[a]];
-  const Interval* ib = &intervals_[offset_[b]];
+  const Interval* ia = intervals_.data() + offset_[a];
+  const Interval* ib = intervals_.data() + offset_[b];
   const uint16_t* ra = &rank_[a * words_];
   const uint16_t* rb = &rank_[b * words_];
   for (size_t w = 0; w < words_; ++w) {
@@ -548,7 +548,7 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
     uint16_t* rank = &rank_[words_ * s];
     for (size_t w = 1; w < words_; ++w) rank[w] = static_cast<uint16_t>(rank[w - 1] + __builtin_popcountll(bits[w - 1]));
     if (!lazy) {
-      Interval* iv = &intervals_[next_interval];
+      Interval* iv = intervals_.data() + next_interval;
       detail::forEachSetBit(bits, words_, [&](uint32_t k) { *iv++ = swept.project(pool_->axis(static_cast<int>(k))); });
     }
     next_interval += rank[words_ - 1] + static_cast<uint32_t>(__builtin_popcountll(bits[words_ - 1]));
