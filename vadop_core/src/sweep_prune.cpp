@@ -1,6 +1,7 @@
 #include "vadop/sweep_prune.h"
 
 #include "vadop/error.h"
+#include "axis_set.h"
 #include "popcount.h"
 
 #include <algorithm>
@@ -97,37 +98,14 @@ void SweepPruneBroadPhase::onRemove(BodyId id) {
 
 
 VADOP_POPCNT_CLONES  // the hottest function of the engine counts bits
-bool SweepPruneBroadPhase::overlapOnShared(BodyId a, BodyId b, uint32_t* first_shared) {
+bool SweepPruneBroadPhase::overlapOnShared(BodyId a, BodyId b) {
   ++stats_.overlap_tests;
   const State& sa = states_[a];
   const State& sb = states_[b];
-  uint32_t first = kNoAxis;
-  for (size_t w = 0; w < sa.axis_bits.size(); ++w) {
-    const uint64_t wa = sa.axis_bits[w], wb = sb.axis_bits[w];
-    for (uint64_t common = wa & wb; common != 0; common &= common - 1) {
-      const int bit = __builtin_ctzll(common);
-      const uint64_t below = (uint64_t{1} << bit) - 1;
-      const Entry& ea = sa.entries[sa.rank[w] + __builtin_popcountll(wa & below)];
-      const Entry& eb = sb.entries[sb.rank[w] + __builtin_popcountll(wb & below)];
-      if (first == kNoAxis) first = ea.axis;
-      if (ea.lo > eb.hi || eb.lo > ea.hi) {
-        if (first_shared) *first_shared = first;
-        return false;
-      }
-    }
-  }
-  if (first_shared) *first_shared = first;
-  // Two bodies that share no axis are a candidate (the paper's rule). With rho <= phi it cannot
-  // happen between two listed bodies; the rule stays for completeness.
-  return true;
-}
-
-uint32_t SweepPruneBroadPhase::firstSharedAxis(const State& a, const State& b) const {
-  for (size_t w = 0; w < a.axis_bits.size(); ++w) {
-    const uint64_t common = a.axis_bits[w] & b.axis_bits[w];
-    if (common != 0) return static_cast<uint32_t>(64 * w + __builtin_ctzll(common));
-  }
-  return kNoAxis;
+  // With rho <= phi two listed bodies always share an axis; sharing none would leave the
+  // boxes to decide (the paper's rule), as overlapOnSharedAxes does.
+  return detail::overlapOnSharedAxes(sa.axis_bits.data(), sa.rank.data(), sa.entries.data(), sb.axis_bits.data(),
+                                     sb.rank.data(), sb.entries.data(), sa.axis_bits.size());
 }
 
 void SweepPruneBroadPhase::setAxes(State& s, const std::vector<uint32_t>& axes) {
@@ -139,9 +117,7 @@ void SweepPruneBroadPhase::setAxes(State& s, const std::vector<uint32_t>& axes) 
     s.entries.push_back(Entry{k, 0.0, 0.0});
     s.axis_bits[k / 64] |= uint64_t{1} << (k % 64);
   }
-  for (size_t w = 1; w < words; ++w) {
-    s.rank[w] = static_cast<uint16_t>(s.rank[w - 1] + __builtin_popcountll(s.axis_bits[w - 1]));
-  }
+  detail::buildAxisRanks(s.axis_bits.data(), words, s.rank.data());
 }
 
 template <class F>
@@ -193,7 +169,7 @@ void SweepPruneBroadPhase::insertionSort(uint32_t axis) {
       const Endpoint& y = list[j - 1];
       if (!x.isMax() && y.isMax()) {
         // x's min moves left of y's max: the intervals start to overlap on this axis.
-        if (overlapOnShared(x.body, y.body, nullptr)) pairs_.insert(x.body, y.body);
+        if (overlapOnShared(x.body, y.body)) pairs_.insert(x.body, y.body);
       } else if (x.isMax() && !y.isMax()) {
         // x's max moves left of y's min: x now lies wholly below y on this axis.
         pairs_.erase(x.body, y.body);
@@ -295,8 +271,8 @@ void SweepPruneBroadPhase::computePairs(double t0, double t1, std::vector<Pair>&
     for (const Entry& e : states_[id].entries) {
       forEachOverlapOnAxis(id, e, [&](BodyId other) {
         // Bits first: the full interval test only on the one axis that reports the pair.
-        if (firstSharedAxis(states_[id], states_[other]) != e.axis) return;
-        if (overlapOnShared(id, other, nullptr)) pairs_.insert(id, other);
+        if (detail::firstSharedAxis(states_[id].axis_bits.data(), states_[other].axis_bits.data(), states_[id].axis_bits.size()) != e.axis) return;
+        if (overlapOnShared(id, other)) pairs_.insert(id, other);
       });
     }
   }

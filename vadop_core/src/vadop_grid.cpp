@@ -1,6 +1,7 @@
 #include "vadop/vadop_grid.h"
 
 #include "vadop/error.h"
+#include "axis_set.h"
 #include "fat_box_pairs.h"
 #include "grid_cells.h"
 #include "popcount.h"
@@ -199,22 +200,9 @@ uint32_t VadopGridBroadPhase::cellIndex(const Cell& c) {
 VADOP_POPCNT_CLONES
 bool VadopGridBroadPhase::overlapOnShared(uint32_t a, uint32_t b) {
   ++stats_.overlap_tests;
-  const uint64_t* ba = &bits_[a * words_];
-  const uint64_t* bb = &bits_[b * words_];
-  const Interval* ia = intervals_.data() + offset_[a];
-  const Interval* ib = intervals_.data() + offset_[b];
-  const uint16_t* ra = &rank_[a * words_];
-  const uint16_t* rb = &rank_[b * words_];
-  for (size_t w = 0; w < words_; ++w) {
-    for (uint64_t common = ba[w] & bb[w]; common != 0; common &= common - 1) {
-      const uint64_t below = (common & (~common + 1)) - 1;  // bits under the lowest set bit
-      const Interval& x = ia[ra[w] + __builtin_popcountll(ba[w] & below)];
-      const Interval& y = ib[rb[w] + __builtin_popcountll(bb[w] & below)];
-      if (x.lo > y.hi || y.lo > x.hi) return false;
-    }
-  }
   // No shared axis cannot happen with rho <= phi; if it did, the boxes alone decide.
-  return true;
+  return detail::overlapOnSharedAxes(&bits_[a * words_], &rank_[a * words_], intervals_.data() + offset_[a],
+                                     &bits_[b * words_], &rank_[b * words_], intervals_.data() + offset_[b], words_);
 }
 
 void VadopGridBroadPhase::testPair(uint32_t a, uint32_t b, std::vector<Pair>& out) {
@@ -546,12 +534,12 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
     uint64_t* bits = &bits_[words_ * s];
     std::copy_n(&axis_bits_[id * words_], words_, bits);
     uint16_t* rank = &rank_[words_ * s];
-    for (size_t w = 1; w < words_; ++w) rank[w] = static_cast<uint16_t>(rank[w - 1] + __builtin_popcountll(bits[w - 1]));
+    detail::buildAxisRanks(bits, words_, rank);
     if (!lazy) {
       Interval* iv = intervals_.data() + next_interval;
       detail::forEachSetBit(bits, words_, [&](uint32_t k) { *iv++ = swept.project(pool_->axis(static_cast<int>(k))); });
     }
-    next_interval += rank[words_ - 1] + static_cast<uint32_t>(__builtin_popcountll(bits[words_ - 1]));
+    next_interval += detail::axisCount(bits, rank, words_);
     ++s;
   }
   std::copy_n(world_lo, 3, world_lo_);

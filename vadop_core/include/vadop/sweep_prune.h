@@ -64,8 +64,6 @@ class SweepPruneBroadPhase : public BroadPhase {
 
   SweepPruneBroadPhase(std::unique_ptr<AxisPool> pool, const VadopConfig& config, bool aligned);
 
-  static constexpr uint32_t kNoAxis = ~uint32_t{0};
-
   struct Entry {  // one axis of one body
     uint32_t axis;
     double lo, hi;
@@ -102,14 +100,13 @@ class SweepPruneBroadPhase : public BroadPhase {
     return s.listed && s.generation == e.generation();
   }
   void setAxes(State& s, const std::vector<uint32_t>& axes);
-  uint32_t firstSharedAxis(const State& a, const State& b) const;
 
   static bool before(const Endpoint& x, const Endpoint& y) {
     // Closed intervals: at equal values a min sorts before a max, so touching counts.
     return x.value < y.value || (x.value == y.value && !x.isMax() && y.isMax());
   }
-  // First axis the two bodies share (or kNoAxis), and whether they overlap on all they share.
-  bool overlapOnShared(BodyId a, BodyId b, uint32_t* first_shared);
+  // Whether the two bodies' intervals overlap on every axis they share (src/axis_set.h).
+  bool overlapOnShared(BodyId a, BodyId b);
   void unlist(BodyId id);  // erase its pairs, make its endpoints stale
   template <class F>
   void forEachOverlapOnAxis(BodyId id, const Entry& e, F&& f) const;
