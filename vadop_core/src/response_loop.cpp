@@ -4,6 +4,7 @@
 #include "vadop/limits.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <string>
 
@@ -11,6 +12,11 @@ namespace vadop {
 namespace {
 
 uint64_t pairKey(BodyId a, BodyId b) { return (static_cast<uint64_t>(a) << 32) | b; }
+// The queue's key of a body's boundary contact: above every BodyId, so that the body is a.
+uint64_t boundaryKey(BodyId id) { return (uint64_t{1} << 32) | id; }
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 }  // namespace
 
@@ -66,6 +72,19 @@ void ResponseLoop::predict(BodyId a, BodyId b, double from, double t1) {
   queue_.push(a, b, hit);
 }
 
+void ResponseLoop::predictBoundary(BodyId id, double from, double t1) {
+  if (!boundary_) return;
+  const Impact hit = boundary_(id, bp_->motion(id), from, t1);
+  if (!hit.hit) return;
+  if (!(hit.time >= from && hit.time <= t1) || !hit.point.allFinite() || !hit.normal.allFinite()) {
+    throw InvalidArgument("ResponseLoop: the boundary function returned, for body " + std::to_string(id) +
+                          ", a contact at t = " + formatNumber(hit.time) + " outside [" + formatNumber(from) + ", " +
+                          formatNumber(t1) + "] or with a non-finite point or normal");
+  }
+  if (reportedAt(id, kBoundary, hit.time)) return;
+  queue_.push(id, boundaryKey(id), hit);
+}
+
 ResponseLoop::Stats ResponseLoop::advance(double t0, double t1, const Callback& on_contact) {
   if (!std::isfinite(t0) || !std::isfinite(t1) || t1 < t0) {
     throw InvalidArgument("ResponseLoop::advance: need finite t0 <= t1, got [" + formatNumber(t0) + ", " +
@@ -89,17 +108,28 @@ ResponseLoop::Stats ResponseLoop::advance(double t0, double t1, const Callback& 
     }
   } reset{*this};
 
+  const auto update_start = Clock::now();
   bp_->update(t0, t1);
+  stats_.update_seconds = since(update_start);
   stats_.candidates = bp_->pairs().size();
+  const auto narrow_start = Clock::now();
   for (const Pair& p : bp_->pairs()) predict(p.a, p.b, t0, t1);
+  stats_.narrow_seconds = since(narrow_start);
+  if (boundary_) {
+    for (BodyId id = 0; id < prepared_.size(); ++id) {
+      if (prepared_[id]) predictBoundary(id, t0, t1);
+    }
+  }
 
   std::vector<BodyId> found;
   while (!queue_.empty()) {
     const QueuedImpact q = queue_.pop();
     const double tc = q.impact.time;
-    const Contact contact{static_cast<BodyId>(q.a), static_cast<BodyId>(q.b), q.impact};
+    const bool with_boundary = q.b > kBoundary;
+    const Contact contact{static_cast<BodyId>(q.a), with_boundary ? kBoundary : static_cast<BodyId>(q.b), q.impact};
     reported_[pairKey(contact.a, contact.b)] = tc;
     ++stats_.contacts;
+    if (with_boundary) ++stats_.boundary_contacts;
     Response response(*this, tc);
     on_contact(contact, response);
     std::vector<BodyId>& changed = response.changed_;
@@ -111,11 +141,16 @@ ResponseLoop::Stats ResponseLoop::advance(double t0, double t1, const Callback& 
     for (BodyId id : changed) {
       if (!bp_->contains(id)) continue;
       ++stats_.requeried;
+      const auto query_start = Clock::now();
       bp_->query(id, tc, t1, found);
+      const auto narrow_start = Clock::now();
+      stats_.query_seconds += std::chrono::duration<double>(narrow_start - query_start).count();
       for (BodyId other : found) {
         if (other < id && std::binary_search(changed.begin(), changed.end(), other)) continue;
         predict(id, other, tc, t1);
       }
+      stats_.narrow_seconds += since(narrow_start);
+      predictBoundary(id, tc, t1);
     }
   }
   return stats_;

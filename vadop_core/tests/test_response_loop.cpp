@@ -3,6 +3,7 @@
 //  - random sphere scenes with elastic responses against an independent brute-force event loop
 //    (every pair re-tested after every response): the same contacts, in the same order, at the
 //    same times, and the same final motions;
+//  - the same with walls (ResponseLoop::setBoundary) interleaving with the pairs;
 //  - callbacks that change bodies not in the contact, a throwing callback, bad input.
 #include "vadop/error.h"
 #include "vadop/response_loop.h"
@@ -11,6 +12,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <functional>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -35,6 +38,12 @@ std::vector<std::unique_ptr<BroadPhase>> engines() {
 
 // Equal masses, elastic: exchange the velocity components along the normal when approaching.
 // Returns the new motions of a and b from time t.
+// Reflection at a wall of normal n (from the body into the wall), from time t.
+Motion reflect(const Motion& m, const Eigen::Vector3d& n, double t) {
+  const Eigen::Vector3d v = m.linear_velocity;
+  return moving(m.positionAt(t), v - 2.0 * v.dot(n) * n, t);
+}
+
 std::pair<Motion, Motion> elastic(const Motion& ma, const Motion& mb, const Eigen::Vector3d& n, double t) {
   const Eigen::Vector3d va = ma.linear_velocity, vb = mb.linear_velocity;
   const double closing = (va - vb).dot(n);
@@ -80,87 +89,174 @@ struct Logged {
 };
 
 // The reference: after every response, every pair is predicted again from the time the later
-// of its two bodies last changed (where the loop predicts it), and the earliest contact not yet
-// reported for that pair is the next one. O(n^2) per contact; shares only timeOfImpact.
+// of its two bodies last changed (where the loop predicts it), and so is every body's boundary
+// contact; the earliest contact not yet reported for that pair (or body and boundary) is the
+// next one. O(n^2) per contact; shares only timeOfImpact and the boundary function.
 std::vector<Logged> referenceLoop(const std::vector<Shape>& shapes, std::vector<Motion>& motions, double t0,
-                                  double t1) {
+                                  double t1, const ResponseLoop::Boundary& boundary = {}) {
   const size_t n = shapes.size();
+  const BodyId kWall = ResponseLoop::kBoundary;
   std::vector<PreparedShape> prepared(shapes.begin(), shapes.end());
   std::vector<double> changed_at(n, t0);
-  std::vector<std::vector<double>> reported(n, std::vector<double>(n, -INFINITY));
+  std::vector<std::vector<double>> reported(n, std::vector<double>(n + 1, -INFINITY));  // [a][n]: boundary
   std::vector<Logged> log;
   for (;;) {
     bool found = false;
     Logged best{0, 0, INFINITY};
     Impact best_hit;
+    // Order of the queue: time, then a, then b (the boundary after every body).
+    auto consider = [&](BodyId a, BodyId b, const Impact& hit) {
+      const bool earlier = hit.time < best.time ||
+                           (hit.time == best.time && (a < best.a || (a == best.a && b < best.b)));
+      if (!found || earlier) {
+        best = {a, b, hit.time};
+        best_hit = hit;
+        found = true;
+      }
+    };
     for (BodyId a = 0; a < n; ++a) {
       for (BodyId b = a + 1; b < n; ++b) {
         const double from = std::max(changed_at[a], changed_at[b]);
         const Impact hit = timeOfImpact(prepared[a], motions[a], prepared[b], motions[b], from, t1);
-        if (!hit.hit || hit.time <= reported[a][b]) continue;
-        if (hit.time < best.time) {  // ties: the first pair in (a, b) order, as the queue
-          best = {a, b, hit.time};
-          best_hit = hit;
-          found = true;
-        }
+        if (hit.hit && hit.time > reported[a][b]) consider(a, b, hit);
+      }
+      if (boundary) {
+        const Impact hit = boundary(a, motions[a], changed_at[a], t1);
+        if (hit.hit && hit.time > reported[a][n]) consider(a, kWall, hit);
       }
     }
     if (!found) return log;
     log.push_back(best);
-    reported[best.a][best.b] = best.time;
-    const auto [na, nb] = elastic(motions[best.a], motions[best.b], best_hit.normal, best.time);
-    motions[best.a] = na;
-    motions[best.b] = nb;
-    changed_at[best.a] = changed_at[best.b] = best.time;
+    if (best.b == kWall) {
+      reported[best.a][n] = best.time;
+      motions[best.a] = reflect(motions[best.a], best_hit.normal, best.time);
+      changed_at[best.a] = best.time;
+    } else {
+      reported[best.a][best.b] = best.time;
+      const auto [na, nb] = elastic(motions[best.a], motions[best.b], best_hit.normal, best.time);
+      motions[best.a] = na;
+      motions[best.b] = nb;
+      changed_at[best.a] = changed_at[best.b] = best.time;
+    }
     if (log.size() > 10000) throw std::runtime_error("reference does not terminate");
   }
 }
 
+// Spheres at random non-overlapping places in [-2.5, 2.5]^3 with random velocities.
+void randomScene(uint64_t seed, std::vector<Shape>& shapes, std::vector<Motion>& motions) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> pos(-2.5, 2.5), vel(-2.0, 2.0), rad(0.2, 0.4);
+  while (shapes.size() < 60) {
+    const Eigen::Vector3d p(pos(rng), pos(rng), pos(rng));
+    const double r = rad(rng);
+    bool free = true;
+    for (size_t i = 0; i < shapes.size(); ++i) {
+      free = free && (motions[i].position - p).norm() > r + shapes[i].bounding_radius + 0.01;
+    }
+    if (!free) continue;
+    shapes.push_back(makeSphere(r));
+    motions.push_back(moving(p, Eigen::Vector3d(vel(rng), vel(rng), vel(rng))));
+  }
+}
+
+// Runs the loop on every engine with elastic responses (and reflection at the boundary) and
+// compares contacts and final motions with the reference. Returns the number of contacts.
+size_t compareWithReference(uint64_t seed, double t1, const std::function<ResponseLoop::Boundary(
+                                                          const std::vector<Shape>&)>& make_boundary) {
+  std::vector<Shape> shapes;
+  std::vector<Motion> motions;
+  randomScene(seed, shapes, motions);
+  const ResponseLoop::Boundary boundary = make_boundary ? make_boundary(shapes) : ResponseLoop::Boundary{};
+  std::vector<Motion> ref_motions = motions;
+  const std::vector<Logged> want = referenceLoop(shapes, ref_motions, 0.0, t1, boundary);
+  EXPECT_GT(want.size(), 10u) << "seed " << seed << ": too few contacts";
+  size_t walls = 0;
+  for (const Logged& w : want) walls += w.b == ResponseLoop::kBoundary;
+  if (boundary) EXPECT_GT(walls, 5u) << "seed " << seed << ": too few boundary contacts";
+  for (auto& bp : engines()) {
+    const std::string name = bp->name();
+    ResponseLoop loop(std::move(bp));
+    loop.setBoundary(boundary);
+    for (size_t i = 0; i < shapes.size(); ++i) EXPECT_EQ(loop.add(shapes[i], motions[i]), i);
+    std::vector<Logged> got;
+    const auto stats = loop.advance(0.0, t1, [&](const ResponseLoop::Contact& k, ResponseLoop::Response& r) {
+      got.push_back({k.a, k.b, k.impact.time});
+      if (k.b == ResponseLoop::kBoundary) {
+        r.setMotion(k.a, reflect(r.motion(k.a), k.impact.normal, k.impact.time));
+        return;
+      }
+      const auto [na, nb] = elastic(r.motion(k.a), r.motion(k.b), k.impact.normal, k.impact.time);
+      r.setMotion(k.a, na);
+      r.setMotion(k.b, nb);
+    });
+    EXPECT_EQ(stats.boundary_contacts, walls) << name << " seed " << seed;
+    EXPECT_EQ(got.size(), want.size()) << name << " seed " << seed;
+    for (size_t i = 0; i < std::min(got.size(), want.size()); ++i) {
+      EXPECT_EQ(got[i].a, want[i].a) << name << " seed " << seed << " contact " << i;
+      EXPECT_EQ(got[i].b, want[i].b) << name << " seed " << seed << " contact " << i;
+      EXPECT_EQ(got[i].time, want[i].time) << name << " seed " << seed << " contact " << i;
+    }
+    for (BodyId i = 0; i < shapes.size(); ++i) {
+      EXPECT_EQ(loop.motion(i).linear_velocity, ref_motions[i].linear_velocity) << name << " body " << i;
+    }
+  }
+  return want.size();
+}
+
 TEST(ResponseLoop, MatchesABruteForceEventLoopOnRandomScenes) {
   size_t total = 0;
-  for (uint64_t seed = 1; seed <= 4; ++seed) {
-    std::mt19937_64 rng(seed);
-    std::uniform_real_distribution<double> pos(-2.5, 2.5), vel(-2.0, 2.0), rad(0.2, 0.4);
-    std::vector<Shape> shapes;
-    std::vector<Motion> motions;
-    while (shapes.size() < 60) {  // non-overlapping start
-      const Eigen::Vector3d p(pos(rng), pos(rng), pos(rng));
-      const double r = rad(rng);
-      bool free = true;
-      for (size_t i = 0; i < shapes.size(); ++i) {
-        free = free && (motions[i].position - p).norm() > r + shapes[i].bounding_radius + 0.01;
-      }
-      if (!free) continue;
-      shapes.push_back(makeSphere(r));
-      motions.push_back(moving(p, Eigen::Vector3d(vel(rng), vel(rng), vel(rng))));
-    }
-    std::vector<Motion> ref_motions = motions;
-    const std::vector<Logged> want = referenceLoop(shapes, ref_motions, 0.0, 3.0);
-    ASSERT_GT(want.size(), 10u) << "seed " << seed << ": too few contacts";
-    for (auto& bp : engines()) {
-      const std::string name = bp->name();
-      ResponseLoop loop(std::move(bp));
-      for (size_t i = 0; i < shapes.size(); ++i) ASSERT_EQ(loop.add(shapes[i], motions[i]), i);
-      std::vector<Logged> got;
-      loop.advance(0.0, 3.0, [&](const ResponseLoop::Contact& k, ResponseLoop::Response& r) {
-        got.push_back({k.a, k.b, k.impact.time});
-        const auto [na, nb] = elastic(r.motion(k.a), r.motion(k.b), k.impact.normal, k.impact.time);
-        r.setMotion(k.a, na);
-        r.setMotion(k.b, nb);
-      });
-      ASSERT_EQ(got.size(), want.size()) << name << " seed " << seed;
-      for (size_t i = 0; i < got.size(); ++i) {
-        EXPECT_EQ(got[i].a, want[i].a) << name << " seed " << seed << " contact " << i;
-        EXPECT_EQ(got[i].b, want[i].b) << name << " seed " << seed << " contact " << i;
-        EXPECT_EQ(got[i].time, want[i].time) << name << " seed " << seed << " contact " << i;
-      }
-      for (BodyId i = 0; i < shapes.size(); ++i) {
-        EXPECT_EQ(loop.motion(i).linear_velocity, ref_motions[i].linear_velocity) << name << " body " << i;
-      }
-    }
-    total += want.size();
-  }
+  for (uint64_t seed = 1; seed <= 4; ++seed) total += compareWithReference(seed, 3.0, nullptr);
   std::printf("%zu contacts compared per engine\n", total);
+}
+
+// Walls of the box [-3, 3]^3: a sphere's first time of reaching one while moving outwards.
+ResponseLoop::Boundary boxWalls(const std::vector<Shape>& shapes) {
+  return [&shapes](BodyId id, const Motion& m, double from, double t1) {
+    const double reach = 3.0 - shapes[id].bounding_radius;
+    const Eigen::Vector3d p = m.positionAt(from), v = m.linear_velocity;
+    Impact best;
+    for (int k = 0; k < 3; ++k) {
+      if (v[k] == 0.0) continue;
+      const double gap = v[k] > 0.0 ? reach - p[k] : reach + p[k];
+      const double t = from + std::max(0.0, gap / std::abs(v[k]));
+      if (t > t1 || (best.hit && t >= best.time)) continue;
+      best.hit = true;
+      best.time = t;
+      best.normal = Eigen::Vector3d::Zero();
+      best.normal[k] = v[k] > 0.0 ? 1.0 : -1.0;
+      best.point = m.positionAt(t) + shapes[id].bounding_radius * best.normal;
+    }
+    return best;
+  };
+}
+
+TEST(ResponseLoop, BoundaryContactsInterleaveWithPairsAsInTheReference) {
+  size_t total = 0;
+  for (uint64_t seed = 5; seed <= 7; ++seed) total += compareWithReference(seed, 4.0, boxWalls);
+  std::printf("%zu contacts (pairs and walls) compared per engine\n", total);
+}
+
+TEST(ResponseLoop, ABoundaryContactOutsideTheIntervalThrows) {
+  ResponseLoop loop(std::make_unique<BruteForceBroadPhase>());
+  loop.add(makeSphere(0.5), moving({0, 0, 0}, {1, 0, 0}));
+  loop.setBoundary([](BodyId, const Motion&, double, double t1) {
+    Impact hit;
+    hit.hit = true;
+    hit.time = t1 + 1.0;
+    hit.normal = Eigen::Vector3d::UnitX();
+    return hit;
+  });
+  try {
+    loop.advance(0.0, 1.0, [](const ResponseLoop::Contact&, ResponseLoop::Response&) {});
+    FAIL() << "no exception";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("boundary function"), std::string::npos) << e.what();
+  }
+  // Nothing stays pending: without the faulty boundary the next advance reports nothing.
+  loop.setBoundary({});
+  size_t contacts = 0;
+  loop.advance(0.0, 1.0, [&](const ResponseLoop::Contact&, ResponseLoop::Response&) { ++contacts; });
+  EXPECT_EQ(contacts, 0u);
 }
 
 TEST(ResponseLoop, CallbacksMayChangeBodiesOutsideTheContact) {
