@@ -1,6 +1,8 @@
 #include "vadop/broad_phase.h"
 
 #include "vadop/error.h"
+#include "vadop/vadop.h"
+#include "box_grid.h"
 
 #include <algorithm>
 #include <cmath>
@@ -36,6 +38,9 @@ bool capsulesMayTouch(const Capsule& a, const Capsule& b) {
 }
 }  // namespace
 
+BroadPhase::BroadPhase() = default;
+BroadPhase::~BroadPhase() = default;
+
 BodyId BroadPhase::add(const Shape& shape, const Motion& motion) {
   return add(std::make_shared<const Shape>(shape), motion);
 }
@@ -61,6 +66,7 @@ BodyId BroadPhase::add(std::shared_ptr<const Shape> shape, const Motion& motion)
   }
   ++alive_count_;
   onAdd(id);
+  markChanged(id);
   return id;
 }
 
@@ -87,13 +93,29 @@ void BroadPhase::setMotion(BodyId id, const Motion& motion) {
   if (!isValidMotion(motion)) validateMotion(motion, "setMotion: body " + std::to_string(id));
   onSetMotion(id);
   bodies_[id].motion = motion;
+  markChanged(id);
+}
+
+void BroadPhase::markChanged(BodyId id) {
+  if (!framed_) return;  // no frame to answer queries from yet
+  if (changed_flag_.size() <= id) changed_flag_.resize(std::max<size_t>(id + 1, 2 * changed_flag_.size()), 0);
+  changed_flag_[id] = 1;
+  changed_.push_back(id);
 }
 
 void BroadPhase::update(double t0, double t1) {
   requireInterval(t0, t1, "update");
   pairs_.clear();
+  framed_ = false;  // a throwing computePairs leaves no frame to answer queries from
   computePairs(t0, t1, pairs_);
   std::sort(pairs_.begin(), pairs_.end());
+  for (BodyId id : changed_) changed_flag_[id] = 0;
+  changed_.clear();
+  changed_indexed_ = 0;
+  changed_grid_valid_ = false;
+  frame_t0_ = t0;
+  frame_t1_ = t1;
+  framed_ = true;
 }
 
 
@@ -119,10 +141,82 @@ void BroadPhase::query(const Shape& shape, const Motion& motion, double t0, doub
 
 void BroadPhase::queryCandidates(const Shape& shape, const Motion& motion, BodyId self, double t0,
                                  double t1, std::vector<BodyId>& out) {
+  if (framed_ && t0 >= frame_t0_ && t1 <= frame_t1_) {
+    double box[6];
+    SweptBody(shape, motion, t0, t1).box(box);
+    frame_found_.clear();
+    if (queryFrame(box, frame_found_)) {
+      // The engine's volumes of the frame hold the unchanged bodies' paths over [t0, t1].
+      for (BodyId id : frame_found_) {
+        if (id != self && contains(id) && !(id < changed_flag_.size() && changed_flag_[id])) out.push_back(id);
+      }
+      queryChanged(box, self, t0, t1, out);
+      return;
+    }
+  }
   const Capsule q = sweptCapsule(shape, motion, t0, t1);
   for (BodyId i = 0; i < bodies_.size(); ++i) {
     if (!bodies_[i].alive || i == self) continue;
     if (capsulesMayTouch(q, sweptCapsule(*bodies_[i].shape, bodies_[i].motion, t0, t1))) out.push_back(i);
+  }
+}
+
+void BroadPhase::queryChanged(const double* box, BodyId self, double t0, double t1, std::vector<BodyId>& out) {
+  auto overlaps = [box](const double* x) {
+    return x[0] <= box[3] && box[0] <= x[3] && x[1] <= box[4] && box[1] <= x[4] && x[2] <= box[5] && box[2] <= x[5];
+  };
+  // A few changed bodies: their swept boxes over [t0, t1], directly.
+  constexpr size_t kScanAtMost = 32;
+  if (changed_.size() <= kScanAtMost) {
+    for (BodyId id : changed_) {
+      if (id == self || !contains(id)) continue;
+      double x[6];
+      SweptBody(*bodies_[id].shape, bodies_[id].motion, t0, t1).box(x);
+      if (overlaps(x)) out.push_back(id);
+    }
+    return;
+  }
+  // More: a grid of their boxes over [changed_t0_, frame_t1_], which hold every later window
+  // of the frame; rebuilt when a query starts before changed_t0_. A body changed again is
+  // indexed again (its old box goes stale).
+  if (!changed_grid_valid_ || t0 < changed_t0_) {
+    if (!changed_grid_) changed_grid_ = std::make_unique<detail::BoxGrid>();
+    // Cells about the size of the median box, measured on the first changed bodies.
+    std::vector<double> extent;
+    double max_abs = 0.0;
+    for (size_t i = 0; i < std::min<size_t>(changed_.size(), 64); ++i) {
+      const BodyId id = changed_[i];
+      if (!contains(id)) continue;
+      double x[6];
+      SweptBody(*bodies_[id].shape, bodies_[id].motion, t0, frame_t1_).box(x);
+      extent.push_back(std::max({x[3] - x[0], x[4] - x[1], x[5] - x[2]}));
+      for (double v : x) max_abs = std::max(max_abs, std::abs(v));
+    }
+    double h = 1.0;
+    if (!extent.empty()) {
+      std::nth_element(extent.begin(), extent.begin() + extent.size() / 2, extent.end());
+      h = extent[extent.size() / 2];
+    }
+    changed_grid_->reset(std::isfinite(h) && h > 1e-9 ? h : 1e-9, max_abs);
+    changed_t0_ = t0;
+    changed_indexed_ = 0;
+    changed_grid_valid_ = true;
+  }
+  for (; changed_indexed_ < changed_.size(); ++changed_indexed_) {
+    const BodyId id = changed_[changed_indexed_];
+    if (!contains(id)) {
+      changed_grid_->remove(id);
+      continue;
+    }
+    double x[6];
+    SweptBody(*bodies_[id].shape, bodies_[id].motion, changed_t0_, frame_t1_).box(x);
+    changed_grid_->set(id, x);
+  }
+  changed_grid_->forEachOverlap(box, [&](BodyId id) {
+    if (id != self && contains(id)) out.push_back(id);
+  });
+  for (BodyId id : changed_grid_->large()) {
+    if (id != self && contains(id) && overlaps(changed_grid_->box(id))) out.push_back(id);
   }
 }
 

@@ -45,14 +45,6 @@ uint64_t cellHash(int32_t x, int32_t y, int32_t z) {
                             (static_cast<uint64_t>(static_cast<uint32_t>(z)) << 42));
 }
 
-// The swept AABB (lo x y z, hi x y z) of a swept body: its intervals on the coordinate axes.
-void sweptBox(const SweptBody& swept, double* box) {
-  for (int k = 0; k < 3; ++k) {
-    const Interval iv = swept.project(Eigen::Vector3d::Unit(k));
-    box[k] = iv.lo;
-    box[3 + k] = iv.hi;
-  }
-}
 
 }  // namespace
 
@@ -371,68 +363,53 @@ uint32_t VadopGridBroadPhase::findCell(int32_t x, int32_t y, int32_t z) const {
   }
 }
 
-void VadopGridBroadPhase::queryCandidates(const Shape& shape, const Motion& motion, BodyId self, double t0,
-                                          double t1, std::vector<BodyId>& out) {
+bool VadopGridBroadPhase::queryFrame(const double* q, std::vector<BodyId>& out) {
+  if (!framed_) return false;
   const size_t slots = slot_body_.size();
-  // Only within the last frame: there every unchanged body's frame box holds its path.
-  if (!framed_ || t0 < frame_t0_ || t1 > frame_t1_ || dirty_.size() > slots / 4 + 16) {
-    BroadPhase::queryCandidates(shape, motion, self, t0, t1, out);
-    return;
-  }
-  const auto& b = bodies();
-  double q[6];
-  sweptBox(SweptBody(shape, motion, t0, t1), q);
-  auto boxesOverlap = [&q](const double* x) {
+  if (slots == 0) return true;
+  auto boxesOverlap = [q](const double* x) {
     return !(x[0] > q[3] || q[0] > x[3] || x[1] > q[4] || q[1] > x[4] || x[2] > q[5] || q[2] > x[5]);
   };
-  // A slot's frame box still describes its body when the body is alive, holds that slot and
-  // has not been given a new motion since (dirty_flag_).
-  auto current = [&](uint32_t s) {
+  // A slot describes the frame volume of the body that held it (BroadPhase drops the bodies
+  // removed or changed since; a body re-added may hold another slot, hence the check).
+  auto push = [&](uint32_t s) {
     const BodyId id = slot_body_[s];
-    return id != self && id < b.size() && b[id].alive && slot_of_[id] == s && !dirty_flag_[id];
+    if (id < slot_of_.size() && slot_of_[id] == s) out.push_back(id);
   };
-  if (slots > 0 && !cells_ready_) {  // incremental mode: the frame's cells, once
-    const Stats kept = stats_;         // the last update's statistics stay its own
+  if (!cells_ready_) {  // incremental mode: the frame's cells, once
+    const Stats kept = stats_;  // the last update's statistics stay its own
     buildGrid(chooseCellSize(world_lo_, world_hi_));
     stats_ = kept;
   }
-  if (slots > 0) {
-    const double inv = 1.0 / grid_cell_size_;
-    auto cellOf = [inv](double v) { return detail::floorToInt(v * inv); };
-    // A query box spanning many cells (or beyond the cell key range) scans the slots instead.
-    const double span = (1.0 + (q[3] - q[0]) * inv) * (1.0 + (q[4] - q[1]) * inv) * (1.0 + (q[5] - q[2]) * inv);
-    const double reach = std::max({std::abs(q[0]), std::abs(q[1]), std::abs(q[2]), std::abs(q[3]), std::abs(q[4]), std::abs(q[5])}) * inv;
-    if (!(span <= static_cast<double>(std::min<size_t>(kMaxCellsPerBody, slots))) || !(reach < kMaxCellCoordinate)) {
-      for (uint32_t s = 0; s < slots; ++s) {
-        if (current(s) && boxesOverlap(&box_[6 * s])) out.push_back(slot_body_[s]);
-      }
-    } else {
-      const int32_t lx = cellOf(q[0]), ly = cellOf(q[1]), lz = cellOf(q[2]);
-      const int32_t hx = cellOf(q[3]), hy = cellOf(q[4]), hz = cellOf(q[5]);
-      for (int32_t z = lz; z <= hz; ++z) {
-        for (int32_t y = ly; y <= hy; ++y) {
-          for (int32_t x = lx; x <= hx; ++x) {
-            const uint32_t c = findCell(x, y, z);
-            if (c == kEmpty) continue;
-            for (uint32_t e = cell_start_[c]; e < cell_start_[c + 1]; ++e) {
-              const CellEntry& ce = cell_entries_[e];
-              if (boxesOverlap(ce.box) && current(ce.slot)) out.push_back(slot_body_[ce.slot]);
-            }
-          }
+  const double inv = 1.0 / grid_cell_size_;
+  auto cellOf = [inv](double v) { return detail::floorToInt(v * inv); };
+  // A query box spanning many cells (or beyond the cell key range) scans the slots instead.
+  const double span = (1.0 + (q[3] - q[0]) * inv) * (1.0 + (q[4] - q[1]) * inv) * (1.0 + (q[5] - q[2]) * inv);
+  const double reach = std::max({std::abs(q[0]), std::abs(q[1]), std::abs(q[2]), std::abs(q[3]), std::abs(q[4]), std::abs(q[5])}) * inv;
+  if (!(span <= static_cast<double>(std::min<size_t>(kMaxCellsPerBody, slots))) || !(reach < kMaxCellCoordinate)) {
+    for (uint32_t s = 0; s < slots; ++s) {
+      if (boxesOverlap(&box_[6 * s])) push(s);
+    }
+    return true;
+  }
+  const int32_t lx = cellOf(q[0]), ly = cellOf(q[1]), lz = cellOf(q[2]);
+  const int32_t hx = cellOf(q[3]), hy = cellOf(q[4]), hz = cellOf(q[5]);
+  for (int32_t z = lz; z <= hz; ++z) {
+    for (int32_t y = ly; y <= hy; ++y) {
+      for (int32_t x = lx; x <= hx; ++x) {
+        const uint32_t c = findCell(x, y, z);
+        if (c == kEmpty) continue;
+        for (uint32_t e = cell_start_[c]; e < cell_start_[c + 1]; ++e) {
+          const CellEntry& ce = cell_entries_[e];
+          if (boxesOverlap(ce.box)) push(ce.slot);
         }
-      }
-      for (uint32_t s : large_) {
-        if (current(s) && boxesOverlap(&box_[6 * s])) out.push_back(slot_body_[s]);
       }
     }
   }
-  // Bodies added or given a new motion since the update: their own swept boxes over [t0, t1].
-  for (BodyId id : dirty_) {
-    if (id == self || id >= b.size() || !b[id].alive || !dirty_flag_[id]) continue;
-    double x[6];
-    sweptBox(SweptBody(*b[id].shape, b[id].motion, t0, t1), x);
-    if (boxesOverlap(x)) out.push_back(id);
+  for (uint32_t s : large_) {
+    if (boxesOverlap(&box_[6 * s])) push(s);
   }
+  return true;
 }
 
 double VadopGridBroadPhase::chooseCellSize(const double* world_lo, const double* world_hi) {
@@ -525,7 +502,7 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
     slot_body_[s] = id;
     const SweptBody swept(*b[id].shape, b[id].motion, t0, t1);
     double* box = &box_[6 * s];
-    sweptBox(swept, box);
+    swept.box(box);
     for (int k = 0; k < 3; ++k) {
       world_lo[k] = std::min(world_lo[k], box[k]);
       world_hi[k] = std::max(world_hi[k], box[3 + k]);

@@ -9,15 +9,20 @@
 #include "vadop/pair_set.h"
 #include "vadop/shapes.h"
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
 
 namespace vadop {
+namespace detail {
+class BoxGrid;  // src/box_grid.h
+}  // namespace detail
 
 class BroadPhase {
  public:
-  virtual ~BroadPhase() = default;
+  BroadPhase();
+  virtual ~BroadPhase();
 
   // Adds a body and returns its id: the smallest id not in use, so every implementation fed
   // the same calls hands out the same ids.
@@ -39,6 +44,11 @@ class BroadPhase {
   // like update(): every body whose swept volume intersects is listed; an engine may list more
   // (its own bound, stated with it). Never `id` itself; `out` is replaced, sorted, no repeats.
   // Throws vadop::InvalidArgument for an unknown id or a bad interval (out untouched).
+  // Windows inside the last update's frame are answered from the engine's structure of that
+  // update (queryFrame) for the bodies unchanged since, and from a hash grid of the swept boxes
+  // of those added or given a new motion since (kept over the frame's remainder, so a response
+  // loop's queries, whose t0 only grows, do not rebuild it); other windows, and engines without
+  // such a structure, scan every body with swept bounding-sphere capsules (O(n)).
   void query(BodyId id, double t0, double t1, std::vector<BodyId>& out);
   // The same for a shape moving with `motion` that is not in the broad phase (a candidate
   // command, a planned path). Throws for an invalid shape or motion.
@@ -65,22 +75,46 @@ class BroadPhase {
   // motion can still be computed, and a throw leaves the motion as it was.
   virtual void onSetMotion(BodyId id) = 0;
   virtual void computePairs(double t0, double t1, std::vector<Pair>& out) = 0;
-  // The query after validation: append the candidates of `shape` moving with `motion` over
-  // [t0, t1], excluding `self` (the querying body, or kNoBody), in any order; the base class
-  // sorts and removes repeats. The default scans every body with the swept bounding-sphere
-  // capsules of BruteForceBroadPhase: O(n), correct for every engine.
-  static constexpr BodyId kNoBody = ~BodyId{0};
-  virtual void queryCandidates(const Shape& shape, const Motion& motion, BodyId self, double t0,
-                               double t1, std::vector<BodyId>& out);
+  // A query's answer from the structure of the last update, for an engine that keeps one:
+  // append every body whose volume of that update may intersect the swept box `box` (lo x y z,
+  // hi x y z; of a window inside that update's frame), in any order. Repeats, removed bodies
+  // and bodies changed since are allowed: the base class drops them and answers for the
+  // changed ones itself. Return false without such a structure (the base class then scans).
+  virtual bool queryFrame(const double* box, std::vector<BodyId>& out) {
+    (void)box;
+    (void)out;
+    return false;
+  }
 
   const std::vector<Body>& bodies() const { return bodies_; }
   void requireKnown(BodyId id, const char* operation) const;
 
  private:
+  static constexpr BodyId kNoBody = ~BodyId{0};
+  // The query after validation: candidates of `shape` moving with `motion` over [t0, t1],
+  // excluding `self` (kNoBody for a shape not in the broad phase), in any order.
+  void queryCandidates(const Shape& shape, const Motion& motion, BodyId self, double t0, double t1,
+                       std::vector<BodyId>& out);
+  void queryChanged(const double* box, BodyId self, double t0, double t1, std::vector<BodyId>& out);
+  void markChanged(BodyId id);
+
   std::vector<Body> bodies_;
   std::vector<BodyId> free_ids_;  // min-heap
   size_t alive_count_ = 0;
   std::vector<Pair> pairs_;
+  // The last update's frame, and the bodies added or given a new motion since (in order,
+  // with repeats: a body changed twice is listed twice).
+  bool framed_ = false;
+  double frame_t0_ = 0.0, frame_t1_ = 0.0;
+  std::vector<uint8_t> changed_flag_;  // by BodyId
+  std::vector<BodyId> changed_;
+  // Past a few changed bodies, their swept boxes over [changed_t0_, frame_t1_] in a hash grid,
+  // filled up to changed_indexed_ entries of changed_.
+  std::unique_ptr<detail::BoxGrid> changed_grid_;
+  size_t changed_indexed_ = 0;
+  double changed_t0_ = 0.0;
+  bool changed_grid_valid_ = false;
+  std::vector<BodyId> frame_found_;
 };
 
 // Reference broad phase: every pair, tested by the exact distance between the capsules that

@@ -94,6 +94,14 @@ class SweptBody {
                                             std::max(axis.dot(p0_), axis.dot(p1_)) + radius_);
     return projectGeneral(axis);
   }
+  // Its axis-aligned box: the intervals on x, y, z as (lo x y z, hi x y z).
+  void box(double* out) const {
+    for (int k = 0; k < 3; ++k) {
+      const Interval iv = project(Eigen::Vector3d::Unit(k));
+      out[k] = iv.lo;
+      out[3 + k] = iv.hi;
+    }
+  }
 
   // Relative widening of every interval: the support and dot products are accurate to a few
   // ulps of the magnitudes involved; 1e-12 of them is far above that and far below any length

@@ -57,13 +57,12 @@ class VadopGridBroadPhase : public BroadPhase {
 
   // Queries (BroadPhase::query) over [t0, t1] within the frame of the last update are answered
   // from that frame's cells: the bodies whose frame boxes overlap the query's swept AABB over
-  // [t0, t1] (a frame box holds the body's swept box over every sub-interval), plus the bodies
-  // added or given a new motion since, tested by their swept AABBs over [t0, t1]. Cost: the
-  // cells the query box spans and their occupancy, plus the changed bodies; the first query
-  // after an update in the incremental mode builds the frame's cells once (O(n)). The answer
-  // is every body whose swept AABB may overlap the query's (no pool-axis pruning: a superset of
-  // the update's candidates by at most the bodies whose boxes overlap but whose pool intervals
-  // do not). Other intervals fall back to BroadPhase's scan of every body.
+  // [t0, t1] (a frame box holds the body's swept box over every sub-interval); BroadPhase adds
+  // the bodies changed since. Cost: the cells the query box spans and their occupancy; the
+  // first query after an update in the incremental mode builds the frame's cells once (O(n)).
+  // The answer is every body whose swept AABB may overlap the query's (no pool-axis pruning: a
+  // superset of the update's candidates by at most the bodies whose boxes overlap but whose
+  // pool intervals do not).
   struct Stats {
     size_t cells = 0;           // occupied cells
     size_t cell_entries = 0;    // (body, cell) incidences
@@ -87,8 +86,7 @@ class VadopGridBroadPhase : public BroadPhase {
   void onRemove(BodyId id) override;
   void onSetMotion(BodyId id) override;
   void computePairs(double t0, double t1, std::vector<Pair>& out) override;
-  void queryCandidates(const Shape& shape, const Motion& motion, BodyId self, double t0, double t1,
-                       std::vector<BodyId>& out) override;
+  bool queryFrame(const double* box, std::vector<BodyId>& out) override;
 
  private:
   friend struct BroadPhaseTestAccess;  // the tests' view of the volumes (tests/broad_phase_access.h)
