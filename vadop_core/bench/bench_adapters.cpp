@@ -52,10 +52,22 @@ bool fclPairCallback(fcl::CollisionObjectd* o1, fcl::CollisionObjectd* o2, void*
   return false;  // continue
 }
 
+// Queries: the other object of each overlap with the query object.
+struct FclQuery {
+  const fcl::CollisionObjectd* query;
+  std::vector<vadop::BodyId>* out;
+};
+bool fclQueryCallback(fcl::CollisionObjectd* o1, fcl::CollisionObjectd* o2, void* data) {
+  auto* q = static_cast<FclQuery*>(data);
+  const fcl::CollisionObjectd* other = o1 == q->query ? o2 : o1;
+  q->out->push_back(static_cast<vadop::BodyId>(reinterpret_cast<uintptr_t>(other->getUserData())));
+  return false;  // continue
+}
+
 class FclBroadPhase : public TimedBroadPhase {
  public:
   FclBroadPhase(FclMode mode, BoxKind kind)
-      : mode_(mode), kind_(kind), geometry_(std::make_shared<fcl::Sphered>(1.0)) {}
+      : mode_(mode), kind_(kind), geometry_(std::make_shared<fcl::Sphered>(1.0)), query_object_(geometry_) {}
 
   std::string name() const override {
     std::string s = kind_ == BoxKind::kSwept ? "fcl" : "fcl_discrete";
@@ -120,6 +132,17 @@ class FclBroadPhase : public TimedBroadPhase {
     manager_.collide(&out, fclPairCallback);
   }
 
+  // The tree's leaves hold the frame's swept boxes: a box query against them (the pseudo-
+  // dynamic mode's boxes hold only the frame pose, so it has no frame answer).
+  bool queryFrame(const double* box, std::vector<vadop::BodyId>& out) override {
+    if (kind_ != BoxKind::kSwept) return false;
+    if (manager_.size() == 0) return true;
+    query_object_.setBox(Box{Eigen::Vector3d(box[0], box[1], box[2]), Eigen::Vector3d(box[3], box[4], box[5])});
+    FclQuery q{&query_object_, &out};
+    manager_.collide(&query_object_, &q, fclQueryCallback);
+    return true;
+  }
+
  private:
   FclMode mode_;
   BoxKind kind_;
@@ -128,6 +151,7 @@ class FclBroadPhase : public TimedBroadPhase {
   std::vector<fcl::CollisionObjectd*> pending_, all_;
   size_t alive_ = 0;
   fcl::DynamicAABBTreeCollisionManagerd manager_;
+  BoxObject query_object_;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -202,6 +226,21 @@ class BulletBroadPhase : public TimedBroadPhase {
       const auto c = static_cast<vadop::BodyId>(reinterpret_cast<uintptr_t>(pairs[i].m_pProxy1->m_clientObject));
       if (overlaps(boxes_[a], boxes_[c])) out.push_back(vadop::makePair(a, c));  // drop stale cache pairs
     }
+  }
+
+  // The tree's leaves hold the frame's swept boxes (rounded outwards to float).
+  bool queryFrame(const double* box, std::vector<vadop::BodyId>& out) override {
+    struct Collect : btBroadphaseAabbCallback {
+      std::vector<vadop::BodyId>* out = nullptr;
+      bool process(const btBroadphaseProxy* proxy) override {
+        out->push_back(static_cast<vadop::BodyId>(reinterpret_cast<uintptr_t>(proxy->m_clientObject)));
+        return true;
+      }
+    } collect;
+    collect.out = &out;
+    broadphase_.aabbTest(floorVec(Eigen::Vector3d(box[0], box[1], box[2])),
+                         ceilVec(Eigen::Vector3d(box[3], box[4], box[5])), collect);
+    return true;
   }
 
  private:

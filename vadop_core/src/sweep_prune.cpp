@@ -136,6 +136,37 @@ void SweepPruneBroadPhase::forEachOverlapOnAxis(BodyId id, const Entry& e, F&& f
   }
 }
 
+bool SweepPruneBroadPhase::queryFrame(const double* box, std::vector<BodyId>& out) {
+  const Eigen::Vector3d centre(0.5 * (box[0] + box[3]), 0.5 * (box[1] + box[4]), 0.5 * (box[2] + box[5]));
+  const Eigen::Vector3d half(0.5 * (box[3] - box[0]), 0.5 * (box[4] - box[1]), 0.5 * (box[5] - box[2]));
+  const size_t m = pool_->size();
+  std::vector<Interval> proj(m);  // the box on every pool axis, widened for rounding
+  for (size_t k = 0; k < m; ++k) {
+    const Eigen::Vector3d& a = pool_->axis(static_cast<int>(k));
+    const double c = a.dot(centre), r = a.cwiseAbs().dot(half);
+    const double widen = 1e-12 * (1.0 + std::abs(c) + r);
+    proj[k] = Interval{c - r - widen, c + r + widen};
+  }
+  if (query_stamp_.size() < states_.size()) query_stamp_.resize(states_.size(), 0);
+  if (++query_now_ == 0) {
+    std::fill(query_stamp_.begin(), query_stamp_.end(), 0);
+    query_now_ = 1;
+  }
+  const size_t scanned = aligned_ ? m : std::min<size_t>(m, 1);
+  for (size_t k = 0; k < scanned; ++k) {
+    const Entry probe{static_cast<uint32_t>(k), proj[k].lo, proj[k].hi};
+    forEachOverlapOnAxis(~BodyId{0}, probe, [&](BodyId id) {
+      if (query_stamp_[id] == query_now_) return;
+      query_stamp_[id] = query_now_;
+      for (const Entry& e : states_[id].entries) {
+        if (e.lo > proj[e.axis].hi || proj[e.axis].lo > e.hi) return;
+      }
+      out.push_back(id);
+    });
+  }
+  return true;
+}
+
 void SweepPruneBroadPhase::unlist(BodyId id) {
   State& s = states_[id];
   for (const Entry& e : s.entries) {

@@ -9,6 +9,7 @@
 //    the window's box of each body changed or added since; equal, as vadop_grid.h states;
 //  - the other answers (every engine but the grids inside their frame) within the boxes of the
 //    swept bounding-sphere capsules: no engine may answer "everything".
+#include "broad_phase_access.h"
 #include "vadop/broad_phase.h"
 #include "vadop/error.h"
 #include "vadop/scene_io.h"
@@ -192,6 +193,10 @@ TEST(WorldQuery, QueriesAreCompleteBoundedAndExactForTheGrids) {
       std::vector<char> alive(total, 1);
       for (int i = 0; i < total; ++i) ASSERT_EQ(bp->add(inflate(shapes[i], kTol), motions[i]), static_cast<BodyId>(i));
       bp->update(0.0, 1.0);
+      // Sweep and prune answers in-frame queries from its volumes of the update.
+      const auto* sp = dynamic_cast<const SweepPruneBroadPhase*>(bp.get());
+      std::vector<std::vector<SweepPruneBroadPhase::AxisSpan>> volumes;
+      for (int i = 0; sp && i < total; ++i) volumes.push_back(BroadPhaseTestAccess::volume(*sp, i));
       for (const auto& [i, m] : changes) {
         bp->setMotion(i, m);
         cur[i] = m;
@@ -264,17 +269,42 @@ TEST(WorldQuery, QueriesAreCompleteBoundedAndExactForTheGrids) {
             double whole[6];  // a changed body's box over the whole frame: the grid's bound
             sweptBox(j_padded, changed[j] ? cur[j] : motions[j], 0.0, 1.0, whole);
             if (boxesOverlap(qbox, changed[j] ? whole : fbox)) loose.insert(j);
-            // The bound of the engines that answer by capsules (the default query; the grids
+            // The bound of the engines that answer by capsules (brute force, and every engine
             // outside the last frame). Inside it the grids are held to the box scan below.
             capsuleBox(j_padded, cur[j], t0, t1, jcap);
-            // Bound: no answer outside the capsules' boxes.
-            if (!(isGrid(*bp) && in_frame) && !boxesOverlap(qcap, jcap)) EXPECT_FALSE(answer.count(j)) << bp->name() << " body " << j << " query " << q.id << " [" << t0 << ", " << t1 << "] changed " << int(changed[j]);
+            const bool frame_answer = in_frame && (isGrid(*bp) || sp);
+            if (!frame_answer && !boxesOverlap(qcap, jcap)) EXPECT_FALSE(answer.count(j)) << bp->name() << " body " << j << " query " << q.id << " [" << t0 << ", " << t1 << "] changed " << int(changed[j]);
+            if (sp && in_frame && !changed[j]) {
+              // An unchanged body is listed iff its update intervals overlap the query box's
+              // projection on each of its axes (up to rounding).
+              bool surely = true, maybe = true;
+              for (const auto& span : volumes[j]) {
+                const Eigen::Vector3d& a = sp->pool().axis(static_cast<int>(span.axis));
+                double lo = 0.0, hi = 0.0;
+                for (int k = 0; k < 3; ++k) {
+                  lo += std::min(a[k] * qbox[k], a[k] * qbox[3 + k]);
+                  hi += std::max(a[k] * qbox[k], a[k] * qbox[3 + k]);
+                }
+                surely = surely && span.interval.lo <= hi - 1e-9 && lo + 1e-9 <= span.interval.hi;
+                maybe = maybe && span.interval.lo <= hi + 1e-9 && lo - 1e-9 <= span.interval.hi;
+              }
+              if (surely) EXPECT_TRUE(answer.count(j)) << bp->name() << " misses " << j << " query " << q.id;
+              if (!maybe) EXPECT_FALSE(answer.count(j)) << bp->name() << " beyond its volumes: " << j << " query " << q.id;
+            }
             // Completeness: a contact found by the narrow phase is a candidate.
             const Impact hit = timeOfImpact(qp, q.motion, prepared[j], cur[j], t0, t1);
             if (hit.hit) {
               ++hits_checked;
               EXPECT_TRUE(answer.count(j)) << bp->name() << ": missed body " << j << " (query " << q.id << ", ["
                                            << t0 << ", " << t1 << "], contact at " << hit.time << ")";
+            }
+          }
+          if (sp && in_frame) {  // the changed bodies: as for the grids
+            for (BodyId j : scan) {
+              if (changed[j]) EXPECT_TRUE(answer.count(j)) << bp->name() << " misses changed " << j << " query " << q.id;
+            }
+            for (BodyId j : answer) {
+              if (changed[j]) EXPECT_TRUE(loose.count(j)) << bp->name() << " beyond the bound: " << j << " query " << q.id;
             }
           }
           if (isGrid(*bp) && in_frame) {

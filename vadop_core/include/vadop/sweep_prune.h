@@ -55,6 +55,10 @@ class SweepPruneBroadPhase : public BroadPhase {
   void onRemove(BodyId id) override;
   void onSetMotion(BodyId id) override;
   void computePairs(double t0, double t1, std::vector<Pair>& out) override;
+  // From the sorted lists of the last update: the bodies whose intervals overlap the box's
+  // projection on every axis they use (a binary search and a scan per axis: every axis for
+  // the velocity-aligned engine, one for the every-axis ones, whose bodies all use each).
+  bool queryFrame(const double* box, std::vector<BodyId>& out) override;
 
  private:
   friend struct BroadPhaseTestAccess;  // the tests' view of the volumes (tests/broad_phase_access.h)
@@ -124,6 +128,8 @@ class SweepPruneBroadPhase : public BroadPhase {
   std::vector<std::vector<Endpoint>> lists_;
   std::vector<std::vector<Endpoint>> pending_;
   std::vector<double> max_length_;
+  std::vector<uint32_t> query_stamp_;  // by BodyId: bodies already tested in this query
+  uint32_t query_now_ = 0;
   PairSet pairs_;
   Stats stats_;
 };
