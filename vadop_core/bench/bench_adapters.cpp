@@ -228,16 +228,22 @@ class BulletBroadPhase : public TimedBroadPhase {
     }
   }
 
-  // The tree's leaves hold the frame's swept boxes (rounded outwards to float).
+  // The tree's leaves hold the frame's swept boxes, rounded outwards to float and fattened by
+  // Bullet's margin: its answer is filtered by the boxes themselves, as the pairs are.
   bool queryFrame(const double* box, std::vector<vadop::BodyId>& out) override {
     struct Collect : btBroadphaseAabbCallback {
       std::vector<vadop::BodyId>* out = nullptr;
+      const std::vector<Box>* boxes = nullptr;
+      Box query;
       bool process(const btBroadphaseProxy* proxy) override {
-        out->push_back(static_cast<vadop::BodyId>(reinterpret_cast<uintptr_t>(proxy->m_clientObject)));
+        const auto id = static_cast<vadop::BodyId>(reinterpret_cast<uintptr_t>(proxy->m_clientObject));
+        if (overlaps((*boxes)[id], query)) out->push_back(id);
         return true;
       }
     } collect;
     collect.out = &out;
+    collect.boxes = &boxes_;
+    collect.query = Box{Eigen::Vector3d(box[0], box[1], box[2]), Eigen::Vector3d(box[3], box[4], box[5])};
     broadphase_.aabbTest(floorVec(Eigen::Vector3d(box[0], box[1], box[2])),
                          ceilVec(Eigen::Vector3d(box[3], box[4], box[5])), collect);
     return true;

@@ -48,7 +48,7 @@ void BM_Frame(benchmark::State& state) {
   SceneParams p;
   p.n = static_cast<int>(state.range(1));
   p.speed = state.range(2) / 10.0;
-  ContinuousWorld world(makeScene(p), make(static_cast<int>(state.range(0))), RequeryMode::kGrid);
+  ContinuousWorld world(makeScene(p), make(static_cast<int>(state.range(0))));
   int f = 0;
   FrameStats st;
   world.runFrame(f++, st, nullptr);  // the first frame inserts everything

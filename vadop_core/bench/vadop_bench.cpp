@@ -54,7 +54,6 @@ using vadop_bench::DiscreteWorld;
 using vadop_bench::FclMode;
 using vadop_bench::FrameStats;
 using vadop_bench::LoggedImpact;
-using vadop_bench::RequeryMode;
 using vadop_bench::Scene;
 using vadop_bench::SceneParams;
 using Json = nlohmann::ordered_json;
@@ -297,13 +296,12 @@ std::unique_ptr<vadop::BroadPhase> makeBroadPhase(const RunSpec& s) {
   throw std::logic_error("unknown method " + s.method);
 }
 
-// The ground truth of the miss check: brute force, or beyond kBruteMaxN (too slow) FCL's tree
-// rebuilt every frame on the bench's own boxes, an implementation that shares no code with the
-// library's engines (the library's grid does: it is VADOP without the axes).
+// The ground truth of the miss check: brute force (whose queries scan every body), or beyond
+// kBruteMaxN (too slow) FCL's tree rebuilt every frame on the bench's own boxes, whose frame
+// shares no code with the library's engines (the library's grid does: it is VADOP without the
+// axes); its mid-frame queries share BroadPhase's index of the bodies changed since the
+// update, which test_world_query checks against an independent scan.
 std::string referenceMethod(int n) { return n <= kBruteMaxN ? "brute" : "fcl_rebuild"; }
-RequeryMode requeryModeOf(const std::string& method) {
-  return method == "brute" ? RequeryMode::kScan : RequeryMode::kGrid;
-}
 
 // ---------------------------------------------------------------------------------------------
 // Measurements
@@ -400,7 +398,7 @@ void diffImpacts(const std::vector<LoggedImpact>& ref, const std::vector<LoggedI
 // The reference's impacts of frame f, run from `motions` at the frame start.
 std::vector<LoggedImpact> oracleFrame(const Scene& scene, const std::vector<vadop::Motion>& motions, int f) {
   const std::string ref = referenceMethod(scene.params.n);
-  ContinuousWorld oracle(scene, motions, makeBroadPhase(RunSpec{ref}), requeryModeOf(ref));
+  ContinuousWorld oracle(scene, motions, makeBroadPhase(RunSpec{ref}));
   FrameStats st;
   std::vector<LoggedImpact> log;
   oracle.runFrame(f, st, &log);
@@ -507,7 +505,7 @@ Json runMethod(const Options& o, const Scene& scene, const RunSpec& spec, ChildR
     }
     bp_bytes = world.broadPhase().memoryBytes();
   } else {
-    ContinuousWorld world(scene, std::move(bp), requeryModeOf(spec.method));
+    ContinuousWorld world(scene, std::move(bp));
     std::FILE* logf = nullptr;
     if (role == ChildRole::kReference) {
       logf = std::fopen(log_path.c_str(), "wb");

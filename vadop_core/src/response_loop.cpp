@@ -33,17 +33,34 @@ ResponseLoop::ResponseLoop(std::unique_ptr<BroadPhase> broad_phase, const ToiOpt
 }
 
 BodyId ResponseLoop::add(const Shape& shape, const Motion& motion) {
-  validateShape(shape, "ResponseLoop::add: shape");
+  return add(std::make_shared<const Shape>(shape), motion);
+}
+
+BodyId ResponseLoop::add(std::shared_ptr<const Shape> shape, const Motion& motion) {
+  if (!shape) throw InvalidArgument("ResponseLoop::add: the shape is null");
   validateMotion(motion, "ResponseLoop::add: motion");
-  PreparedShape prepared(shape);
-  // The broad phase sees the shape padded by the tolerance: every pair the narrow phase can
-  // report (gap <= tolerance) is then a candidate.
-  const Shape padded = inflate(shape, toi_.tolerance);
+  if (shape != last_shape_) {
+    validateShape(*shape, "ResponseLoop::add: shape");
+    PreparedShape prepared(*shape);
+    // The broad phase sees the shape padded by the tolerance: every pair the narrow phase can
+    // report (gap <= tolerance) is then a candidate.
+    auto padded = std::make_shared<const Shape>(inflate(*shape, toi_.tolerance));
+    last_prepared_.emplace(std::move(prepared));
+    last_padded_ = std::move(padded);
+    last_shape_ = shape;
+  }
   if (prepared_.size() == prepared_.capacity()) prepared_.reserve(std::max<size_t>(16, 2 * prepared_.capacity()));
-  const BodyId id = bp_->add(padded, motion);  // strong guarantee; nothing below throws
+  const BodyId id = bp_->add(last_padded_, motion);  // strong guarantee; nothing below throws
   if (id >= prepared_.size()) prepared_.resize(id + 1);
-  prepared_[id].emplace(std::move(prepared));
+  prepared_[id].emplace(*last_prepared_);
   return id;
+}
+
+size_t ResponseLoop::memoryBytes() const {
+  // The reported-pairs map: about a node of key, value and link per entry, plus its buckets.
+  return queue_.memoryBytes() + prepared_.capacity() * sizeof(std::optional<PreparedShape>) +
+         reported_.size() * (sizeof(uint64_t) + sizeof(double) + 2 * sizeof(void*)) +
+         reported_.bucket_count() * sizeof(void*);
 }
 
 void ResponseLoop::remove(BodyId id) {

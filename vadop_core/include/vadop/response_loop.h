@@ -39,12 +39,18 @@ class ResponseLoop {
 
   // The shape is padded by the narrow phase's tolerance for the broad phase (as World does).
   BodyId add(const Shape& shape, const Motion& motion);
+  // The same for a shape shared by many bodies (n equal spheres, a fleet of one robot model):
+  // while consecutive adds pass the same pointer, its padded copy and prepared form are made
+  // once and shared.
+  BodyId add(std::shared_ptr<const Shape> shape, const Motion& motion);
   void remove(BodyId id);
   void setMotion(BodyId id, const Motion& motion);
   const Motion& motion(BodyId id) const { return bp_->motion(id); }
   bool contains(BodyId id) const { return bp_->contains(id); }
   size_t size() const { return bp_->size(); }
   const BroadPhase& broadPhase() const { return *bp_; }
+  // Bytes held by the loop's own structures (queue, per-body records; not the broad phase).
+  size_t memoryBytes() const;
 
   // b of a contact with the boundary.
   static constexpr BodyId kBoundary = ~BodyId{0};
@@ -105,6 +111,9 @@ class ResponseLoop {
   ToiOptions toi_;
   Boundary boundary_;
   std::vector<std::optional<PreparedShape>> prepared_;  // by BodyId
+  // The last shared shape added, its padded copy and prepared form.
+  std::shared_ptr<const Shape> last_shape_, last_padded_;
+  std::optional<PreparedShape> last_prepared_;
   ImpactQueue queue_;
   // The last time each pair was reported (key a << 32 | b), cleared by every advance.
   std::unordered_map<uint64_t, double> reported_;
