@@ -11,6 +11,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace vadop {
@@ -39,6 +40,12 @@ class FatBoxPairs {
   // Bodies in the grid whose fat boxes overlap that of `id` (empty for a large body).
   const std::vector<BodyId>& partners(BodyId id) const { return adj_[id]; }
   const std::vector<BodyId>& large() const { return grid_.large(); }
+  // Calls f(j) once for every body in the grid (large ones excluded) whose fat box overlaps
+  // `box` (lo x y z, hi x y z).
+  template <class F>
+  void forEachOverlap(const double* box, F&& f) {
+    grid_.forEachOverlap(box, std::forward<F>(f));
+  }
 
   size_t bodies() const { return grid_.bodies(); }
   size_t pairs() const { return pair_count_; }

@@ -49,10 +49,17 @@ BodyId ResponseLoop::add(std::shared_ptr<const Shape> shape, const Motion& motio
     last_padded_ = std::move(padded);
     last_shape_ = shape;
   }
-  if (prepared_.size() == prepared_.capacity()) prepared_.reserve(std::max<size_t>(16, 2 * prepared_.capacity()));
+  if (prepared_.size() == prepared_.capacity()) {
+    prepared_.reserve(std::max<size_t>(16, 2 * prepared_.capacity()));
+    kinematics_.reserve(prepared_.capacity());
+  }
   const BodyId id = bp_->add(last_padded_, motion);  // strong guarantee; nothing below throws
-  if (id >= prepared_.size()) prepared_.resize(id + 1);
+  if (id >= prepared_.size()) {
+    prepared_.resize(id + 1);
+    kinematics_.resize(prepared_.capacity());  // within capacity: cannot fail after the add
+  }
   prepared_[id].emplace(*last_prepared_);
+  setKinematics(id);
   return id;
 }
 
@@ -68,7 +75,37 @@ void ResponseLoop::remove(BodyId id) {
   prepared_[id].reset();
 }
 
-void ResponseLoop::setMotion(BodyId id, const Motion& motion) { bp_->setMotion(id, motion); }
+void ResponseLoop::setMotion(BodyId id, const Motion& motion) {
+  bp_->setMotion(id, motion);
+  setKinematics(id);
+}
+
+void ResponseLoop::setKinematics(BodyId id) {
+  const Motion& m = bp_->motion(id);
+  Kinematics& k = kinematics_[id];
+  k.position = m.position;
+  k.velocity = m.linear_velocity;
+  k.t_ref = m.t_ref;
+  // Bounding radius about the origin (which moves in a straight line when the body does not
+  // turn); rotating bodies are left to the narrow phase.
+  // The broad phase holds the shape padded by the tolerance: its radius is the reach.
+  k.reach = m.isRotating() ? -1.0 : bp_->shape(id).bounding_radius;
+}
+
+bool ResponseLoop::mayTouch(BodyId a, BodyId b, double from, double t1) const {
+  const Kinematics& ka = kinematics_[a];
+  const Kinematics& kb = kinematics_[b];
+  if (ka.reach < 0.0 || kb.reach < 0.0) return true;
+  // Relative position d(s) = d0 + w s, s in [0, t1 - from]: its least norm against the padded
+  // radii, i.e. the radii plus two tolerances (a hit needs a gap <= one; the rounding here is
+  // far below a tolerance).
+  const Eigen::Vector3d d0 = (kb.position + kb.velocity * (from - kb.t_ref)) - (ka.position + ka.velocity * (from - ka.t_ref));
+  const Eigen::Vector3d w = kb.velocity - ka.velocity;
+  const double ww = w.squaredNorm();
+  const double s = ww > 0.0 ? std::clamp(-d0.dot(w) / ww, 0.0, t1 - from) : 0.0;
+  const double reach = ka.reach + kb.reach;
+  return (d0 + w * s).squaredNorm() <= reach * reach * (1.0 + 1e-12) + 1e-18;
+}
 
 void ResponseLoop::Response::setMotion(BodyId id, const Motion& motion) {
   loop_.setMotion(id, motion);
@@ -83,6 +120,7 @@ bool ResponseLoop::reportedAt(BodyId a, BodyId b, double t) const {
 void ResponseLoop::predict(BodyId a, BodyId b, double from, double t1) {
   if (a > b) std::swap(a, b);
   ++stats_.narrow;
+  if (!mayTouch(a, b, from, t1)) return;
   const Impact hit = timeOfImpact(*prepared_[a], bp_->motion(a), *prepared_[b], bp_->motion(b), from, t1, toi_);
   if (hit.undecided) ++stats_.undecided;  // not a contact (see Impact::undecided)
   if (!hit.hit || reportedAt(a, b, hit.time)) return;

@@ -376,10 +376,16 @@ bool VadopGridBroadPhase::queryFrame(const double* q, std::vector<BodyId>& out) 
     const BodyId id = slot_body_[s];
     if (id < slot_of_.size() && slot_of_[id] == s) out.push_back(id);
   };
-  if (!cells_ready_) {  // incremental mode: the frame's cells, once
-    const Stats kept = stats_;  // the last update's statistics stay its own
-    buildGrid(chooseCellSize(world_lo_, world_hi_));
-    stats_ = kept;
+  if (!cells_ready_) {
+    // Incremental mode: no cells this frame, but every slot's frame box lies in its body's fat
+    // box, so the fat boxes that overlap the query (and the large ones) hold the answer.
+    auto test = [&](BodyId id) {
+      const uint32_t s = id < slot_of_.size() ? slot_of_[id] : kNoSlot;
+      if (s != kNoSlot && boxesOverlap(&box_[6 * static_cast<size_t>(s)])) out.push_back(id);
+    };
+    fat_->forEachOverlap(q, test);
+    for (BodyId id : fat_->large()) test(id);
+    return true;
   }
   const double inv = 1.0 / grid_cell_size_;
   auto cellOf = [inv](double v) { return detail::floorToInt(v * inv); };

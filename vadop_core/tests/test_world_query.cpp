@@ -166,13 +166,16 @@ TEST(WorldQuery, QueriesAreCompleteBoundedAndExactForTheGrids) {
       shapes.push_back(randomShape(rng));
       motions.push_back(randomMotion(rng, box, i % 5 == 0 ? 0.0 : 3.0, i % 3 == 0));
     }
-    // One huge body (past the grid's per-body cell limit) and one far away.
+    // A huge body (past the frame grid's per-body cell limit), a huger one (also past that of
+    // the fat boxes' grid) and one far away.
     shapes.push_back(makeBox(Eigen::Vector3d(40.0, 0.5, 0.5)));
     motions.push_back(randomMotion(rng, 1.0, 0.5, false));
     shapes.push_back(makeSphere(0.5));
     motions.push_back(makeMotion(Eigen::Vector3d(500, 500, 500), Eigen::Quaterniond::Identity(),
                                  Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d::Zero()));
-    const int total = n + 2;
+    shapes.push_back(makeBox(Eigen::Vector3d(0.5, 600.0, 0.5)));
+    motions.push_back(randomMotion(rng, 1.0, 0.5, false));
+    const int total = n + 3;
     // Changes after the update: new motions, removals, additions.
     std::vector<std::pair<int, Motion>> changes;
     for (int i = 0; i < (many ? 120 : 15); ++i) {
@@ -227,7 +230,7 @@ TEST(WorldQuery, QueriesAreCompleteBoundedAndExactForTheGrids) {
         Motion motion;
       };
       std::vector<Q> qs;
-      for (int id : {changes[0].first, 5, 6, 7, n, static_cast<int>(cur.size()) - 1}) {
+      for (int id : {changes[0].first, 5, 6, 7, n, n + 2, static_cast<int>(cur.size()) - 1}) {
         if (alive[id]) qs.push_back({id, cur_shapes[id], cur[id]});
       }
       for (int k = 0; k < 3; ++k) qs.push_back({-1, randomShape(rng), randomMotion(rng, box, 4.0, k == 1)});

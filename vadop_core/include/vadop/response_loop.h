@@ -111,6 +111,17 @@ class ResponseLoop {
   ToiOptions toi_;
   Boundary boundary_;
   std::vector<std::optional<PreparedShape>> prepared_;  // by BodyId
+  // By BodyId, one cache line each: what the pair cull before the narrow phase reads (the
+  // origin at t_ref and its velocity for a body that does not turn; reach < 0 for one that does).
+  struct alignas(64) Kinematics {
+    Eigen::Vector3d position, velocity;
+    double t_ref = 0.0, reach = -1.0;
+  };
+  std::vector<Kinematics> kinematics_;
+  void setKinematics(BodyId id);
+  // False only when the two bodies, both translating, stay farther apart over [from, t1] than
+  // their bounding radii and twice the tolerance: timeOfImpact would report no hit.
+  bool mayTouch(BodyId a, BodyId b, double from, double t1) const;
   // The last shared shape added, its padded copy and prepared form.
   std::shared_ptr<const Shape> last_shape_, last_padded_;
   std::optional<PreparedShape> last_prepared_;

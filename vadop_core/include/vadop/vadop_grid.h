@@ -58,8 +58,9 @@ class VadopGridBroadPhase : public BroadPhase {
   // Queries (BroadPhase::query) over [t0, t1] within the frame of the last update are answered
   // from that frame's cells: the bodies whose frame boxes overlap the query's swept AABB over
   // [t0, t1] (a frame box holds the body's swept box over every sub-interval); BroadPhase adds
-  // the bodies changed since. Cost: the cells the query box spans and their occupancy; the
-  // first query after an update in the incremental mode builds the frame's cells once (O(n)).
+  // the bodies changed since. Cost: the cells the query box spans and their occupancy (in the
+  // incremental mode, which builds no cells, those of the fat boxes' grid: every frame box lies
+  // in its body's fat box).
   // The answer is every body whose swept AABB may overlap the query's (no pool-axis pruning: a
   // superset of the update's candidates by at most the bodies whose boxes overlap but whose
   // pool intervals do not).
