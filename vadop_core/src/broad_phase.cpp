@@ -176,9 +176,10 @@ void BroadPhase::queryChanged(const double* box, BodyId self, double t0, double 
     }
     return;
   }
-  // More: a grid of their boxes over [changed_t0_, frame_t1_], which hold every later window
-  // of the frame; rebuilt when a query starts before changed_t0_. A body changed again is
-  // indexed again (its old box goes stale).
+  // More: a grid of their boxes, each over [the t0 of the query that indexed it, frame_t1_],
+  // which holds every later window of the frame: valid while queries do not start before the
+  // latest such t0 (changed_t0_; a response loop's queries only move forward), rebuilt from
+  // scratch otherwise. A body changed again is indexed again (its old box goes stale).
   if (!changed_grid_valid_ || t0 < changed_t0_) {
     if (!changed_grid_) changed_grid_ = std::make_unique<detail::BoxGrid>();
     // Cells about the size of the median box, measured on the first changed bodies.
@@ -202,6 +203,7 @@ void BroadPhase::queryChanged(const double* box, BodyId self, double t0, double 
     changed_indexed_ = 0;
     changed_grid_valid_ = true;
   }
+  if (changed_indexed_ < changed_.size()) changed_t0_ = t0;
   for (; changed_indexed_ < changed_.size(); ++changed_indexed_) {
     const BodyId id = changed_[changed_indexed_];
     if (!contains(id)) {
@@ -209,7 +211,7 @@ void BroadPhase::queryChanged(const double* box, BodyId self, double t0, double 
       continue;
     }
     double x[6];
-    SweptBody(*bodies_[id].shape, bodies_[id].motion, changed_t0_, frame_t1_).box(x);
+    SweptBody(*bodies_[id].shape, bodies_[id].motion, t0, frame_t1_).box(x);
     changed_grid_->set(id, x);
   }
   changed_grid_->forEachOverlap(box, [&](BodyId id) {

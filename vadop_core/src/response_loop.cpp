@@ -2,6 +2,7 @@
 
 #include "vadop/error.h"
 #include "vadop/limits.h"
+#include "grid_cells.h"
 
 #include <algorithm>
 #include <chrono>
@@ -9,6 +10,9 @@
 #include <string>
 
 namespace vadop {
+
+size_t ResponseLoop::KeyHash::operator()(uint64_t k) const { return static_cast<size_t>(detail::mixCellKey(k)); }
+
 namespace {
 
 uint64_t pairKey(BodyId a, BodyId b) { return (static_cast<uint64_t>(a) << 32) | b; }
@@ -64,10 +68,8 @@ BodyId ResponseLoop::add(std::shared_ptr<const Shape> shape, const Motion& motio
 }
 
 size_t ResponseLoop::memoryBytes() const {
-  // The reported-pairs map: about a node of key, value and link per entry, plus its buckets.
   return queue_.memoryBytes() + prepared_.capacity() * sizeof(std::optional<PreparedShape>) +
-         reported_.size() * (sizeof(uint64_t) + sizeof(double) + 2 * sizeof(void*)) +
-         reported_.bucket_count() * sizeof(void*);
+         reported_.memoryBytes();
 }
 
 void ResponseLoop::remove(BodyId id) {
@@ -113,8 +115,8 @@ void ResponseLoop::Response::setMotion(BodyId id, const Motion& motion) {
 }
 
 bool ResponseLoop::reportedAt(BodyId a, BodyId b, double t) const {
-  const auto it = reported_.find(pairKey(a, b));
-  return it != reported_.end() && t <= it->second;
+  const double* at = reported_.find(pairKey(a, b));
+  return at != nullptr && t <= *at;
 }
 
 void ResponseLoop::predict(BodyId a, BodyId b, double from, double t1) {
@@ -182,7 +184,7 @@ ResponseLoop::Stats ResponseLoop::advance(double t0, double t1, const Callback& 
     const double tc = q.impact.time;
     const bool with_boundary = q.b > kBoundary;
     const Contact contact{static_cast<BodyId>(q.a), with_boundary ? kBoundary : static_cast<BodyId>(q.b), q.impact};
-    reported_[pairKey(contact.a, contact.b)] = tc;
+    reported_.insert(pairKey(contact.a, contact.b), tc) = tc;
     ++stats_.contacts;
     if (with_boundary) ++stats_.boundary_contacts;
     Response response(*this, tc);

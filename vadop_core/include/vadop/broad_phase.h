@@ -108,8 +108,9 @@ class BroadPhase {
   double frame_t0_ = 0.0, frame_t1_ = 0.0;
   std::vector<uint8_t> changed_flag_;  // by BodyId
   std::vector<BodyId> changed_;
-  // Past a few changed bodies, their swept boxes over [changed_t0_, frame_t1_] in a hash grid,
-  // filled up to changed_indexed_ entries of changed_.
+  // Past a few changed bodies, their swept boxes over the rest of the frame from the query
+  // that indexed them (the latest such t0: changed_t0_) in a hash grid, filled up to
+  // changed_indexed_ entries of changed_.
   std::unique_ptr<detail::BoxGrid> changed_grid_;
   size_t changed_indexed_ = 0;
   double changed_t0_ = 0.0;

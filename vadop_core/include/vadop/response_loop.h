@@ -16,6 +16,7 @@
 #pragma once
 
 #include "vadop/broad_phase.h"
+#include "vadop/detail/flat_map.h"
 #include "vadop/distance.h"
 #include "vadop/impact_queue.h"
 #include "vadop/motion.h"
@@ -26,7 +27,6 @@
 #include <functional>
 #include <memory>
 #include <optional>
-#include <unordered_map>
 #include <vector>
 
 namespace vadop {
@@ -127,7 +127,10 @@ class ResponseLoop {
   std::optional<PreparedShape> last_prepared_;
   ImpactQueue queue_;
   // The last time each pair was reported (key a << 32 | b), cleared by every advance.
-  std::unordered_map<uint64_t, double> reported_;
+  struct KeyHash {
+    size_t operator()(uint64_t k) const;
+  };
+  detail::FlatMap<uint64_t, double, KeyHash> reported_;
   Stats stats_;
 };
 
