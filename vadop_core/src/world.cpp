@@ -270,4 +270,57 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
   return out;
 }
 
+std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::string>& movers,
+                                                         const std::vector<Motion>& motions, double t0,
+                                                         double horizon,
+                                                         const std::function<bool(uint64_t key)>& skip) {
+  const char* op = "firstContactIf";
+  if (movers.size() != motions.size()) {
+    throw InvalidArgument(std::string(op) + ": " + std::to_string(movers.size()) + " movers but " +
+                          std::to_string(motions.size()) + " motions");
+  }
+  if (!std::isfinite(t0)) throw InvalidArgument(std::string(op) + ": t0 must be finite, got " + formatNumber(t0));
+  if (!std::isfinite(horizon) || horizon < 0.0) {
+    throw InvalidArgument(std::string(op) + ": horizon must be finite and >= 0, got " + formatNumber(horizon));
+  }
+  double t1 = t0 + horizon;
+  for (const auto& [value, field] : {std::pair<double, const char*>{t0, "firstContactIf: t0"}, {t1, "firstContactIf: t0 + horizon"}}) {
+    const std::string error = rangeError(value, kMaxTime, field, "s");
+    if (!error.empty()) throw InvalidArgument(error);
+  }
+  std::vector<BodyId> ids;
+  ids.reserve(movers.size());
+  for (size_t i = 0; i < movers.size(); ++i) {
+    ids.push_back(bodyId(movers[i], op));
+    if (!isValidMotion(motions[i])) validateMotion(motions[i], std::string(op) + ": motion of " + quoted(movers[i]));
+  }
+  std::vector<BodyId> sorted = ids;
+  std::sort(sorted.begin(), sorted.end());
+  if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end()) {
+    throw InvalidArgument(std::string(op) + ": a mover is listed twice");
+  }
+  std::optional<MoverContact> best;
+  std::vector<BodyId> found;
+  for (size_t i = 0; i < ids.size(); ++i) {
+    const Record& rm = records_[ids[i]];
+    // The broad phase holds the mover's shape padded by the tolerance, as for its own queries.
+    broad_phase_->query(broad_phase_->shape(ids[i]), motions[i], t0, t1, found);
+    for (BodyId other : found) {
+      if (std::binary_search(sorted.begin(), sorted.end(), other)) continue;
+      const Record& ro = records_[other];
+      if (!(rm.group & ro.mask) || !(ro.group & rm.mask)) continue;
+      if (pair_filter_ && !pair_filter_(std::min(rm.key, ro.key), std::max(rm.key, ro.key))) continue;
+      if (skip && skip(ro.key)) continue;
+      // Only the first contact matters: later windows shrink to the best time so far.
+      const Impact hit = timeOfImpact(*rm.prepared, motions[i], *ro.prepared, broad_phase_->motion(other), t0, t1, config_.toi);
+      if (!hit.hit && !hit.undecided) continue;
+      if (!best || hit.time < best->impact.time) {
+        best = MoverContact{i, ro.name, ro.key, hit, hit.undecided};
+        t1 = hit.time;
+      }
+    }
+  }
+  return best;
+}
+
 }  // namespace vadop

@@ -120,6 +120,27 @@ class World {
   // unknown ids (nothing changed).
   std::vector<WorldImpact> predict(double t0, double horizon, const std::vector<std::string>& only);
 
+  // "What if": the earliest contact over [t0, t0 + horizon] if the bodies `movers` (a robot's
+  // links) moved with `motions` (one each, the same order) instead of their own, against every
+  // other body moving as set: the question of a velocity gate about a candidate command. Pairs
+  // among the movers are not tested; the pair filters apply as in predict, and `skip` (when
+  // set) drops the other bodies whose key it accepts (a gate's ignore list). Answered by the
+  // broad phase's queries; the world is not changed. nullopt: no contact (an undecided pair
+  // counts as a contact at the time it is certified clear to). Throws on unknown or
+  // repeated movers, a size mismatch, an invalid motion or window (nothing changed).
+  struct MoverContact {
+    size_t mover = 0;      // index into movers
+    std::string other;     // the body touched
+    uint64_t other_key = 0;
+    Impact impact;         // normal from the mover to the other
+    // The narrow phase could not decide this pair past impact.time (Impact::undecided): for a
+    // gate, a contact there (it cannot certify the command beyond).
+    bool undecided = false;
+  };
+  std::optional<MoverContact> firstContactIf(const std::vector<std::string>& movers,
+                                             const std::vector<Motion>& motions, double t0, double horizon,
+                                             const std::function<bool(uint64_t key)>& skip = {});
+
   const WorldConfig& config() const { return config_; }
   const BroadPhase& broadPhase() const { return *broad_phase_; }
   // Narrow-phase calls made by the last predict: its candidate pairs after any `only` filter

@@ -1,0 +1,211 @@
+// The velocity gate's pieces in the library: World::firstContactIf (a body's links under a
+// candidate motion against the world, the world unchanged) and searchGateScale (the largest
+// clear scale of a command). Analytic cases pin the search's rules; random scenes compare both
+// with brute force: a second world (brute-force broad phase) in which the links are given the
+// scaled motions and predicted, over every grid point and a fine grid of scales.
+#include "vadop/error.h"
+#include "vadop/gate.h"
+#include "vadop/world.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace vadop {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+TEST(GateScale, LargestClearGridPointFirst) {
+  // Clear at and below 0.5: 1, 0.98, ..., 0.5 tried (26 calls), 0.5 returned.
+  const GateScale g = searchGateScale([](double s) { return s <= 0.5 + 1e-12 ? kInf : 1.0; });
+  EXPECT_TRUE(g.clear);
+  EXPECT_NEAR(g.scale, 0.5, 1e-12);
+  EXPECT_EQ(g.evaluations, 26u);
+  // Clear at full speed: one call.
+  EXPECT_EQ(searchGateScale([](double) { return kInf; }).evaluations, 1u);
+  // Clear only in a band above a blocked one (passing before a crossing agent): the band's top.
+  const GateScale band = searchGateScale([](double s) { return s > 0.7 ? 0.4 : (s > 0.3 ? kInf : 0.9); });
+  EXPECT_TRUE(band.clear);
+  EXPECT_NEAR(band.scale, 0.7, 1e-12);
+}
+
+TEST(GateScale, WithoutAClearScaleTheLatestContactWins) {
+  // Something drives into the body: the latest first contact, here at full speed away.
+  GateScale g = searchGateScale([](double s) { return 1.0 + s; });
+  EXPECT_FALSE(g.clear);
+  EXPECT_EQ(g.scale, 1.0);
+  EXPECT_EQ(g.contact_time, 2.0);
+  EXPECT_EQ(g.evaluations, 51u);
+  g = searchGateScale([](double s) { return 2.0 - s; });
+  EXPECT_EQ(g.scale, 0.0);
+  // Ties: the larger scale.
+  g = searchGateScale([](double) { return 0.3; });
+  EXPECT_EQ(g.scale, 1.0);
+  // A step that does not divide 1 still ends at 0.
+  std::vector<double> tried;
+  searchGateScale([&](double s) { tried.push_back(s); return 1.0; }, 0.3);
+  EXPECT_EQ(tried.size(), 5u);  // 1, 0.7, 0.4, 0.1, 0
+  EXPECT_EQ(tried.back(), 0.0);
+}
+
+TEST(GateScale, BadInputThrows) {
+  EXPECT_THROW(searchGateScale([](double) { return kInf; }, 0.0), InvalidArgument);
+  EXPECT_THROW(searchGateScale([](double) { return kInf; }, NAN), InvalidArgument);
+  EXPECT_THROW(searchGateScale([](double) { return kInf; }, 1.5), InvalidArgument);
+  EXPECT_THROW(searchGateScale({}), InvalidArgument);
+  EXPECT_THROW(searchGateScale([](double) { return NAN; }), InvalidArgument);
+}
+
+// A robot: two boxes rigid with a base at `base` (position, yaw), driven by the body-frame
+// twist (v, w) scaled by s, from t0: each link turns about the robot's screw axis.
+struct Robot {
+  Eigen::Vector3d position;
+  double yaw = 0.0;
+  Eigen::Vector3d v, w;  // body frame
+  std::vector<Eigen::Vector3d> offsets{{0.0, 0.0, 0.0}, {0.6, 0.0, 0.0}};
+  std::vector<Shape> shapes{makeBox({0.6, 0.5, 0.4}), makeBox({0.4, 0.3, 0.3})};
+  std::vector<Motion> motions(double s, double t0) const {
+    const Eigen::Matrix3d r = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    const Eigen::Vector3d vw = r * v * s, ww = r * w * s;
+    std::vector<Motion> out;
+    for (const Eigen::Vector3d& o : offsets) {
+      const Eigen::Vector3d arm = r * o;
+      const Eigen::Vector3d ve = vw + ww.cross(arm);
+      Motion m = makeMotion(position + arm, Eigen::Quaterniond(r), screwPivotVelocity(ve, ww), ww, t0);
+      m.pivot_offset = screwPivotOffset(ve, ww);
+      out.push_back(m);
+    }
+    return out;
+  }
+};
+
+void addScene(World& w, const Robot& robot, const std::vector<Shape>& shapes, const std::vector<Motion>& motions) {
+  const std::vector<Motion> own = robot.motions(1.0, 0.0);
+  for (size_t i = 0; i < robot.shapes.size(); ++i) w.add("robot/" + std::to_string(i), robot.shapes[i], own[i]);
+  for (size_t i = 0; i < shapes.size(); ++i) w.add("obstacle/" + std::to_string(i), shapes[i], motions[i]);
+}
+
+TEST(GateScale, MatchesBruteForceOnRandomScenes) {
+  const double t0 = 0.0, window = 1.0;
+  size_t scenes = 0, clear_scenes = 0, blocked_scenes = 0, partial = 0, thin = 0, contacts = 0;
+  for (uint64_t seed = 1; seed <= 40; ++seed) {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    Robot robot;
+    robot.position = Eigen::Vector3d(0, 0, 0.2);
+    robot.yaw = 3.0 * u(rng);
+    robot.v = Eigen::Vector3d(1.5 + u(rng), 0.3 * u(rng), 0.0);
+    robot.w = Eigen::Vector3d(0, 0, 1.5 * u(rng));
+    std::vector<Shape> shapes;
+    std::vector<Motion> motions;
+    for (int i = 0; i < 12; ++i) {
+      Eigen::Vector3d p(3.0 * u(rng), 3.0 * u(rng), 0.2);
+      if (p.head<2>().norm() < 1.0) p.head<2>() *= 1.0 / p.head<2>().norm();  // not on the robot
+      const Eigen::Vector3d v(1.2 * u(rng), 1.2 * u(rng), 0.0);
+      shapes.push_back(i % 2 ? makeSphere(0.25 + 0.1 * u(rng)) : makeBox({0.5, 0.4, 0.4}));
+      motions.push_back(makeMotion(p, Eigen::Quaterniond::Identity(), v, Eigen::Vector3d(0, 0, 0.5 * u(rng)), t0));
+    }
+    WorldConfig fast_config;  // the default VADOP grid answers the gate's queries
+    World gate_world(fast_config);
+    addScene(gate_world, robot, shapes, motions);
+    gate_world.predict(t0, 2.0);  // the node's cycle: a frame to answer queries from
+    WorldConfig brute_config;
+    brute_config.broad_phase = BroadPhaseKind::kBrute;
+    World brute(brute_config);
+    addScene(brute, robot, shapes, motions);
+    const std::vector<std::string> links = {"robot/0", "robot/1"};
+
+    // Brute force: the links given the scaled motions, predicted with everything else.
+    auto bruteContact = [&](double s) {
+      const std::vector<Motion> m = robot.motions(s, t0);
+      for (size_t i = 0; i < links.size(); ++i) brute.setMotion(links[i], m[i]);
+      double first = kInf;
+      for (const WorldImpact& hit : brute.predict(t0, window, links)) {
+        const bool own = hit.a.rfind("robot/", 0) == 0 && hit.b.rfind("robot/", 0) == 0;
+        if (!own) first = std::min(first, hit.impact.time);
+      }
+      return first;
+    };
+    auto gateContact = [&](double s) {
+      const auto hit = gate_world.firstContactIf(links, robot.motions(s, t0), t0, window);
+      return hit ? hit->impact.time : kInf;
+    };
+    const GateScale g = searchGateScale(gateContact);
+    // The same search over the brute-force contacts must give the same answer, and every
+    // contact time on the way must agree.
+    const GateScale want = searchGateScale(bruteContact);
+    ++scenes;
+    EXPECT_EQ(g.clear, want.clear) << "seed " << seed;
+    EXPECT_NEAR(g.scale, want.scale, 1e-12) << "seed " << seed;
+    EXPECT_EQ(g.evaluations, want.evaluations) << "seed " << seed;
+    if (!g.clear) EXPECT_NEAR(g.contact_time, want.contact_time, 1e-6) << "seed " << seed;
+    for (double s : {0.0, 0.37, 1.0}) {
+      const double a = gateContact(s), b = bruteContact(s);
+      if (std::isinf(b)) {
+        EXPECT_TRUE(std::isinf(a)) << "seed " << seed << " s " << s;
+      } else {
+        ++contacts;
+        EXPECT_NEAR(a, b, 1e-6) << "seed " << seed << " s " << s;
+      }
+    }
+    // The fine grid (step 0.001): the largest clear scale lies within one step of the answer
+    // unless the clear scales above it form a band thinner than the step.
+    if (g.clear) {
+      ++clear_scenes;
+      if (g.scale < 1.0) ++partial;
+      double top = g.scale;
+      for (int k = 1000; k >= 0; --k) {
+        const double s = k / 1000.0;
+        if (s <= g.scale) break;
+        if (std::isinf(bruteContact(s))) {
+          top = s;
+          break;
+        }
+      }
+      if (top - g.scale > 0.02 + 1e-9) {
+        ++thin;
+        // Then the clear band above must be thin: its grid neighbours are blocked.
+        EXPECT_FALSE(std::isinf(bruteContact(std::ceil(top / 0.02) * 0.02))) << "seed " << seed;
+      }
+    } else {
+      ++blocked_scenes;
+    }
+  }
+  // Not vacuous: full-speed, slowed and blocked commands all occur.
+  EXPECT_GT(partial, 3u);
+  EXPECT_GT(clear_scenes - partial, 3u);
+  std::printf("%zu scenes: %zu clear (%zu slowed, %zu thin bands), %zu blocked, %zu contacts compared\n", scenes,
+              clear_scenes, partial, thin, blocked_scenes, contacts);
+}
+
+TEST(WorldFirstContactIf, BadInputThrowsAndChangesNothing) {
+  World w;
+  w.add("a", makeSphere(0.5), makeMotion({0, 0, 0}, Eigen::Quaterniond::Identity(), {0, 0, 0}, {0, 0, 0}));
+  w.add("b", makeSphere(0.5), makeMotion({3, 0, 0}, Eigen::Quaterniond::Identity(), {0, 0, 0}, {0, 0, 0}));
+  const Motion go = makeMotion({0, 0, 0}, Eigen::Quaterniond::Identity(), {2, 0, 0}, {0, 0, 0});
+  EXPECT_THROW(w.firstContactIf({"zz"}, {go}, 0.0, 1.0), InvalidArgument);
+  EXPECT_THROW(w.firstContactIf({"a"}, {}, 0.0, 1.0), InvalidArgument);
+  EXPECT_THROW(w.firstContactIf({"a", "a"}, {go, go}, 0.0, 1.0), InvalidArgument);
+  EXPECT_THROW(w.firstContactIf({"a"}, {go}, NAN, 1.0), InvalidArgument);
+  EXPECT_THROW(w.firstContactIf({"a"}, {go}, 0.0, -1.0), InvalidArgument);
+  Motion bad = go;
+  bad.linear_velocity.x() = NAN;
+  EXPECT_THROW(w.firstContactIf({"a"}, {bad}, 0.0, 1.0), InvalidArgument);
+  // The candidate motion reaches b at t = 1; the world's own motions are untouched.
+  const auto hit = w.firstContactIf({"a"}, {go}, 0.0, 2.0);
+  ASSERT_TRUE(hit.has_value());
+  EXPECT_EQ(hit->other, "b");
+  EXPECT_NEAR(hit->impact.time, 1.0, 1e-6);
+  EXPECT_EQ(w.motion("a").linear_velocity, Eigen::Vector3d::Zero());
+  EXPECT_TRUE(w.predict(0.0, 2.0).empty());
+  // A skipped body is not considered.
+  EXPECT_FALSE(w.firstContactIf({"a"}, {go}, 0.0, 2.0, [&](uint64_t key) { return key == w.key("b"); }).has_value());
+}
+
+}  // namespace
+}  // namespace vadop
