@@ -70,10 +70,8 @@ BodyId BroadPhase::add(std::shared_ptr<const Shape> shape, const Motion& motion)
   return id;
 }
 
-void BroadPhase::requireKnown(BodyId id, const char* operation) const {
-  if (!contains(id)) {
-    throw InvalidArgument(std::string(operation) + ": unknown body id " + std::to_string(id));
-  }
+void BroadPhase::throwUnknown(BodyId id, const char* operation) {
+  throw InvalidArgument(std::string(operation) + ": unknown body id " + std::to_string(id));
 }
 
 void BroadPhase::remove(BodyId id) {
@@ -86,6 +84,7 @@ void BroadPhase::remove(BodyId id) {
   free_ids_.push_back(id);
   std::push_heap(free_ids_.begin(), free_ids_.end(), std::greater<BodyId>());
   --alive_count_;
+  markChanged(id);  // the frame's answers must drop it
 }
 
 void BroadPhase::setMotion(BodyId id, const Motion& motion) {
@@ -122,10 +121,10 @@ void BroadPhase::update(double t0, double t1) {
 void BroadPhase::query(BodyId id, double t0, double t1, std::vector<BodyId>& out) {
   requireKnown(id, "query");
   requireInterval(t0, t1, "query");
-  std::vector<BodyId> found;
-  queryCandidates(*bodies_[id].shape, bodies_[id].motion, id, t0, t1, found);
-  sortUnique(found);
-  out.swap(found);
+  // Nothing below throws but an allocation: `out` is the work space (no allocation per query).
+  out.clear();
+  queryCandidates(*bodies_[id].shape, bodies_[id].motion, id, t0, t1, out);
+  sortUnique(out);
 }
 
 void BroadPhase::query(const Shape& shape, const Motion& motion, double t0, double t1,
@@ -133,10 +132,9 @@ void BroadPhase::query(const Shape& shape, const Motion& motion, double t0, doub
   validateShape(shape, "query: shape");
   validateMotion(motion, "query: motion");
   requireInterval(t0, t1, "query");
-  std::vector<BodyId> found;
-  queryCandidates(shape, motion, kNoBody, t0, t1, found);
-  sortUnique(found);
-  out.swap(found);
+  out.clear();
+  queryCandidates(shape, motion, kNoBody, t0, t1, out);
+  sortUnique(out);
 }
 
 void BroadPhase::queryCandidates(const Shape& shape, const Motion& motion, BodyId self, double t0,
@@ -148,7 +146,8 @@ void BroadPhase::queryCandidates(const Shape& shape, const Motion& motion, BodyI
     if (queryFrame(box, frame_found_)) {
       // The engine's volumes of the frame hold the unchanged bodies' paths over [t0, t1].
       for (BodyId id : frame_found_) {
-        if (id != self && contains(id) && !(id < changed_flag_.size() && changed_flag_[id])) out.push_back(id);
+        // changed_flag_ also marks the bodies removed (and re-added) since the update.
+        if (id != self && !(id < changed_flag_.size() && changed_flag_[id])) out.push_back(id);
       }
       queryChanged(box, self, t0, t1, out);
       return;
@@ -220,16 +219,6 @@ void BroadPhase::queryChanged(const double* box, BodyId self, double t0, double 
   for (BodyId id : changed_grid_->large()) {
     if (id != self && contains(id) && overlaps(changed_grid_->box(id))) out.push_back(id);
   }
-}
-
-const Shape& BroadPhase::shape(BodyId id) const {
-  requireKnown(id, "shape");
-  return *bodies_[id].shape;
-}
-
-const Motion& BroadPhase::motion(BodyId id) const {
-  requireKnown(id, "motion");
-  return bodies_[id].motion;
 }
 
 double segmentSegmentDistanceSquared(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,

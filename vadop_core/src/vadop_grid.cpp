@@ -371,11 +371,8 @@ bool VadopGridBroadPhase::queryFrame(const double* q, std::vector<BodyId>& out) 
     return !(x[0] > q[3] || q[0] > x[3] || x[1] > q[4] || q[1] > x[4] || x[2] > q[5] || q[2] > x[5]);
   };
   // A slot describes the frame volume of the body that held it (BroadPhase drops the bodies
-  // removed or changed since; a body re-added may hold another slot, hence the check).
-  auto push = [&](uint32_t s) {
-    const BodyId id = slot_body_[s];
-    if (id < slot_of_.size() && slot_of_[id] == s) out.push_back(id);
-  };
+  // removed, re-added or changed since).
+  auto push = [&](uint32_t s) { out.push_back(slot_body_[s]); };
   if (!cells_ready_) {
     // Incremental mode: no cells this frame, but every slot's frame box lies in its body's fat
     // box, so the fat boxes that overlap the query (and the large ones) hold the answer.

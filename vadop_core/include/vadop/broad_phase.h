@@ -56,8 +56,15 @@ class BroadPhase {
 
   bool contains(BodyId id) const { return id < bodies_.size() && bodies_[id].alive; }
   size_t size() const { return alive_count_; }
-  const Shape& shape(BodyId id) const;
-  const Motion& motion(BodyId id) const;
+  // Throw for an unknown id; inline, as the narrow phase reads them for every pair.
+  const Shape& shape(BodyId id) const {
+    if (!contains(id)) throwUnknown(id, "shape");
+    return *bodies_[id].shape;
+  }
+  const Motion& motion(BodyId id) const {
+    if (!contains(id)) throwUnknown(id, "motion");
+    return bodies_[id].motion;
+  }
   virtual std::string name() const = 0;
   // Bytes held by the implementation's own structures (not counting shapes).
   virtual size_t memoryBytes() const = 0;
@@ -87,7 +94,10 @@ class BroadPhase {
   }
 
   const std::vector<Body>& bodies() const { return bodies_; }
-  void requireKnown(BodyId id, const char* operation) const;
+  void requireKnown(BodyId id, const char* operation) const {
+    if (!contains(id)) throwUnknown(id, operation);
+  }
+  [[noreturn]] static void throwUnknown(BodyId id, const char* operation);
 
  private:
   static constexpr BodyId kNoBody = ~BodyId{0};
@@ -102,8 +112,8 @@ class BroadPhase {
   std::vector<BodyId> free_ids_;  // min-heap
   size_t alive_count_ = 0;
   std::vector<Pair> pairs_;
-  // The last update's frame, and the bodies added or given a new motion since (in order,
-  // with repeats: a body changed twice is listed twice).
+  // The last update's frame, and the bodies added, removed or given a new motion since (in
+  // order, with repeats: a body changed twice is listed twice).
   bool framed_ = false;
   double frame_t0_ = 0.0, frame_t1_ = 0.0;
   std::vector<uint8_t> changed_flag_;  // by BodyId
