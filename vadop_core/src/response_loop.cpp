@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <limits>
 #include <cmath>
 #include <string>
 
@@ -43,38 +44,64 @@ BodyId ResponseLoop::add(const Shape& shape, const Motion& motion) {
 BodyId ResponseLoop::add(std::shared_ptr<const Shape> shape, const Motion& motion) {
   if (!shape) throw InvalidArgument("ResponseLoop::add: the shape is null");
   validateMotion(motion, "ResponseLoop::add: motion");
-  if (shape != last_shape_) {
+  // Everything that can throw comes before the broad phase's add (strong guarantee): the
+  // shape's prepared form and padded copy, and room in every per-body and per-shape array.
+  const bool new_shape = shape != last_shape_;
+  std::optional<PreparedShape> prepared;
+  std::shared_ptr<const Shape> padded = last_padded_;
+  if (new_shape) {
     validateShape(*shape, "ResponseLoop::add: shape");
-    PreparedShape prepared(*shape);
+    prepared.emplace(*shape);
     // The broad phase sees the shape padded by the tolerance: every pair the narrow phase can
     // report (gap <= tolerance) is then a candidate.
-    auto padded = std::make_shared<const Shape>(inflate(*shape, toi_.tolerance));
-    last_prepared_.emplace(std::move(prepared));
+    padded = std::make_shared<const Shape>(inflate(*shape, toi_.tolerance));
+    if (free_shapes_.empty() && shapes_.size() == shapes_.capacity()) {
+      shapes_.reserve(std::max<size_t>(4, 2 * shapes_.capacity()));
+    }
+    free_shapes_.reserve(shapes_.capacity());
+  }
+  // The broad phase's new id is at most one past every id given so far (kinematics_.size()).
+  if (kinematics_.size() == kinematics_.capacity()) {
+    kinematics_.reserve(std::max<size_t>(16, 2 * kinematics_.capacity()));
+  }
+  const BodyId id = bp_->add(padded, motion);  // strong guarantee; nothing below throws
+  if (new_shape) {
+    uint32_t index;
+    if (!free_shapes_.empty()) {
+      index = free_shapes_.back();
+      free_shapes_.pop_back();
+    } else {
+      index = static_cast<uint32_t>(shapes_.size());
+      shapes_.emplace_back();  // within capacity
+    }
+    shapes_[index].prepared = std::move(prepared);
+    last_shape_ = std::move(shape);
     last_padded_ = std::move(padded);
-    last_shape_ = shape;
+    last_index_ = index;
   }
-  if (prepared_.size() == prepared_.capacity()) {
-    prepared_.reserve(std::max<size_t>(16, 2 * prepared_.capacity()));
-    kinematics_.reserve(prepared_.capacity());
-  }
-  const BodyId id = bp_->add(last_padded_, motion);  // strong guarantee; nothing below throws
-  if (id >= prepared_.size()) {
-    prepared_.resize(id + 1);
-    kinematics_.resize(prepared_.capacity());  // within capacity: cannot fail after the add
-  }
-  prepared_[id].emplace(*last_prepared_);
+  if (id >= kinematics_.size()) kinematics_.resize(id + 1);  // within capacity
+  kinematics_[id].shape = last_index_;
+  ++shapes_[last_index_].uses;
   setKinematics(id);
   return id;
 }
 
 size_t ResponseLoop::memoryBytes() const {
-  return queue_.memoryBytes() + prepared_.capacity() * sizeof(std::optional<PreparedShape>) +
-         reported_.memoryBytes();
+  return queue_.memoryBytes() + kinematics_.capacity() * sizeof(Kinematics) +
+         shapes_.capacity() * sizeof(SharedShape) + reported_.memoryBytes();
 }
 
 void ResponseLoop::remove(BodyId id) {
   bp_->remove(id);  // throws for an unknown id
-  prepared_[id].reset();
+  const uint32_t index = kinematics_[id].shape;
+  if (--shapes_[index].uses == 0) {
+    shapes_[index].prepared.reset();
+    free_shapes_.push_back(index);  // within capacity (reserved when the shape was added)
+    if (index == last_index_) {
+      last_shape_.reset();
+      last_padded_.reset();
+    }
+  }
 }
 
 void ResponseLoop::setMotion(BodyId id, const Motion& motion) {
@@ -89,15 +116,20 @@ void ResponseLoop::setKinematics(BodyId id) {
   k.velocity = m.linear_velocity;
   k.t_ref = m.t_ref;
   // Bounding radius about the origin (which moves in a straight line when the body does not
-  // turn); rotating bodies are left to the narrow phase.
-  // The broad phase holds the shape padded by the tolerance: its radius is the reach.
-  k.reach = m.isRotating() ? -1.0 : bp_->shape(id).bounding_radius;
+  // turn); rotating bodies are left to the narrow phase. The broad phase holds the shape
+  // padded by the tolerance: its radius is the reach, rounded up to a float.
+  if (m.isRotating()) {
+    k.reach = -1.0f;
+  } else {
+    const double r = bp_->shape(id).bounding_radius;
+    float f = static_cast<float>(r);
+    if (static_cast<double>(f) < r) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+    k.reach = f;
+  }
 }
 
-bool ResponseLoop::mayTouch(BodyId a, BodyId b, double from, double t1) const {
-  const Kinematics& ka = kinematics_[a];
-  const Kinematics& kb = kinematics_[b];
-  if (ka.reach < 0.0 || kb.reach < 0.0) return true;
+bool ResponseLoop::mayTouch(const Kinematics& ka, const Kinematics& kb, double from, double t1) {
+  if (ka.reach < 0.0f || kb.reach < 0.0f) return true;
   // Relative position d(s) = d0 + w s, s in [0, t1 - from]: its least norm against the padded
   // radii, i.e. the radii plus two tolerances (a hit needs a gap <= one; the rounding here is
   // far below a tolerance).
@@ -105,7 +137,7 @@ bool ResponseLoop::mayTouch(BodyId a, BodyId b, double from, double t1) const {
   const Eigen::Vector3d w = kb.velocity - ka.velocity;
   const double ww = w.squaredNorm();
   const double s = ww > 0.0 ? std::clamp(-d0.dot(w) / ww, 0.0, t1 - from) : 0.0;
-  const double reach = ka.reach + kb.reach;
+  const double reach = static_cast<double>(ka.reach) + static_cast<double>(kb.reach);
   return (d0 + w * s).squaredNorm() <= reach * reach * (1.0 + 1e-12) + 1e-18;
 }
 
@@ -122,8 +154,11 @@ bool ResponseLoop::reportedAt(BodyId a, BodyId b, double t) const {
 void ResponseLoop::predict(BodyId a, BodyId b, double from, double t1) {
   if (a > b) std::swap(a, b);
   ++stats_.narrow;
-  if (!mayTouch(a, b, from, t1)) return;
-  const Impact hit = timeOfImpact(*prepared_[a], bp_->motion(a), *prepared_[b], bp_->motion(b), from, t1, toi_);
+  const Kinematics& ka = kinematics_[a];
+  const Kinematics& kb = kinematics_[b];
+  if (!mayTouch(ka, kb, from, t1)) return;
+  const Impact hit = timeOfImpact(*shapes_[ka.shape].prepared, bp_->motion(a), *shapes_[kb.shape].prepared,
+                                  bp_->motion(b), from, t1, toi_);
   if (hit.undecided) ++stats_.undecided;  // not a contact (see Impact::undecided)
   if (!hit.hit || reportedAt(a, b, hit.time)) return;
   queue_.push(a, b, hit);
@@ -170,11 +205,20 @@ ResponseLoop::Stats ResponseLoop::advance(double t0, double t1, const Callback& 
   stats_.update_seconds = since(update_start);
   stats_.candidates = bp_->pairs().size();
   const auto narrow_start = Clock::now();
-  for (const Pair& p : bp_->pairs()) predict(p.a, p.b, t0, t1);
+  const std::vector<Pair>& pairs = bp_->pairs();
+  // The pairs come in no useful memory order: fetch the records of a pair a few ahead.
+  constexpr size_t kAhead = 8;
+  for (size_t i = 0; i < pairs.size(); ++i) {
+    if (i + kAhead < pairs.size()) {
+      __builtin_prefetch(&kinematics_[pairs[i + kAhead].a]);
+      __builtin_prefetch(&kinematics_[pairs[i + kAhead].b]);
+    }
+    predict(pairs[i].a, pairs[i].b, t0, t1);
+  }
   stats_.narrow_seconds = since(narrow_start);
   if (boundary_) {
-    for (BodyId id = 0; id < prepared_.size(); ++id) {
-      if (prepared_[id]) predictBoundary(id, t0, t1);
+    for (BodyId id = 0; id < kinematics_.size(); ++id) {
+      if (bp_->contains(id)) predictBoundary(id, t0, t1);
     }
   }
 

@@ -321,6 +321,39 @@ TEST(ResponseLoop, AThrowingCallbackStopsTheLoopWithMotionsAsLastSet) {
   EXPECT_NEAR(loop.motion(c).linear_velocity.x(), 1.0, 1e-12);
 }
 
+// Bodies share one prepared shape per shared pointer; a shape no body uses any more is freed
+// and its slot reused, so that add/remove churn does not grow the loop and every body is
+// tested with its own shape.
+TEST(ResponseLoop, SharedShapesAreRecycledAndEachBodyKeepsItsOwn) {
+  ResponseLoop loop(std::make_unique<VadopGridBroadPhase>(VadopConfig{}));
+  auto sphere = std::make_shared<const Shape>(makeSphere(0.5));
+  std::vector<BodyId> ids;
+  for (int i = 0; i < 3; ++i) ids.push_back(loop.add(sphere, moving({10.0 * i, 50, 0}, {0, 0, 0})));
+  for (BodyId id : ids) loop.remove(id);
+  // The sphere's entry is free: the same pointer added again must be prepared again, not
+  // point at the freed entry, which the box then takes.
+  const BodyId ball = loop.add(sphere, moving({5, 0, 0}, {-1, 0, 0}));
+  const BodyId box = loop.add(std::make_shared<const Shape>(makeBox({2, 2, 2})), moving({0, 0, 0}, {0, 0, 0}));
+  std::vector<double> times;
+  loop.advance(0.0, 10.0, [&](const ResponseLoop::Contact& c, ResponseLoop::Response& r) {
+    EXPECT_EQ(c.a, std::min(box, ball));
+    times.push_back(c.impact.time);
+    r.setMotion(ball, moving(r.motion(ball).positionAt(r.time()), {0, 0, 0}, r.time()));
+  });
+  ASSERT_EQ(times.size(), 1u);
+  // The box's face at x = 1, the sphere's surface 0.5 ahead of its centre at 5 - t.
+  EXPECT_NEAR(times[0], 3.5, 1e-5);
+
+  // Churn: a fresh shape object per add, removed again; the loop's memory stays put.
+  const size_t before = loop.memoryBytes();
+  for (int i = 0; i < 200; ++i) {
+    const BodyId id = loop.add(makeSphere(0.1 + 0.001 * i), moving({0, 20, 0}, {0, 0, 0}));
+    loop.remove(id);
+  }
+  EXPECT_EQ(loop.memoryBytes(), before);
+  EXPECT_EQ(loop.size(), 2u);
+}
+
 TEST(ResponseLoop, BadInputThrowsAndChangesNothing) {
   EXPECT_THROW(ResponseLoop(nullptr), InvalidArgument);
   auto used = std::make_unique<BruteForceBroadPhase>();

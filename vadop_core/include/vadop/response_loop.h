@@ -24,6 +24,7 @@
 #include "vadop/time_of_impact.h"
 
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -110,21 +111,32 @@ class ResponseLoop {
   std::unique_ptr<BroadPhase> bp_;
   ToiOptions toi_;
   Boundary boundary_;
-  std::vector<std::optional<PreparedShape>> prepared_;  // by BodyId
   // By BodyId, one cache line each: what the pair cull before the narrow phase reads (the
-  // origin at t_ref and its velocity for a body that does not turn; reach < 0 for one that does).
+  // origin at t_ref and its velocity for a body that does not turn; reach < 0 for one that
+  // does, else the padded bounding radius rounded up to a float) and the body's prepared shape
+  // (an index into shapes_), so that a pair costs two cache lines before its motions.
   struct alignas(64) Kinematics {
     Eigen::Vector3d position, velocity;
-    double t_ref = 0.0, reach = -1.0;
+    double t_ref = 0.0;
+    float reach = -1.0f;
+    uint32_t shape = 0;
   };
   std::vector<Kinematics> kinematics_;
   void setKinematics(BodyId id);
+  // The distinct prepared shapes, shared by the bodies that use them (uses == 0: free, listed
+  // in free_shapes_ for the next new shape).
+  struct SharedShape {
+    std::optional<PreparedShape> prepared;
+    size_t uses = 0;
+  };
+  std::vector<SharedShape> shapes_;
+  std::vector<uint32_t> free_shapes_;
   // False only when the two bodies, both translating, stay farther apart over [from, t1] than
   // their bounding radii and twice the tolerance: timeOfImpact would report no hit.
-  bool mayTouch(BodyId a, BodyId b, double from, double t1) const;
-  // The last shared shape added, its padded copy and prepared form.
+  static bool mayTouch(const Kinematics& a, const Kinematics& b, double from, double t1);
+  // The last shared shape added, its padded copy and its entry in shapes_.
   std::shared_ptr<const Shape> last_shape_, last_padded_;
-  std::optional<PreparedShape> last_prepared_;
+  uint32_t last_index_ = 0;
   ImpactQueue queue_;
   // The last time each pair was reported (key a << 32 | b), cleared by every advance.
   struct KeyHash {
