@@ -23,6 +23,25 @@ constexpr double kMaxPivot = 1e4;
 
 double wallNow() { return ros::WallTime::now().toSec(); }
 
+}  // namespace
+
+vadop::Motion twistMotion(const Eigen::Isometry3d& pose, const Eigen::Vector3d& v, const Eigen::Vector3d& w,
+                          double t_ref) {
+  // A constant twist turns the element about its screw axis (a link of a robot turning in
+  // place about the robot, a robot on a curve about the curve's centre, a link about its
+  // joint): the world gets that pivot, so the element follows its arc instead of drifting off
+  // along the tangent. Nearly straight motion (axis farther than kMaxPivot) stays a
+  // translation: the two differ by |v| |w| t^2 / 2 < 1e-3 m over a 2 s horizon there.
+  const Eigen::Vector3d pivot = vadop::screwPivotOffset(v, w);
+  const bool screw = pivot.norm() <= kMaxPivot;
+  vadop::Motion m = vadop::makeMotion(pose.translation(), Eigen::Quaterniond(pose.linear()),
+                                      screw ? vadop::screwPivotVelocity(v, w) : v, w, t_ref);
+  if (screw) m.pivot_offset = pivot;
+  return m;
+}
+
+namespace {
+
 // Checks one value against the library's range for its kind (vadop/limits.h); returns false
 // (and sets `why`) on NaN/Inf or beyond `limit`.
 bool checkValue(double v, double limit, const char* unit, const std::string& field, std::string& why) {
@@ -560,128 +579,133 @@ void BodyRegistry::update(const ros::Time& now, TransformSource& tf) {
       }
       continue;
     }
-    for (const size_t ei : b.elements) elements_[ei].active = false;
-    b.status.tf_error.clear();
-    b.status.links_skipped = 0;
-    if (b.elements.empty()) {
-      b.status.state = BodyState::kNoGeometry;
-      continue;
-    }
-    if (!b.has_state) {
-      b.status.state = BodyState::kWaiting;
-      continue;
-    }
-    Eigen::Isometry3d fb;
-    Eigen::Vector3d v, w;
-    ros::Time t_ref;
-    std::string body_frame;
-    if (!bodyMotion(b, now, tf, fb, v, w, t_ref, body_frame)) {
-      b.status.state = BodyState::kTfMissing;
-      continue;
-    }
-    const bool stale = secondsBetween(now, b.status.last_receipt) > stale_timeout_;
-    if (stale) {
-      v.setZero();
-      w.setZero();
-    }
-    resolveReference(b, body_frame);
-    // A stale body stands still: its pose holds at any time, so its motion is referred to
-    // `now` (its stamp may be hours old, beyond the library's time range).
-    const ros::Time motion_ref = stale ? now : t_ref;
-    const double tr = seconds(motion_ref);
-    const Eigen::Matrix3d& rb = fb.linear();
-    for (const size_t ei : b.elements) {
-      Element& e = elements_[ei];
-      Eigen::Isometry3d pe;
-      Eigen::Vector3d ve, we;
-      if (e.tf_frame.empty()) {
-        pe = fb * e.offset;
-        ve = v + w.cross(pe.translation() - fb.translation());
-        we = w;
-      } else {
-        Eigen::Isometry3d body_link;
-        ros::Time ls;
-        std::string error;
-        if (body_frame.empty()) {
-          error = "the odometry has no child_frame_id and the body no frame parameter: link poses cannot be "
-                  "looked up";
-          warnTf(b, error, now);
-          ++b.status.links_skipped;
-          continue;
-        }
-        if (!lookup(tf, body_frame, e.tf_frame, ros::Time(0), body_link, ls, error)) {
-          warnTf(b, "link \"" + e.link + "\": " + error, now);
-          ++b.status.links_skipped;
-          continue;
-        }
-        // Own motion relative to the body, from the last two distinct tf stamps.
-        if (e.has_rel && ls > e.rel_stamp) {
-          const double dt = secondsBetween(ls, e.rel_stamp);
-          e.rel_v = (body_link.translation() - e.rel_pose.translation()) / dt;
-          e.rel_w = rotationVector(body_link.linear() * e.rel_pose.linear().transpose()) / dt;
-          if (!e.rel_v.allFinite() || !e.rel_w.allFinite() || dt > 1.0) {
-            e.rel_v.setZero();
-            e.rel_w.setZero();
-          }
-        }
-        if (!e.has_rel || ls > e.rel_stamp) {
-          e.has_rel = true;
-          e.rel_stamp = ls;
-          e.rel_pose = body_link;
-        }
-        // The tf pose holds at its own stamp: carried to the body's t_ref with the link's own
-        // motion (tf and odometry rarely share stamps).
-        const double lag = secondsBetween(motion_ref, ls);
-        if (!stale && e.has_rel && std::abs(lag) <= 1.0) {
-          body_link.translation() += e.rel_v * lag;
-          const Eigen::Vector3d turn = e.rel_w * lag;
-          if (turn.squaredNorm() > 0.0) {
-            body_link.linear() = Eigen::AngleAxisd(turn.norm(), turn.normalized()).toRotationMatrix() * body_link.linear();
-          }
-        }
-        const Eigen::Isometry3d le = body_link * e.offset;  // element in the body frame
-        pe = fb * le;
-        const Eigen::Vector3d r_world = rb * le.translation();
-        Eigen::Vector3d own_v = Eigen::Vector3d::Zero(), own_w = Eigen::Vector3d::Zero();
-        if (!stale) {
-          own_v = rb * (e.rel_v + e.rel_w.cross(le.translation() - body_link.translation()));
-          own_w = rb * e.rel_w;
-        }
-        ve = v + w.cross(r_world) + own_v;
-        we = w + own_w;
-      }
-      try {
-        // A constant twist turns the element about its screw axis (a link of a robot turning in
-        // place about the robot, a robot on a curve about the curve's centre, a link about its
-        // joint): the world gets that pivot, so the element follows its arc instead of drifting
-        // off along the tangent. Nearly straight motion (axis farther than kMaxPivot) stays a
-        // translation: the two differ by |v| |w| t^2 / 2 < 1e-3 m over a 2 s horizon there.
-        const Eigen::Vector3d pivot = vadop::screwPivotOffset(ve, we);
-        const bool screw = pivot.norm() <= kMaxPivot;
-        vadop::Motion m = vadop::makeMotion(pe.translation(), Eigen::Quaterniond(pe.linear()),
-                                            screw ? vadop::screwPivotVelocity(ve, we) : ve, we, tr);
-        if (screw) m.pivot_offset = pivot;
-        // The library's range over [now, now + the largest horizon]: one element out of it is
-        // left out (and its body marked), never the whole prediction.
-        const std::string why = motionRangeError(m, t_now, t_check_end);
-        if (!why.empty()) {
-          rejectInput(b, (e.link.empty() ? std::string("motion") : "link \"" + e.link + "\": motion") +
-                             " out of range after transformation: " + why,
-                      now, false);
-          continue;
-        }
-        e.motion = m;
-        e.active = true;
-      } catch (const vadop::InvalidArgument& ex) {
-        rejectInput(b, std::string("invalid motion: ") + ex.what(), now, false);
-      }
-    }
-    if (b.status.links_skipped > 0) {
-      b.status.state = BodyState::kTfMissing;
+    updateMoving(b, now, t_now, t_check_end, tf);
+  }
+}
+
+bool BodyRegistry::updateBody(size_t body, const ros::Time& now, TransformSource& tf) {
+  if (!has_base_ || body >= bodies_.size() || bodies_[body].is_static) return false;
+  const double t_now = seconds(now);
+  Body& b = bodies_[body];
+  updateMoving(b, now, t_now, t_now + kMotionCheckWindow, tf);
+  return b.frame_motion.valid;
+}
+
+void BodyRegistry::updateMoving(Body& b, const ros::Time& now, double t_now, double t_check_end, TransformSource& tf) {
+  for (const size_t ei : b.elements) elements_[ei].active = false;
+  b.frame_motion.valid = false;
+  b.status.tf_error.clear();
+  b.status.links_skipped = 0;
+  if (b.elements.empty()) {
+    b.status.state = BodyState::kNoGeometry;
+    return;
+  }
+  if (!b.has_state) {
+    b.status.state = BodyState::kWaiting;
+    return;
+  }
+  Eigen::Isometry3d fb;
+  Eigen::Vector3d v, w;
+  ros::Time t_ref;
+  std::string body_frame;
+  if (!bodyMotion(b, now, tf, fb, v, w, t_ref, body_frame)) {
+    b.status.state = BodyState::kTfMissing;
+    return;
+  }
+  const bool stale = secondsBetween(now, b.status.last_receipt) > stale_timeout_;
+  if (stale) {
+    v.setZero();
+    w.setZero();
+  }
+  resolveReference(b, body_frame);
+  // A stale body stands still: its pose holds at any time, so its motion is referred to
+  // `now` (its stamp may be hours old, beyond the library's time range).
+  const ros::Time motion_ref = stale ? now : t_ref;
+  const double tr = seconds(motion_ref);
+  const Eigen::Matrix3d& rb = fb.linear();
+  for (const size_t ei : b.elements) {
+    Element& e = elements_[ei];
+    Eigen::Isometry3d pe;
+    Eigen::Vector3d ve, we;
+    if (e.tf_frame.empty()) {
+      pe = fb * e.offset;
+      ve = v + w.cross(pe.translation() - fb.translation());
+      we = w;
     } else {
-      b.tf_missing_since = ros::Time();
-      b.status.state = stale ? BodyState::kStale : BodyState::kOk;
+      Eigen::Isometry3d body_link;
+      ros::Time ls;
+      std::string error;
+      if (body_frame.empty()) {
+        error = "the odometry has no child_frame_id and the body no frame parameter: link poses cannot be "
+                "looked up";
+        warnTf(b, error, now);
+        ++b.status.links_skipped;
+        continue;
+      }
+      if (!lookup(tf, body_frame, e.tf_frame, ros::Time(0), body_link, ls, error)) {
+        warnTf(b, "link \"" + e.link + "\": " + error, now);
+        ++b.status.links_skipped;
+        continue;
+      }
+      // Own motion relative to the body, from the last two distinct tf stamps.
+      if (e.has_rel && ls > e.rel_stamp) {
+        const double dt = secondsBetween(ls, e.rel_stamp);
+        e.rel_v = (body_link.translation() - e.rel_pose.translation()) / dt;
+        e.rel_w = rotationVector(body_link.linear() * e.rel_pose.linear().transpose()) / dt;
+        if (!e.rel_v.allFinite() || !e.rel_w.allFinite() || dt > 1.0) {
+          e.rel_v.setZero();
+          e.rel_w.setZero();
+        }
+      }
+      if (!e.has_rel || ls > e.rel_stamp) {
+        e.has_rel = true;
+        e.rel_stamp = ls;
+        e.rel_pose = body_link;
+      }
+      // The tf pose holds at its own stamp: carried to the body's t_ref with the link's own
+      // motion (tf and odometry rarely share stamps).
+      const double lag = secondsBetween(motion_ref, ls);
+      if (!stale && e.has_rel && std::abs(lag) <= 1.0) {
+        body_link.translation() += e.rel_v * lag;
+        const Eigen::Vector3d turn = e.rel_w * lag;
+        if (turn.squaredNorm() > 0.0) {
+          body_link.linear() = Eigen::AngleAxisd(turn.norm(), turn.normalized()).toRotationMatrix() * body_link.linear();
+        }
+      }
+      const Eigen::Isometry3d le = body_link * e.offset;  // element in the body frame
+      pe = fb * le;
+      const Eigen::Vector3d r_world = rb * le.translation();
+      Eigen::Vector3d own_v = Eigen::Vector3d::Zero(), own_w = Eigen::Vector3d::Zero();
+      if (!stale) {
+        own_v = rb * (e.rel_v + e.rel_w.cross(le.translation() - body_link.translation()));
+        own_w = rb * e.rel_w;
+      }
+      ve = v + w.cross(r_world) + own_v;
+      we = w + own_w;
     }
+    try {
+      const vadop::Motion m = twistMotion(pe, ve, we, tr);
+      // The library's range over [now, now + the largest horizon]: one element out of it is
+      // left out (and its body marked), never the whole prediction.
+      const std::string why = motionRangeError(m, t_now, t_check_end);
+      if (!why.empty()) {
+        rejectInput(b, (e.link.empty() ? std::string("motion") : "link \"" + e.link + "\": motion") +
+                           " out of range after transformation: " + why,
+                    now, false);
+        continue;
+      }
+      e.motion = m;
+      e.active = true;
+    } catch (const vadop::InvalidArgument& ex) {
+      rejectInput(b, std::string("invalid motion: ") + ex.what(), now, false);
+    }
+  }
+  if (b.status.links_skipped > 0) {
+    b.status.state = BodyState::kTfMissing;
+  } else {
+    b.tf_missing_since = ros::Time();
+    b.status.state = stale ? BodyState::kStale : BodyState::kOk;
+    b.frame_motion = FrameMotion{true, stale, fb, v, w, tr};
   }
 }
 
@@ -695,6 +719,7 @@ void BodyRegistry::reset() {
     b.status.last_receipt = ros::Time();
     b.status.last_invalid_receipt = ros::Time();
     b.tf_missing_since = ros::Time();
+    b.frame_motion.valid = false;
     for (const size_t ei : b.elements) {
       Element& e = elements_[ei];
       e.active = false;

@@ -118,6 +118,110 @@ bool MonitorCore::setPadding(double padding) {
   return errors.empty();
 }
 
+CommandCheck MonitorCore::checkCommand(size_t body, const Eigen::Vector3d& v, const Eigen::Vector3d& w,
+                                       const ros::Time& now, TransformSource& tf, double window, double state_timeout,
+                                       const std::function<bool(size_t element)>& skip) {
+  using Status = CommandCheck::Status;
+  CommandCheck out;
+  const auto& bodies = registry_.bodies();
+  if (body >= bodies.size() || bodies[body].is_static) {
+    out.why = "not a moving body";
+    return out;
+  }
+  const Body& b = bodies[body];
+  if (!b.has_state || b.elements.empty()) {
+    out.why = b.elements.empty() ? "no geometry" : "no state received yet";
+    return out;
+  }
+  if (secondsBetween(now, b.status.last_receipt) > state_timeout) {
+    out.status = Status::kStale;
+    out.why = "no state for " + std::to_string(secondsBetween(now, b.status.last_receipt)) + " s";
+    return out;
+  }
+  for (size_t ei : b.elements) {
+    if (!predictor_.contains(ei)) {
+      out.status = Status::kNotInWorld;
+      out.why = "element \"" + registry_.elements()[ei].id + "\" is not in the world (no cycle since it had a state)";
+      return out;
+    }
+  }
+  if (!registry_.updateBody(body, now, tf)) {
+    out.status = b.status.state == BodyState::kTfMissing ? Status::kTfMissing : Status::kNoState;
+    out.why = b.status.tf_error.empty() ? toString(b.status.state) : b.status.tf_error;
+    return out;
+  }
+  const double t_now = registry_.seconds(now);
+  const FrameMotion& fm = b.frame_motion;
+  const vadop::Motion frame = twistMotion(fm.pose, fm.v, fm.w, fm.t_ref);
+  const Eigen::Isometry3d pose = frame.poseAt(t_now);
+  const Eigen::Vector3d frame_v = frame.velocityOfPoint(pose.translation(), t_now);
+  // The command in the fixed frame.
+  const Eigen::Vector3d cv = pose.linear() * v, cw = pose.linear() * w;
+  struct Mover {
+    Eigen::Isometry3d pose;
+    Eigen::Vector3d own_v, own_w;  // relative to the body frame (links moving on tf), fixed frame
+    Eigen::Vector3d cmd_v;         // the element origin's velocity under the command
+  };
+  std::vector<size_t> movers;
+  std::vector<Mover> parts;
+  for (size_t ei : b.elements) {
+    const Element& e = registry_.elements()[ei];
+    if (!e.active || !predictor_.contains(ei)) {
+      out.status = Status::kNotInWorld;
+      out.why = "element \"" + e.id + "\" is not in the world";
+      return out;
+    }
+    Mover m;
+    m.pose = e.motion.poseAt(t_now);
+    const Eigen::Vector3d r = m.pose.translation() - pose.translation();
+    // The element's own velocity, less the body frame's rigid share, is what tf says its joints
+    // do: it keeps that under any command.
+    m.own_v = e.motion.velocityOfPoint(m.pose.translation(), t_now) - (frame_v + fm.w.cross(r));
+    m.own_w = e.motion.angular_velocity - fm.w;
+    m.cmd_v = cv + cw.cross(r);
+    movers.push_back(ei);
+    parts.push_back(m);
+  }
+  std::vector<vadop::Motion> motions(movers.size());
+  // Each evaluation's contact, to name what limits the scale afterwards.
+  struct Seen {
+    double s;
+    Predictor::MoverContact contact;
+  };
+  std::vector<Seen> seen;
+  auto first_contact = [&](double s) {
+    for (size_t k = 0; k < parts.size(); ++k) {
+      motions[k] = twistMotion(parts[k].pose, parts[k].own_v + s * parts[k].cmd_v, parts[k].own_w + s * cw, t_now);
+    }
+    Predictor::MoverContact c;
+    if (!predictor_.firstContact(movers, motions, t_now, window, skip, c)) return std::numeric_limits<double>::infinity();
+    seen.push_back({s, c});
+    return c.time;
+  };
+  try {
+    out.scale = vadop::searchGateScale(first_contact);
+  } catch (const vadop::InvalidArgument& e) {
+    // A commanded motion out of the library's range (a twist far beyond any robot's).
+    out.status = Status::kNotInWorld;
+    out.why = std::string("the commanded motion was refused: ") + e.what();
+    return out;
+  }
+  out.status = Status::kChecked;
+  const Seen* limit = nullptr;
+  for (const Seen& x : seen) {
+    // Clear: the smallest blocked scale (just above); not clear: the chosen scale's contact.
+    if (out.scale.clear ? (!limit || x.s < limit->s) : x.s == out.scale.scale) limit = &x;
+  }
+  if (limit) {
+    out.limited = true;
+    out.element = limit->contact.mover;
+    out.other = limit->contact.other;
+    out.time_to_contact = limit->contact.time - t_now;
+    out.undecided = limit->contact.undecided;
+  }
+  return out;
+}
+
 void MonitorCore::reset() {
   registry_.reset();
   const auto& elements = registry_.elements();

@@ -103,6 +103,31 @@ size_t Predictor::size() const { return impl_->world.size(); }
 size_t Predictor::lastCandidateCount() const { return impl_->world.lastCandidateCount(); }
 const std::vector<RawImpact>& Predictor::lastUndecided() const { return impl_->undecided; }
 
+bool Predictor::firstContact(const std::vector<size_t>& movers, const std::vector<vadop::Motion>& motions, double t0,
+                             double horizon, const std::function<bool(size_t element)>& skip, MoverContact& contact) {
+  std::vector<std::string> ids;
+  ids.reserve(movers.size());
+  for (size_t i : movers) {
+    if (!contains(i)) throw vadop::InvalidArgument("firstContact: element " + std::to_string(i) + " is not in the world");
+    ids.push_back(impl_->slots[i].id);
+  }
+  std::function<bool(uint64_t)> skip_key;
+  if (skip) {
+    skip_key = [this, &skip](uint64_t key) {
+      const auto it = impl_->by_key.find(key);
+      return it == impl_->by_key.end() || skip(it->second);
+    };
+  }
+  const std::optional<vadop::World::MoverContact> hit = impl_->world.firstContactIf(ids, motions, t0, horizon, skip_key);
+  if (!hit) return false;
+  const auto other = impl_->by_key.find(hit->other_key);
+  contact.mover = movers[hit->mover];
+  contact.other = other == impl_->by_key.end() ? 0 : other->second;
+  contact.time = hit->impact.time;
+  contact.undecided = hit->undecided;
+  return true;
+}
+
 std::vector<RawImpact> Predictor::predict(double t0, double horizon) {
   if (before_predict_for_testing) {
     for (size_t i = 0; i < impl_->slots.size(); ++i) {

@@ -144,6 +144,24 @@ struct Element {
   Eigen::Vector3d rel_w = Eigen::Vector3d::Zero();  // body frame
 };
 
+// The motion of a frame at `pose` (fixed frame, at t_ref seconds) whose origin has velocity v
+// and which turns at w, both constant in the frame (a constant body twist): about its screw
+// axis, so it follows the arc, or a translation with spin when that axis is farther than 10 km.
+// Throws vadop::InvalidArgument for non-finite input.
+vadop::Motion twistMotion(const Eigen::Isometry3d& pose, const Eigen::Vector3d& v, const Eigen::Vector3d& w,
+                          double t_ref);
+
+// A body frame moving with constant linear and angular velocity (fixed frame) from t_ref (the
+// registry's seconds): pose at t_ref; stale when the state timed out (v = w = 0, t_ref = now).
+struct FrameMotion {
+  bool valid = false;
+  bool stale = false;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();
+  Eigen::Vector3d w = Eigen::Vector3d::Zero();
+  double t_ref = 0.0;
+};
+
 struct Body {
   std::string name;
   bool is_static = false;
@@ -166,6 +184,9 @@ struct Body {
   std::string twist_frame;         // TwistStamped header.frame_id (empty: the body frame)
 
   BodyStatus status;
+  // The body frame's motion in the fixed frame as of the last update (of all bodies, or of
+  // this one by updateBody): valid when the pose and every link's transform were found.
+  FrameMotion frame_motion;
   // Per-kind warning throttle (wall clock seconds of the last warning).
   double last_warn_invalid = -1e300, last_warn_tf = -1e300;
   ros::Time tf_missing_since;  // zero while the transforms are there
@@ -193,6 +214,10 @@ class BodyRegistry {
 
   // Computes every element's motion at `now` (sets Element::active and motion, body states).
   void update(const ros::Time& now, TransformSource& tf);
+  // The same for one moving body, from its latest state (a velocity gate between cycles); the
+  // time base stays. False (the body's elements inactive or partly so) when there is no
+  // update() yet, the index is not a moving body, it has no state or a transform is missing.
+  bool updateBody(size_t body, const ros::Time& now, TransformSource& tf);
 
   // Forgets every state (time jumped backwards, e.g. a bag restarted); keeps the geometry.
   void reset();
@@ -239,6 +264,7 @@ class BodyRegistry {
   static bool lookup(TransformSource& tf, const std::string& target, const std::string& source,
                      const ros::Time& time, Eigen::Isometry3d& pose, ros::Time& stamp, std::string& error);
   void resolveReference(Body& b, const std::string& body_frame);
+  void updateMoving(Body& b, const ros::Time& now, double t_now, double t_check_end, TransformSource& tf);
   bool bodyMotion(Body& b, const ros::Time& now, TransformSource& tf, Eigen::Isometry3d& pose,
                   Eigen::Vector3d& v, Eigen::Vector3d& w, ros::Time& t_ref, std::string& frame);
   void warnTf(Body& b, const std::string& error, const ros::Time& now);

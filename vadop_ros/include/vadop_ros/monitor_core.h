@@ -16,7 +16,11 @@
 // The message; this header must not pull in vadop/world.h (see predictor.h).
 #include <vadop/ImpactArray.h>
 
+#include <vadop/gate.h>
+
 #include <ros/time.h>
+
+#include <functional>
 
 #include <limits>
 #include <memory>
@@ -58,6 +62,28 @@ struct RuntimeSettings {
 constexpr double kMaxHorizon = 60.0;
 constexpr double kMaxPadding = 10.0;
 
+// What a moving body would touch if it followed a velocity command (MonitorCore::checkCommand):
+// the scale of the command that a velocity gate may forward.
+struct CommandCheck {
+  enum class Status {
+    kChecked,     // scale is set
+    kNoState,     // no state yet, or the body has no geometry
+    kStale,       // no message within the gate's state timeout
+    kTfMissing,   // the body's pose or a link's transform is missing
+    kNotInWorld,  // an element is not in the world yet (before the first cycle) or was refused
+  };
+  Status status = Status::kNoState;
+  std::string why;  // for every status but kChecked
+  vadop::GateScale scale;
+  // The contact that limits the scale (not clear at scale 1): the element of the body and the
+  // other element, and its time from `now` (s): at the scale just above `scale` when clear,
+  // else at `scale` itself.
+  bool limited = false;
+  size_t element = 0, other = 0;
+  double time_to_contact = std::numeric_limits<double>::infinity();
+  bool undecided = false;  // that contact is a pair the narrow phase could not decide
+};
+
 class MonitorCore {
  public:
   // Throws ParamError when ~axes / ~phi_deg are rejected by the library.
@@ -93,6 +119,20 @@ class MonitorCore {
   bool setPadding(double padding);
   double horizon() const { return params_.horizon; }
   double padding() const { return params_.padding; }
+
+  // A velocity gate's question: body `body` (index into registry().bodies(), a moving body)
+  // driven from `now` by the twist (v, w) (its body frame: REP 105's cmd_vel) held constant in
+  // its frame, from its latest state carried to now, scaled by s in [0, 1] (both parts, so the
+  // arc keeps its curvature), against every other element's predicted motion over
+  // [now, now + window], with the node's padding and pair rules; `skip` (may be empty) leaves
+  // out more elements. Returns the largest clear s on vadop::searchGateScale's 0.02 grid, or
+  // the s of the latest first contact when none is clear. Refreshes the body's element motions
+  // from its latest state (BodyRegistry::updateBody) and leaves the world as it was. The state
+  // is stale when no message arrived within `state_timeout` (s). Never throws on bad state:
+  // a status says why it could not check.
+  CommandCheck checkCommand(size_t body, const Eigen::Vector3d& v, const Eigen::Vector3d& w, const ros::Time& now,
+                            TransformSource& tf, double window, double state_timeout,
+                            const std::function<bool(size_t element)>& skip = {});
 
   // Time jumped backwards: forget every state (and the world's moving elements).
   void reset();

@@ -76,6 +76,21 @@ class Predictor {
   // normal and closing_speed are not set. Not contacts: predict does not return them.
   const std::vector<RawImpact>& lastUndecided() const;
 
+  // The first contact of elements `movers` (all in the world) if they moved with `motions`
+  // instead of their own, against every other element as it moves, over [t0, t0 + horizon]:
+  // the world is not changed. The pair filters apply (setIgnored, groups), and `skip` (an
+  // element index; empty: none) leaves out more. A pair the narrow phase cannot decide counts
+  // as a contact at the time it is certified clear to (undecided). Throws
+  // vadop::InvalidArgument for a mover not in the world, a size mismatch or a bad motion.
+  struct MoverContact {
+    size_t mover = 0;  // element index (of movers)
+    size_t other = 0;  // element index
+    double time = 0.0;
+    bool undecided = false;
+  };
+  bool firstContact(const std::vector<size_t>& movers, const std::vector<vadop::Motion>& motions, double t0,
+                    double horizon, const std::function<bool(size_t element)>& skip, MoverContact& contact);
+
   // Tests only: called before every predict with each element in the world (index, id); it
   // may throw to simulate a world that refuses one element (MonitorCore's recovery).
   std::function<void(size_t element, const std::string& id)> before_predict_for_testing;

@@ -1,0 +1,237 @@
+// MonitorCore::checkCommand, the velocity gate's question: the largest scale of a body-frame
+// twist for which none of the body's elements touches anything within the window. Analytic
+// scenes, each pinning one rule: the command is in the body frame (a body facing +y driving
+// "forward" moves along +y), a body already being run into gets the scale of the latest first
+// contact (driving away passes at full speed), a long body turning in place sweeps its ends
+// (navigation2#3171), the arc keeps its curvature, and a state it cannot check is refused.
+// The scale search itself is tested against brute force in vadop_core (test_gate).
+#include "vadop_ros/monitor_core.h"
+#include "fake_tf.h"
+#include "yaml_xmlrpc.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+using vadop_ros::CommandCheck;
+using vadop_ros::MonitorCore;
+using vadop_test::FakeTf;
+
+namespace {
+
+nav_msgs::Odometry odom(double stamp, double x, double y, double yaw, double vx, double wz = 0.0) {
+  nav_msgs::Odometry m;
+  m.header.stamp = ros::Time(stamp);
+  m.header.frame_id = "odom";
+  m.pose.pose.position.x = x;
+  m.pose.pose.position.y = y;
+  m.pose.pose.orientation.z = std::sin(yaw / 2);
+  m.pose.pose.orientation.w = std::cos(yaw / 2);
+  m.twist.twist.linear.x = vx;  // child frame = body frame
+  m.twist.twist.angular.z = wz;
+  return m;
+}
+
+MonitorCore makeCore(const std::string& yaml_text) {
+  return MonitorCore(vadop_ros::parseParams(vadop_test::yaml(yaml_text)),
+                     [](const std::string&, std::string&) { return false; });
+}
+
+const char* kTwo = R"(
+horizon: 5.0
+bodies:
+  - {name: a, odom_topic: /a, shape: {type: sphere, radius: 0.5}}
+  - {name: b, odom_topic: /b, shape: {type: sphere, radius: 0.5}}
+)";
+
+const Eigen::Vector3d kZero = Eigen::Vector3d::Zero();
+
+}  // namespace
+
+// a at x = -2 and b at x = 2, both still: a gap of 3 m ahead of a.
+TEST(CommandCheck, ForwardIntoAStillBodyIsScaledToStopShortOfIt) {
+  MonitorCore core = makeCore(kTwo);
+  FakeTf tf;
+  core.registry().onOdometry(0, odom(100.0, -2, 0, 0, 0), ros::Time(100.0));
+  core.registry().onOdometry(1, odom(100.0, 2, 0, 0, 0), ros::Time(100.0));
+  core.cycle(ros::Time(100.0), tf);
+  // 1 m/s for 1 s covers 1 m of the 3: clear at full speed.
+  CommandCheck c = core.checkCommand(0, {1, 0, 0}, kZero, ros::Time(100.0), tf, 1.0, 0.5);
+  ASSERT_EQ(c.status, CommandCheck::Status::kChecked) << c.why;
+  EXPECT_TRUE(c.scale.clear);
+  EXPECT_EQ(c.scale.scale, 1.0);
+  EXPECT_FALSE(c.limited);
+  // Over 5 s, s m/s covers 5 s m: clear below s = 0.6, so the grid's 0.58 (0.6 itself touches
+  // within the tolerance at the window's end).
+  c = core.checkCommand(0, {1, 0, 0}, kZero, ros::Time(100.0), tf, 5.0, 0.5);
+  ASSERT_EQ(c.status, CommandCheck::Status::kChecked) << c.why;
+  EXPECT_TRUE(c.scale.clear);
+  EXPECT_GE(c.scale.scale, 0.58 - 1e-9);
+  EXPECT_LE(c.scale.scale, 0.6 + 1e-9);
+  ASSERT_TRUE(c.limited);
+  EXPECT_EQ(core.registry().elements()[c.other].id, "b");
+  // The contact just above: 3 m at (scale + 0.02) m/s.
+  EXPECT_NEAR(c.time_to_contact, 3.0 / (c.scale.scale + 0.02), 1e-3);
+  // Backwards: away from b, nothing behind a.
+  c = core.checkCommand(0, {-1, 0, 0}, kZero, ros::Time(100.0), tf, 5.0, 0.5);
+  EXPECT_TRUE(c.scale.clear);
+  EXPECT_EQ(c.scale.scale, 1.0);
+}
+
+// The same gap, but a faces +y (yaw 90 deg) and b is 3 m ahead of it along +y: "forward" in the
+// body frame is +y in the fixed frame.
+TEST(CommandCheck, TheCommandIsInTheBodyFrame) {
+  MonitorCore core = makeCore(kTwo);
+  FakeTf tf;
+  core.registry().onOdometry(0, odom(100.0, 0, -2, M_PI / 2, 0), ros::Time(100.0));
+  core.registry().onOdometry(1, odom(100.0, 0, 2, 0, 0), ros::Time(100.0));
+  core.cycle(ros::Time(100.0), tf);
+  CommandCheck c = core.checkCommand(0, {1, 0, 0}, kZero, ros::Time(100.0), tf, 5.0, 0.5);
+  ASSERT_EQ(c.status, CommandCheck::Status::kChecked) << c.why;
+  EXPECT_LE(c.scale.scale, 0.6 + 1e-9);
+  EXPECT_GE(c.scale.scale, 0.58 - 1e-9);
+  // Sideways in the body frame (its y = fixed -x): clear.
+  c = core.checkCommand(0, {0, 1, 0}, kZero, ros::Time(100.0), tf, 5.0, 0.5);
+  EXPECT_EQ(c.scale.scale, 1.0);
+}
+
+// b drives into a standing a at 1 m/s: contact at 3 s whatever a does not do. Stopping does not
+// help, so a may drive away at full speed; driving towards b only brings the contact closer.
+TEST(CommandCheck, ABodyBeingRunIntoMayAlwaysDriveAway) {
+  MonitorCore core = makeCore(kTwo);
+  FakeTf tf;
+  core.registry().onOdometry(0, odom(100.0, -2, 0, 0, 0), ros::Time(100.0));
+  core.registry().onOdometry(1, odom(100.0, 2, 0, M_PI, 1.0), ros::Time(100.0));  // facing -x
+  core.cycle(ros::Time(100.0), tf);
+  CommandCheck c = core.checkCommand(0, {-1, 0, 0}, kZero, ros::Time(100.0), tf, 5.0, 0.5);
+  ASSERT_EQ(c.status, CommandCheck::Status::kChecked) << c.why;
+  EXPECT_TRUE(c.scale.clear);
+  EXPECT_EQ(c.scale.scale, 1.0);
+  c = core.checkCommand(0, {1, 0, 0}, kZero, ros::Time(100.0), tf, 5.0, 0.5);
+  ASSERT_EQ(c.status, CommandCheck::Status::kChecked) << c.why;
+  EXPECT_FALSE(c.scale.clear);
+  EXPECT_EQ(c.scale.scale, 0.0);  // the latest first contact: standing still
+  ASSERT_TRUE(c.limited);
+  EXPECT_NEAR(c.time_to_contact, 3.0, 1e-3);
+}
+
+// A 4 m long box (half-width 0.2 m) turning in place about its centre, a pillar of radius
+// 0.2 m 1.5 m to its side (navigation2#3171: pure rotations slip through footprint checks).
+// Turned by theta, the pillar's centre lies at (1.5 sin theta, 1.5 cos theta) in the box frame,
+// within the box's length, 1.5 cos theta - 0.2 from its long side: contact at
+// cos theta = 0.4 / 1.5, theta = 1.3010 rad.
+TEST(CommandCheck, ALongBodyTurningInPlaceIsStoppedBeforeThePillar) {
+  MonitorCore core = makeCore(R"(
+horizon: 5.0
+bodies:
+  - {name: cart, odom_topic: /cart, shape: {type: box, size: [4.0, 0.4, 0.4]}}
+static_obstacles:
+  - {name: pillar, shape: {type: sphere, radius: 0.2}, pose: {position: [0.0, 1.5, 0.0]}}
+)");
+  FakeTf tf;
+  core.registry().onOdometry(0, odom(100.0, 0, 0, 0, 0), ros::Time(100.0));
+  core.cycle(ros::Time(100.0), tf);
+  // Straight ahead along its long axis: the pillar stays 1.3 m to the side.
+  CommandCheck c = core.checkCommand(0, {1, 0, 0}, kZero, ros::Time(100.0), tf, 2.0, 0.5);
+  ASSERT_EQ(c.status, CommandCheck::Status::kChecked) << c.why;
+  EXPECT_EQ(c.scale.scale, 1.0);
+  // 1 rad/s for 2 s would turn 2 rad: clear while 2 s < 1.3010, the grid's 0.64.
+  const double theta = std::acos(0.4 / 1.5);
+  c = core.checkCommand(0, kZero, {0, 0, 1}, ros::Time(100.0), tf, 2.0, 0.5);
+  ASSERT_EQ(c.status, CommandCheck::Status::kChecked) << c.why;
+  EXPECT_TRUE(c.scale.clear);
+  EXPECT_NEAR(c.scale.scale, 0.64, 1e-9);
+  ASSERT_TRUE(c.limited);
+  EXPECT_EQ(core.registry().elements()[c.other].id, "pillar");
+  EXPECT_NEAR(c.time_to_contact, theta / 0.66, 1e-3);
+  // Turning the other way sweeps the other end into it just the same.
+  c = core.checkCommand(0, kZero, {0, 0, -1}, ros::Time(100.0), tf, 2.0, 0.5);
+  EXPECT_NEAR(c.scale.scale, 0.64, 1e-9);
+}
+
+// The arc keeps its curvature: a body at the origin facing +x driving at 1 m/s while turning
+// at 0.5 rad/s follows the circle of radius 2 about (0, 2). An obstacle on that circle, a
+// quarter turn on (at (2, 2)), is hit; one on the tangent (at (3.14, 0)) is not.
+TEST(CommandCheck, TheCommandedArcIsFollowed) {
+  const char* scene = R"(
+horizon: 5.0
+bodies:
+  - {name: a, odom_topic: /a, shape: {type: sphere, radius: 0.2}}
+static_obstacles:
+  - {name: o, shape: {type: sphere, radius: 0.2}, pose: {position: [%f, %f, 0.0]}}
+)";
+  char text[512];
+  std::snprintf(text, sizeof text, scene, 2.0, 2.0);
+  MonitorCore on_arc = makeCore(text);
+  std::snprintf(text, sizeof text, scene, 3.14, 0.0);
+  MonitorCore on_tangent = makeCore(text);
+  FakeTf tf;
+  for (MonitorCore* core : {&on_arc, &on_tangent}) {
+    core->registry().onOdometry(0, odom(100.0, 0, 0, 0, 0), ros::Time(100.0));
+    core->cycle(ros::Time(100.0), tf);
+  }
+  // The quarter circle is pi m long: 3.14 s at full speed, less the 0.4 m of the radii.
+  CommandCheck c = on_arc.checkCommand(0, {1, 0, 0}, {0, 0, 0.5}, ros::Time(100.0), tf, 4.0, 0.5);
+  ASSERT_EQ(c.status, CommandCheck::Status::kChecked) << c.why;
+  EXPECT_LT(c.scale.scale, 1.0);
+  EXPECT_TRUE(c.limited);
+  c = on_tangent.checkCommand(0, {1, 0, 0}, {0, 0, 0.5}, ros::Time(100.0), tf, 4.0, 0.5);
+  ASSERT_EQ(c.status, CommandCheck::Status::kChecked) << c.why;
+  EXPECT_EQ(c.scale.scale, 1.0);
+}
+
+TEST(CommandCheck, WhatCannotBeCheckedIsSaidNotGuessed) {
+  MonitorCore core = makeCore(kTwo);
+  FakeTf tf;
+  // No state yet.
+  CommandCheck c = core.checkCommand(0, {1, 0, 0}, kZero, ros::Time(100.0), tf, 1.0, 0.5);
+  EXPECT_EQ(c.status, CommandCheck::Status::kNoState);
+  core.registry().onOdometry(0, odom(100.0, -2, 0, 0, 0), ros::Time(100.0));
+  core.registry().onOdometry(1, odom(100.0, 2, 0, 0, 0), ros::Time(100.0));
+  // A state, but no cycle yet: its elements are not in the world.
+  c = core.checkCommand(0, {1, 0, 0}, kZero, ros::Time(100.0), tf, 1.0, 0.5);
+  EXPECT_EQ(c.status, CommandCheck::Status::kNotInWorld) << c.why;
+  core.cycle(ros::Time(100.0), tf);
+  // Stale for this gate (0.5 s without odometry) although the node's own cycle still predicts.
+  c = core.checkCommand(0, {1, 0, 0}, kZero, ros::Time(100.6), tf, 1.0, 0.5);
+  EXPECT_EQ(c.status, CommandCheck::Status::kStale) << c.why;
+  c = core.checkCommand(0, {1, 0, 0}, kZero, ros::Time(100.6), tf, 1.0, 1.0);
+  EXPECT_EQ(c.status, CommandCheck::Status::kChecked) << c.why;
+  // Not a moving body; out of range.
+  EXPECT_EQ(core.checkCommand(7, {1, 0, 0}, kZero, ros::Time(100.0), tf, 1.0, 0.5).status,
+            CommandCheck::Status::kNoState);
+  // A command far beyond the library's speed range is refused, not forwarded.
+  c = core.checkCommand(0, {1e9, 0, 0}, kZero, ros::Time(100.0), tf, 1.0, 0.5);
+  EXPECT_NE(c.status, CommandCheck::Status::kChecked);
+  // Skipping b: nothing left to touch.
+  c = core.checkCommand(0, {1, 0, 0}, kZero, ros::Time(100.0), tf, 5.0, 0.5,
+                        [&](size_t e) { return core.registry().elements()[e].id == "b"; });
+  EXPECT_EQ(c.scale.scale, 1.0);
+}
+
+// A body twist source whose frame has no transform: the gate cannot place the body.
+TEST(CommandCheck, AMissingTransformIsReported) {
+  MonitorCore core = makeCore(R"(
+horizon: 5.0
+bodies:
+  - {name: a, twist_topic: /a, frame: a_base, shape: {type: sphere, radius: 0.5}}
+  - {name: b, odom_topic: /b, shape: {type: sphere, radius: 0.5}}
+)");
+  FakeTf tf;
+  Eigen::Isometry3d at = Eigen::Isometry3d::Identity();
+  at.translation() = Eigen::Vector3d(-2, 0, 0);
+  tf.set("odom", "a_base", at);
+  geometry_msgs::TwistStamped tw;
+  tw.header.stamp = ros::Time(100.0);
+  core.registry().onTwist(0, tw, ros::Time(100.0));
+  core.registry().onOdometry(1, odom(100.0, 2, 0, 0, 0), ros::Time(100.0));
+  core.cycle(ros::Time(100.0), tf);
+  CommandCheck c = core.checkCommand(0, {1, 0, 0}, kZero, ros::Time(100.0), tf, 5.0, 0.5);
+  ASSERT_EQ(c.status, CommandCheck::Status::kChecked) << c.why;
+  EXPECT_LE(c.scale.scale, 0.6 + 1e-9);
+  tf.erase("a_base");
+  c = core.checkCommand(0, {1, 0, 0}, kZero, ros::Time(100.0), tf, 5.0, 0.5);
+  EXPECT_EQ(c.status, CommandCheck::Status::kTfMissing) << c.why;
+}
