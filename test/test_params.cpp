@@ -389,3 +389,61 @@ bodies:
 )"));
   EXPECT_EQ(p.bodies.size(), 20000u);
 }
+
+TEST(Params, GatesParseWithDefaultsAndTemplates) {
+  const MonitorParams p = parseParams(yaml(R"(
+stale_timeout: 0.8
+bodies:
+  - {name: a, odom_topic: /a/odom, shape: {type: sphere, radius: 0.5},
+     gate: {cmd_vel_in: /a/cmd_vel_in, cmd_vel_out: /a/cmd_vel}}
+  - name: "r_{i}"
+    count: 2
+    odom_topic: "/r_{i}/odom"
+    shape: {type: sphere, radius: 0.5}
+    gate: {cmd_vel_in: "/r_{i}/nav_vel", cmd_vel_out: "/r_{i}/cmd_vel", time_before_collision: 2.5,
+           cmd_timeout: 0.2, state_timeout: 0.3, ignore: ["r_{i}_dock", "cart/*"]}
+  - {name: c, odom_topic: /c/odom, shape: {type: sphere, radius: 0.5}}
+)"));
+  ASSERT_EQ(p.bodies.size(), 4u);
+  ASSERT_TRUE(p.bodies[0].has_gate);
+  EXPECT_EQ(p.bodies[0].gate.cmd_vel_in, "/a/cmd_vel_in");
+  EXPECT_EQ(p.bodies[0].gate.time_before_collision, 1.0);
+  EXPECT_EQ(p.bodies[0].gate.cmd_timeout, 0.5);
+  EXPECT_EQ(p.bodies[0].gate.state_timeout, 0.8);  // the node's stale_timeout
+  EXPECT_TRUE(p.bodies[0].gate.ignore.empty());
+  ASSERT_TRUE(p.bodies[2].has_gate);
+  EXPECT_EQ(p.bodies[2].gate.cmd_vel_in, "/r_1/nav_vel");
+  EXPECT_EQ(p.bodies[2].gate.cmd_vel_out, "/r_1/cmd_vel");
+  EXPECT_EQ(p.bodies[2].gate.time_before_collision, 2.5);
+  EXPECT_EQ(p.bodies[2].gate.cmd_timeout, 0.2);
+  EXPECT_EQ(p.bodies[2].gate.state_timeout, 0.3);
+  ASSERT_EQ(p.bodies[2].gate.ignore.size(), 2u);
+  EXPECT_EQ(p.bodies[2].gate.ignore[0], "r_1_dock");
+  EXPECT_FALSE(p.bodies[3].has_gate);
+}
+
+TEST(Params, GateErrorsNameTheField) {
+  auto gate = [](const std::string& fields) {
+    return errorOf("bodies: [{name: a, odom_topic: /a, shape: {type: sphere, radius: 1}, gate: {" + fields + "}}]");
+  };
+  const std::string p = "~bodies[0] (\"a\").gate";
+  EXPECT_NE(gate("cmd_vel_out: /o").find(p + ".cmd_vel_in: is required"), std::string::npos);
+  EXPECT_NE(gate("cmd_vel_in: /i").find(p + ".cmd_vel_out: is required"), std::string::npos);
+  EXPECT_NE(gate("cmd_vel_in: /i, cmd_vel_out: /i").find(p + ".cmd_vel_out: must differ"), std::string::npos);
+  EXPECT_NE(gate("cmd_vel_in: '/i j', cmd_vel_out: /o").find(p + ".cmd_vel_in: must be a valid ROS topic"),
+            std::string::npos);
+  EXPECT_NE(gate("cmd_vel_in: /i, cmd_vel_out: /o, time_before_collision: 0").find(p + ".time_before_collision"),
+            std::string::npos);
+  EXPECT_NE(gate("cmd_vel_in: /i, cmd_vel_out: /o, time_before_collision: .nan").find(p + ".time_before_collision"),
+            std::string::npos);
+  EXPECT_NE(gate("cmd_vel_in: /i, cmd_vel_out: /o, cmd_timeout: -1").find(p + ".cmd_timeout"), std::string::npos);
+  EXPECT_NE(gate("cmd_vel_in: /i, cmd_vel_out: /o, state_timeout: .inf").find(p + ".state_timeout"), std::string::npos);
+  EXPECT_NE(gate("cmd_vel_in: /i, cmd_vel_out: /o, ignore: [1]").find(p + ".ignore[0]: must be a string"),
+            std::string::npos);
+  EXPECT_NE(gate("cmd_vel_in: /i, cmd_vel_out: /o, ignore: ['']").find(p + ".ignore[0]: must not be empty"),
+            std::string::npos);
+  EXPECT_NE(gate("cmd_vel_in: /i, cmd_vel_out: /o, timeout: 1").find(p + ".timeout: unknown key"), std::string::npos);
+  EXPECT_NE(errorOf("bodies: [{name: a, odom_topic: /a, shape: {type: sphere, radius: 1}, gate: 3}]")
+                .find(p + ": must be a dictionary"),
+            std::string::npos);
+}

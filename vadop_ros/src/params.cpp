@@ -229,13 +229,50 @@ void checkBodyNames(const BodyParams& b, const std::string& path, const std::str
   if (b.links_from_tf) checkFrame(b.tf_prefix, path + ".tf_prefix" + suffix, true);
 }
 
+GateParams parseGate(const XmlRpcValue& v, const std::string& path, double stale_timeout) {
+  requireStruct(v, path);
+  rejectUnknown(v, {"cmd_vel_in", "cmd_vel_out", "time_before_collision", "cmd_timeout", "state_timeout", "ignore"},
+                path);
+  GateParams g;
+  for (auto [key, topic] : {std::pair<const char*, std::string*>{"cmd_vel_in", &g.cmd_vel_in}, {"cmd_vel_out", &g.cmd_vel_out}}) {
+    const XmlRpcValue* t = member(v, key);
+    if (!t) fail(path + "." + key, "is required (a geometry_msgs/Twist topic)");
+    *topic = toString(*t, path + "." + key);
+  }
+  g.time_before_collision = ranged(member(v, "time_before_collision"), g.time_before_collision, 0.0, 60.0, true,
+                                   path + ".time_before_collision");
+  g.cmd_timeout = ranged(member(v, "cmd_timeout"), g.cmd_timeout, 0.0, 3600.0, true, path + ".cmd_timeout");
+  g.state_timeout = ranged(member(v, "state_timeout"), stale_timeout, 0.0, 1e6, true, path + ".state_timeout");
+  if (const XmlRpcValue* list = member(v, "ignore")) {
+    requireArray(*list, path + ".ignore");
+    for (int i = 0; i < list->size(); ++i) {
+      const std::string item = path + ".ignore[" + std::to_string(i) + "]";
+      g.ignore.push_back(toString((*list)[i], item));
+      if (g.ignore.back().empty()) fail(item, "must not be empty (a \"body/link\" pattern, * matches anything)");
+    }
+  }
+  return g;
+}
+
+// The gate's topics of one body (a template copy after substitution).
+void checkGateNames(const BodyParams& b, const std::string& path, const std::string& suffix) {
+  if (!b.has_gate) return;
+  checkRosName(b.gate.cmd_vel_in, path + ".gate.cmd_vel_in" + suffix, "topic");
+  checkRosName(b.gate.cmd_vel_out, path + ".gate.cmd_vel_out" + suffix, "topic");
+  if (b.gate.cmd_vel_in == b.gate.cmd_vel_out) {
+    fail(path + ".gate.cmd_vel_out" + suffix, "must differ from cmd_vel_in (the gate would read its own output), got \"" +
+                                                  b.gate.cmd_vel_out + "\"");
+  }
+}
+
 void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::string>& names) {
   requireArray(list, "~bodies");
   for (int i = 0; i < list.size(); ++i) {
     const XmlRpcValue& e = list[i];
     const std::string path = entryPath("bodies", i, e);
     requireStruct(e, path);
-    rejectUnknown(e, {"name", "odom_topic", "twist_topic", "frame", "shape", "robot_description", "tf_prefix", "count"},
+    rejectUnknown(e,
+                  {"name", "odom_topic", "twist_topic", "frame", "shape", "robot_description", "tf_prefix", "count", "gate"},
                   path);
     BodyParams b;
     const XmlRpcValue* name = member(e, "name");
@@ -273,6 +310,11 @@ void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::stri
       b.tf_prefix = stripLeadingSlashes(b.tf_prefix);
     }
 
+    if (const XmlRpcValue* g = member(e, "gate")) {
+      b.has_gate = true;
+      b.gate = parseGate(*g, path + ".gate", out.stale_timeout);
+    }
+
     int count = 0;  // 0: a single body, no template
     if (const XmlRpcValue* c = member(e, "count")) {
       count = toInt(*c, path + ".count");
@@ -293,6 +335,7 @@ void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::stri
     if (count == 0) {
       checkName(b.name, path + ".name", names);
       checkBodyNames(b, path, "");
+      checkGateNames(b, path, "");
       out.bodies.push_back(std::move(b));
       continue;
     }
@@ -304,9 +347,13 @@ void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::stri
       copy.frame = substitute(b.frame, k);
       copy.robot_description = substitute(b.robot_description, k);
       copy.tf_prefix = substitute(b.tf_prefix, k);
+      copy.gate.cmd_vel_in = substitute(b.gate.cmd_vel_in, k);
+      copy.gate.cmd_vel_out = substitute(b.gate.cmd_vel_out, k);
+      for (std::string& pattern : copy.gate.ignore) pattern = substitute(pattern, k);
       const std::string suffix = " (copy " + std::to_string(k) + ")";
       checkName(copy.name, path + ".name" + suffix, names);
       checkBodyNames(copy, path, suffix);
+      checkGateNames(copy, path, suffix);
       out.bodies.push_back(std::move(copy));
     }
   }

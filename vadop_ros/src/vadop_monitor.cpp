@@ -1,15 +1,20 @@
 // vadop_monitor: predicts collisions between the configured bodies over a time horizon and
-// publishes them (~impacts), with rviz markers (~markers) and /diagnostics.
+// publishes them (~impacts), with rviz markers (~markers) and /diagnostics; bodies with a gate
+// get each velocity command checked and forwarded scaled (cmd_vel_in -> cmd_vel_out,
+// ~gate_states).
 // Parameters: config/monitor.yaml; behaviour: README.md ("The ROS monitor node").
 #include "vadop_ros/monitor_core.h"
 #include "vadop_ros/monitor_diagnostics.h"
 #include "vadop_ros/params.h"
+#include "vadop_ros/velocity_gate.h"
 
+#include <vadop/GateStateArray.h>
 #include <vadop/ImpactArray.h>
 #include <vadop/MonitorConfig.h>
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
+#include <geometry_msgs/Twist.h>
 #include <geometry_msgs/TwistStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
@@ -109,6 +114,22 @@ class MonitorNode {
       }
     }
 
+    // Velocity gates: each command is checked as it arrives (not at the cycle rate).
+    for (size_t i = 0; i < bodies.size(); ++i) {
+      if (bodies[i].is_static || !bodies[i].params.has_gate) continue;
+      const size_t g = gates_.size();
+      gates_.emplace_back(i, core_->registry());
+      const GateParams& gp = bodies[i].params.gate;
+      gate_pubs_.push_back(nh_.advertise<geometry_msgs::Twist>(gp.cmd_vel_out, 10));
+      subs_.push_back(nh_.subscribe<geometry_msgs::Twist>(
+          gp.cmd_vel_in, 10, [this, g](const geometry_msgs::TwistConstPtr& msg) { onCommand(g, *msg); },
+          ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
+      updater_.add("gate " + bodies[i].name, [this, g](diagnostic_updater::DiagnosticStatusWrapper& s) {
+        reportGate(s, gates_[g]);
+      });
+    }
+    if (!gates_.empty()) gate_states_pub_ = pnh_.advertise<vadop::GateStateArray>("gate_states", 10);
+
     updater_.setHardwareID("vadop_monitor");
     updater_.add("cycle", [this](diagnostic_updater::DiagnosticStatusWrapper& s) {
       window_.report(s, core_->params().rate);
@@ -143,6 +164,56 @@ class MonitorNode {
   void onOdometry(size_t i, const nav_msgs::Odometry& msg) { core_->registry().onOdometry(i, msg, ros::Time::now()); }
   void onTwist(size_t i, const geometry_msgs::TwistStamped& msg) {
     core_->registry().onTwist(i, msg, ros::Time::now());
+  }
+
+  // A command on a gate's cmd_vel_in: checked and forwarded at once. Whatever goes wrong, the
+  // gate publishes a zero command rather than nothing or the unchecked one.
+  void onCommand(size_t g, const geometry_msgs::Twist& msg) {
+    const ros::Time now = ros::Time::now();
+    geometry_msgs::Twist out;  // zero
+    try {
+      if (!now.isZero()) out = gates_[g].onCommand(*core_, msg, now, tf_source_);
+    } catch (const std::exception& e) {
+      out = geometry_msgs::Twist();
+      ROS_ERROR_THROTTLE(5.0, "vadop_monitor: gate of \"%s\" failed (zero command published): %s",
+                         gates_[g].state().body.c_str(), e.what());
+    }
+    gate_pubs_[g].publish(out);
+    publishGateStates(now);
+  }
+
+  void publishGateStates(const ros::Time& now) {
+    if (gates_.empty()) return;
+    vadop::GateStateArray msg;
+    msg.header.stamp = now;
+    msg.header.frame_id = core_->params().fixed_frame;
+    msg.gates.reserve(gates_.size());
+    for (const VelocityGate& g : gates_) msg.gates.push_back(g.state());
+    gate_states_pub_.publish(msg);
+  }
+
+  static void reportGate(diagnostic_updater::DiagnosticStatusWrapper& s, const VelocityGate& g) {
+    const vadop::GateState& st = g.state();
+    using diagnostic_msgs::DiagnosticStatus;
+    const bool unchecked = st.reason == vadop::GateState::REASON_STALE ||
+                           st.reason == vadop::GateState::REASON_BAD_COMMAND;
+    std::string summary = st.reason + ", scale " + std::to_string(st.scale);
+    if (!st.limiting_body.empty()) {
+      summary += ", limited by " + st.limiting_body + (st.limiting_link.empty() ? "" : "/" + st.limiting_link) +
+                 " in " + std::to_string(st.time_to_contact) + " s";
+    }
+    if (!st.detail.empty()) summary += ": " + st.detail;
+    s.summary(unchecked ? DiagnosticStatus::WARN : DiagnosticStatus::OK, summary);
+    const VelocityGate::Counts& c = g.counts();
+    s.add("cmd_vel_in", g.params().cmd_vel_in);
+    s.add("cmd_vel_out", g.params().cmd_vel_out);
+    s.add("commands", c.commands);
+    s.add("clear", c.clear);
+    s.add("slowed", c.slowed);
+    s.add("stopped", c.stopped);
+    s.add("not checked (zero sent)", c.unchecked);
+    s.add("bad commands (zero sent)", c.bad);
+    s.add("timeouts (zero sent)", c.timeouts);
   }
 
   // dynamic_reconfigure clamps to the ranges of cfg/Monitor.cfg, but NaN passes its min/max:
@@ -195,6 +266,12 @@ class MonitorNode {
     } catch (const std::exception& e) {
       ROS_ERROR_THROTTLE(5.0, "vadop_monitor: cycle failed: %s", e.what());
     }
+    // Gates whose commands stopped: one zero command each.
+    for (size_t g = 0; g < gates_.size(); ++g) {
+      geometry_msgs::Twist zero;
+      if (gates_[g].onCycle(now, zero)) gate_pubs_[g].publish(zero);
+    }
+    publishGateStates(now);
     try {
       updater_.update();
     } catch (const std::exception& e) {
@@ -209,6 +286,9 @@ class MonitorNode {
   std::unique_ptr<MonitorCore> core_;
   ros::Publisher impacts_pub_, markers_pub_;
   std::vector<ros::Subscriber> subs_;
+  std::vector<VelocityGate> gates_;
+  std::vector<ros::Publisher> gate_pubs_;  // by gate: cmd_vel_out
+  ros::Publisher gate_states_pub_;
   diagnostic_updater::Updater updater_;
   CycleTimeWindow window_;
   boost::recursive_mutex reconfigure_mutex_;

@@ -40,6 +40,17 @@ enum class VelocitySource {
   kTwist,     // geometry_msgs/TwistStamped; the pose comes from tf of `frame`
 };
 
+// A velocity gate on a moving body (~bodies[i].gate): each geometry_msgs/Twist on cmd_vel_in
+// (the body-frame command) is checked against every other body's predicted motion and
+// published on cmd_vel_out scaled to what is clear (MonitorCore::checkCommand, VelocityGate).
+struct GateParams {
+  std::string cmd_vel_in, cmd_vel_out;  // topics, both required, different
+  double time_before_collision = 1.0;   // s, (0, 60]: the window checked from each command
+  double cmd_timeout = 0.5;             // s, (0, 3600]: no command for this long -> one zero Twist
+  double state_timeout = 0.0;           // s, (0, 1e6]; the node's ~stale_timeout when not given
+  std::vector<std::string> ignore;      // "body/link" globs (as ~ignore_pairs) the gate leaves out
+};
+
 struct BodyParams {
   std::string name;  // unique among bodies and static obstacles; no '/'
   VelocitySource source = VelocitySource::kOdometry;
@@ -55,6 +66,8 @@ struct BodyParams {
   // "<tf_prefix>/<link>" ("<link>" when empty); otherwise the links are rigid with the body.
   bool links_from_tf = false;
   std::string tf_prefix;
+  bool has_gate = false;
+  GateParams gate;
 };
 
 struct StaticObstacleParams {

@@ -1,0 +1,124 @@
+#include "vadop_ros/velocity_gate.h"
+
+#include "vadop_ros/pair_filter.h"
+
+#include <ros/console.h>
+
+#include <cmath>
+#include <limits>
+
+namespace vadop_ros {
+namespace {
+
+bool finite(const geometry_msgs::Twist& t) {
+  return std::isfinite(t.linear.x) && std::isfinite(t.linear.y) && std::isfinite(t.linear.z) &&
+         std::isfinite(t.angular.x) && std::isfinite(t.angular.y) && std::isfinite(t.angular.z);
+}
+
+geometry_msgs::Twist scaled(const geometry_msgs::Twist& t, double s) {
+  geometry_msgs::Twist out;
+  out.linear.x = s * t.linear.x;
+  out.linear.y = s * t.linear.y;
+  out.linear.z = s * t.linear.z;
+  out.angular.x = s * t.angular.x;
+  out.angular.y = s * t.angular.y;
+  out.angular.z = s * t.angular.z;
+  return out;
+}
+
+}  // namespace
+
+VelocityGate::VelocityGate(size_t body, const BodyRegistry& registry)
+    : body_(body), params_(registry.bodies().at(body).params.gate) {
+  const auto& bodies = registry.bodies();
+  for (const Element& e : registry.elements()) {
+    const ElementKey key{bodies[e.body].name, e.link};
+    bool ignored = false;
+    for (const std::string& pattern : params_.ignore) ignored = ignored || patternMatches(pattern, key);
+    ignored_.push_back(ignored ? 1 : 0);
+    element_body_.push_back(bodies[e.body].name);
+    element_link_.push_back(e.link);
+  }
+  state_.body = bodies[body].name;
+  state_.reason = vadop::GateState::REASON_STALE;
+  state_.detail = "no command yet";
+  state_.time_to_contact = std::numeric_limits<double>::infinity();
+}
+
+void VelocityGate::publishZero(const std::string& reason, const std::string& detail, const geometry_msgs::Twist& in) {
+  state_.scale = 0.0;
+  state_.reason = reason;
+  state_.detail = detail;
+  state_.limiting_body.clear();
+  state_.limiting_link.clear();
+  state_.time_to_contact = std::numeric_limits<double>::infinity();
+  state_.command_in = in;
+  state_.command_out = geometry_msgs::Twist();
+}
+
+geometry_msgs::Twist VelocityGate::onCommand(MonitorCore& core, const geometry_msgs::Twist& command,
+                                             const ros::Time& now, TransformSource& tf) {
+  ++counts_.commands;
+  has_command_ = true;
+  timed_out_ = false;
+  last_command_ = now;
+  if (!finite(command)) {
+    ++counts_.bad;
+    publishZero(vadop::GateState::REASON_BAD_COMMAND, "NaN/Inf in the command", command);
+    const double wall = ros::WallTime::now().toSec();
+    if (wall - last_warn_ >= 5.0) {
+      last_warn_ = wall;
+      ROS_WARN("vadop_monitor: gate of \"%s\": a command on %s has NaN/Inf: a zero command is published instead",
+               state_.body.c_str(), params_.cmd_vel_in.c_str());
+    }
+    return state_.command_out;
+  }
+  const Eigen::Vector3d v(command.linear.x, command.linear.y, command.linear.z);
+  const Eigen::Vector3d w(command.angular.x, command.angular.y, command.angular.z);
+  check_ = core.checkCommand(body_, v, w, now, tf, params_.time_before_collision, params_.state_timeout,
+                             [this](size_t e) { return e < ignored_.size() && ignored_[e]; });
+  if (check_.status != CommandCheck::Status::kChecked) {
+    ++counts_.unchecked;
+    publishZero(vadop::GateState::REASON_STALE, check_.why, command);
+    return state_.command_out;
+  }
+  const double s = check_.scale.scale;
+  state_.scale = s;
+  state_.detail.clear();
+  if (s >= 1.0) {
+    ++counts_.clear;
+    state_.reason = vadop::GateState::REASON_CLEAR;
+  } else if (s > 0.0) {
+    ++counts_.slowed;
+    state_.reason = vadop::GateState::REASON_SLOW;
+  } else {
+    ++counts_.stopped;
+    state_.reason = vadop::GateState::REASON_STOP;
+  }
+  if (check_.limited && check_.other < element_body_.size()) {
+    state_.limiting_body = element_body_[check_.other];
+    state_.limiting_link = element_link_[check_.other];
+    state_.time_to_contact = check_.time_to_contact;
+  } else {
+    state_.limiting_body.clear();
+    state_.limiting_link.clear();
+    state_.time_to_contact = std::numeric_limits<double>::infinity();
+  }
+  state_.command_in = command;
+  state_.command_out = scaled(command, s);
+  return state_.command_out;
+}
+
+bool VelocityGate::onCycle(const ros::Time& now, geometry_msgs::Twist& out) {
+  if (!has_command_ || timed_out_) return false;
+  if (secondsBetween(now, last_command_) <= params_.cmd_timeout) return false;
+  timed_out_ = true;
+  ++counts_.timeouts;
+  publishZero(vadop::GateState::REASON_TIMEOUT,
+              "no command on " + params_.cmd_vel_in + " for " + std::to_string(params_.cmd_timeout) + " s",
+              geometry_msgs::Twist());
+  out = state_.command_out;
+  return true;
+}
+
+}  // namespace vadop_ros
