@@ -17,9 +17,17 @@
 //   vadop_monitor_bench --startup 5000,50000   start-up instead: parseParams + MonitorCore for N
 //                       bodies (primitive and 3-link URDF templates), no ROS transport
 //
+// --gates G: the first G bodies have a velocity gate (time_before_collision 1 s); after every
+// cycle each of them gets one command (its own current twist, what its planner would send),
+// half a period later, and the time of VelocityGate::onCommand (the node's work between the
+// receipt of a command and the publication of the gated one, without transport) is measured:
+// median, p99 and max, with the scales tried per command and the share of commands slowed or
+// stopped.
+//
 // Prints one line per N and, for N = 1000, whether the mean cycle uses under a third of the
 // period at the given rate.
 #include "vadop_ros/monitor_core.h"
+#include "vadop_ros/velocity_gate.h"
 
 #include <time.h>
 
@@ -61,6 +69,9 @@ struct Result {
   double feed_mean = 0, predict_mean = 0, markers_mean = 0;
   double candidates = 0, impacts = 0, ignored_tested = 0;
   size_t elements = 0;
+  // Gates: latency of onCommand (ms), scales tried per command, commands slowed / stopped.
+  std::vector<double> gate_ms;
+  double gate_evaluations = 0, gate_slowed = 0, gate_stopped = 0, gate_unchecked = 0;
 };
 
 // Start-up without ROS transport (--startup N,...): parseParams of one `count: N` template (as
@@ -129,7 +140,7 @@ std::string chainUrdf(int links) {
 }
 
 Result run(size_t n, int cycles, int warmup, double rate, double horizon, double area, double turn, bool markers,
-           unsigned seed, int links) {
+           unsigned seed, int links, size_t gates) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   const double half = 0.5 * std::sqrt(area * static_cast<double>(n));
@@ -143,6 +154,12 @@ Result run(size_t n, int cycles, int warmup, double rate, double horizon, double
     vadop_ros::BodyParams b;
     b.name = "body_" + std::to_string(i);
     b.topic = "/" + b.name + "/odom";
+    if (i < gates) {
+      b.has_gate = true;
+      b.gate.cmd_vel_in = "/" + b.name + "/nav_vel";
+      b.gate.cmd_vel_out = "/" + b.name + "/cmd_vel";
+      b.gate.state_timeout = p.stale_timeout;
+    }
     if (links >= 2) {
       b.robot_description = "/robot_description";
       p.bodies.push_back(b);
@@ -162,6 +179,10 @@ Result run(size_t n, int cycles, int warmup, double rate, double horizon, double
     value = urdf;
     return !urdf.empty();
   });
+
+  std::vector<vadop_ros::VelocityGate> gate_list;
+  for (size_t i = 0; i < std::min(gates, n); ++i) gate_list.emplace_back(i, core.registry());
+  Result r;
 
   std::vector<SimBody> sim(n);
   for (auto& s : sim) {
@@ -220,6 +241,23 @@ Result run(size_t n, int cycles, int warmup, double rate, double horizon, double
       if (m.markers.empty()) std::abort();
     }
     if (c < warmup) continue;
+    // Each gated body's planner sends its current twist half a period after the cycle.
+    const ros::Time command_time = now + ros::Duration(0.5 * dt);
+    for (size_t g = 0; g < gate_list.size(); ++g) {
+      geometry_msgs::Twist cmd;
+      cmd.linear.x = sim[g].v;
+      cmd.angular.z = sim[g].w;
+      const auto g0 = std::chrono::steady_clock::now();
+      const geometry_msgs::Twist out = gate_list[g].onCommand(core, cmd, command_time, tf);
+      r.gate_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - g0).count());
+      if (!std::isfinite(out.linear.x)) std::abort();
+      const vadop_ros::CommandCheck& check = gate_list[g].lastCheck();
+      r.gate_evaluations += static_cast<double>(check.scale.evaluations);
+      const std::string& reason = gate_list[g].state().reason;
+      r.gate_slowed += reason == "slow" ? 1 : 0;
+      r.gate_stopped += reason == "stop" ? 1 : 0;
+      r.gate_unchecked += reason == "stale" ? 1 : 0;
+    }
     feed_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
     cycle_ms.push_back(std::chrono::duration<double, std::milli>(t2 - t0).count());
     cpu_ms.push_back(cpu2 - cpu0);
@@ -229,7 +267,6 @@ Result run(size_t n, int cycles, int warmup, double rate, double horizon, double
     ignored_tested += static_cast<double>(core.lastStats().ignored_tested);
     impacts += static_cast<double>(core.lastStats().impacts);
   }
-  Result r;
   r.n = n;
   auto mean = [](const std::vector<double>& v) {
     double s = 0;
@@ -269,6 +306,7 @@ int main(int argc, char** argv) {
   bool markers = false;
   unsigned seed = 1;
   int links = 1;
+  size_t gates = 0;
   std::vector<size_t> startup_sizes;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -290,11 +328,12 @@ int main(int argc, char** argv) {
       else if (a == "--seed") seed = static_cast<unsigned>(std::stoul(next()));
       else if (a == "--markers") markers = true;
       else if (a == "--links") links = std::stoi(next());
+      else if (a == "--gates") gates = std::stoul(next());
       else if (a == "--startup") startup_sizes = parseList(next());
       else {
         std::fprintf(stderr,
                      "usage: %s [--bodies 100,1000,5000] [--cycles 150] [--warmup 15] [--rate 30] [--horizon 2] "
-                     "[--area 6] [--turn 0.5] [--markers] [--seed 1] [--links K] | --startup 5000,50000\n",
+                     "[--area 6] [--turn 0.5] [--markers] [--seed 1] [--links K] [--gates G] | --startup 5000,50000\n",
                      argv[0]);
         return a == "--help" || a == "-h" ? 0 : 2;
       }
@@ -323,7 +362,7 @@ int main(int argc, char** argv) {
               "impacts");
   int verdict = -1;
   for (const size_t n : sizes) {
-    const Result r = run(n, cycles, warmup, rate, horizon, area, turn, markers, seed, links);
+    const Result r = run(n, cycles, warmup, rate, horizon, area, turn, markers, seed, links, gates);
     std::printf("%7zu %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %8.3f %10.3f %10.3f %8.1f%% %11.1f %9.1f\n", r.n,
                 r.cpu_mean, r.cpu_p95, r.mean, r.median, r.p95, r.max, r.feed_mean, r.predict_mean, r.markers_mean,
                 100.0 * r.cpu_mean / period_ms, r.candidates, r.impacts);
@@ -332,6 +371,14 @@ int main(int argc, char** argv) {
                   r.elements, r.ignored_tested);
     }
     std::fflush(stdout);
+    if (!r.gate_ms.empty()) {
+      const double count = static_cast<double>(r.gate_ms.size());
+      std::printf("  gates: %zu commands, latency (ms) median %.3f p99 %.3f max %.3f; %.1f scales tried per command; "
+                  "slowed %.1f%%, stopped %.1f%%, not checked %.1f%%\n",
+                  r.gate_ms.size(), percentile(r.gate_ms, 0.5), percentile(r.gate_ms, 0.99),
+                  *std::max_element(r.gate_ms.begin(), r.gate_ms.end()), r.gate_evaluations / count,
+                  100.0 * r.gate_slowed / count, 100.0 * r.gate_stopped / count, 100.0 * r.gate_unchecked / count);
+    }
     if (n == 1000) verdict = r.cpu_mean < period_ms / 3.0 ? 1 : 0;
   }
   std::printf("  (ms per cycle; feed = odometry into the registry, predict = World::predict, both wall clock)\n");
