@@ -404,7 +404,12 @@ bool VadopGridBroadPhase::queryFrame(const double* q, std::vector<BodyId>& out) 
         if (c == kEmpty) continue;
         for (uint32_t e = cell_start_[c]; e < cell_start_[c + 1]; ++e) {
           const CellEntry& ce = cell_entries_[e];
-          if (boxesOverlap(ce.box)) push(ce.slot);
+          if (!boxesOverlap(ce.box)) continue;
+          // A box is listed in every cell it overlaps: report it once, from the cell holding
+          // the low corner of its overlap with the query (a cell both of them span).
+          if (std::max(ce.lo_cell[0], lx) == x && std::max(ce.lo_cell[1], ly) == y && std::max(ce.lo_cell[2], lz) == z) {
+            push(ce.slot);
+          }
         }
       }
     }
