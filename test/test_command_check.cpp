@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -234,4 +235,31 @@ bodies:
   tf.erase("a_base");
   c = core.checkCommand(0, {1, 0, 0}, kZero, ros::Time(100.0), tf, 5.0, 0.5);
   EXPECT_EQ(c.status, CommandCheck::Status::kTfMissing) << c.why;
+}
+
+// The markers of a checked command: the body's sweep under the gated command, in the gate's
+// namespace, ending where the scaled command takes it; nothing for a command not checked.
+TEST(CommandCheck, MarkersDrawTheGatedSweep) {
+  MonitorCore core = makeCore(kTwo);
+  FakeTf tf;
+  core.registry().onOdometry(0, odom(100.0, -2, 0, 0, 0), ros::Time(100.0));
+  core.registry().onOdometry(1, odom(100.0, 2, 0, 0, 0), ros::Time(100.0));
+  core.cycle(ros::Time(100.0), tf);
+  const CommandCheck c = core.checkCommand(0, {1, 0, 0}, kZero, ros::Time(100.0), tf, 5.0, 0.5);
+  ASSERT_EQ(c.status, CommandCheck::Status::kChecked) << c.why;
+  visualization_msgs::MarkerArray out;
+  core.appendCommandMarkers(c, "gate/a", out);
+  ASSERT_FALSE(out.markers.empty());
+  double farthest = -1e9;
+  for (const auto& m : out.markers) {
+    EXPECT_EQ(m.ns, "gate/a");
+    EXPECT_NE(m.action, visualization_msgs::Marker::DELETEALL);
+    if (m.type == visualization_msgs::Marker::SPHERE) farthest = std::max(farthest, m.pose.position.x);
+  }
+  // The end pose: -2 + scale * 5 s.
+  EXPECT_NEAR(farthest, -2.0 + 5.0 * c.scale.scale, 1e-6);
+  CommandCheck unchecked;
+  visualization_msgs::MarkerArray none;
+  core.appendCommandMarkers(unchecked, "gate/a", none);
+  EXPECT_TRUE(none.markers.empty());
 }

@@ -314,6 +314,11 @@ std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::
       // Only the first contact matters: later windows shrink to the best time so far.
       const Impact hit = timeOfImpact(*rm.prepared, motions[i], *ro.prepared, broad_phase_->motion(other), t0, t1, config_.toi);
       if (!hit.hit && !hit.undecided) continue;
+      if (hit.hit && hit.initially_touching) {
+        const Eigen::Vector3d closing = motions[i].velocityOfPoint(hit.point, t0) -
+                                        broad_phase_->motion(other).velocityOfPoint(hit.point, t0);
+        if (closing.dot(hit.normal) <= 0.0) continue;  // separating or sliding: not blocked
+      }
       if (!best || hit.time < best->impact.time) {
         best = MoverContact{i, ro.name, ro.key, hit, hit.undecided};
         t1 = hit.time;

@@ -127,7 +127,15 @@ TEST(GateScale, MatchesBruteForceOnRandomScenes) {
       double first = kInf;
       for (const WorldImpact& hit : brute.predict(t0, window, links)) {
         const bool own = hit.a.rfind("robot/", 0) == 0 && hit.b.rfind("robot/", 0) == 0;
-        if (!own) first = std::min(first, hit.impact.time);
+        if (own) continue;
+        // A pair touching at t0 blocks only when pressed together (World::firstContactIf).
+        if (hit.impact.initially_touching) {
+          const Eigen::Vector3d p = hit.impact.point;
+          const Eigen::Vector3d closing =
+              brute.motion(hit.a).velocityOfPoint(p, t0) - brute.motion(hit.b).velocityOfPoint(p, t0);
+          if (closing.dot(hit.impact.normal) <= 0.0) continue;
+        }
+        first = std::min(first, hit.impact.time);
       }
       return first;
     };
@@ -205,6 +213,27 @@ TEST(WorldFirstContactIf, BadInputThrowsAndChangesNothing) {
   EXPECT_TRUE(w.predict(0.0, 2.0).empty());
   // A skipped body is not considered.
   EXPECT_FALSE(w.firstContactIf({"a"}, {go}, 0.0, 2.0, [&](uint64_t key) { return key == w.key("b"); }).has_value());
+}
+
+// A body touching a wall: moving away or sliding along it is not a contact for the gate;
+// pressing into it is, at once.
+TEST(WorldFirstContactIf, TouchingBlocksOnlyWhenPressedTogether) {
+  World w;
+  const Motion still = makeMotion({0, 0, 0}, Eigen::Quaterniond::Identity(), {0, 0, 0}, {0, 0, 0}, 0.0);
+  w.add("wall", makeBox({1.0, 4.0, 1.0}), still);                      // faces at x = +-0.5
+  w.add("robot", makeSphere(0.5), makeMotion({1.0, 0, 0}, Eigen::Quaterniond::Identity(), {0, 0, 0}, {0, 0, 0}, 0.0));
+  w.predict(0.0, 2.0);
+  auto moving = [](const Eigen::Vector3d& v) {
+    return makeMotion({1.0, 0, 0}, Eigen::Quaterniond::Identity(), v, {0, 0, 0}, 0.0);
+  };
+  EXPECT_FALSE(w.firstContactIf({"robot"}, {moving({1, 0, 0})}, 0.0, 1.0));   // away
+  EXPECT_FALSE(w.firstContactIf({"robot"}, {moving({0, 1, 0})}, 0.0, 1.0));   // along
+  const auto into = w.firstContactIf({"robot"}, {moving({-1, 0, 0})}, 0.0, 1.0);
+  ASSERT_TRUE(into);
+  EXPECT_EQ(into->other, "wall");
+  EXPECT_NEAR(into->impact.time, 0.0, 1e-9);
+  // Standing still against it: not pressed, not blocked.
+  EXPECT_FALSE(w.firstContactIf({"robot"}, {moving({0, 0, 0})}, 0.0, 1.0));
 }
 
 }  // namespace

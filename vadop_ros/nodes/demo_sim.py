@@ -10,14 +10,23 @@ Agents bounce off the walls, the pillar and each other (so a predicted impact is
 followed by a bounce rather than an overlap).
 
 Private parameters: agents (20), rate (30 Hz), duration (0 = forever; else the node exits
-after that many seconds, which ends demo.launch), seed (1).
+after that many seconds, which ends demo.launch), seed (1), gates (false).
+
+With gates (demo.launch gates:=true) each agent's planner publishes its wandering command on
+/agent_<i>/nav_vel (geometry_msgs/Twist, body frame) and the agent moves with what
+vadop_monitor's gate publishes on /agent_<i>/cmd_vel (nothing received yet: standing still); a
+planner whose agent has been held (scale < 5%) for a second turns in place for a while to find
+another way. Without gates the agents follow their planners directly.
+
+Contacts (an agent touching another agent, a wall or the pillar) are counted as they begin and
+reported at the end (and every 10 s), per minute of simulated time.
 """
 import math
 import random
 
 import rospy
 import tf2_ros
-from geometry_msgs.msg import TransformStamped
+from geometry_msgs.msg import TransformStamped, Twist
 from nav_msgs.msg import Odometry
 
 ROOM_HALF = 6.0        # inner faces of the walls at +-6 m (config/demo.yaml)
@@ -34,6 +43,12 @@ class Agent:
         self.next_turn = straight_for
         self.mast_phase = random.uniform(0.0, 2.0 * math.pi)
         self.mast_rate = random.uniform(0.6, 1.2)
+        # With gates: the gate's last output (body frame) and the planner's escape manoeuvre.
+        self.out_v, self.out_w = 0.0, 0.0
+        self.held_since = None   # s: when the gate started holding the agent
+        self.escape_until = 0.0  # s: turning in place until then
+        self.escape_w = 0.0
+        self.touching = set()    # what it touches now (agent indices, "wall", "pillar")
 
     def vel(self):
         return self.v * math.cos(self.yaw), self.v * math.sin(self.yaw)
@@ -79,13 +94,35 @@ def make_agents(n):
     return agents
 
 
-def step(agents, t, dt):
+def plan(a, t):
+    """The planner's command (body frame) of agent a at time t, with gates."""
+    if t < a.escape_until:
+        return 0.0, a.escape_w
+    return a.v, a.wz
+
+
+def step(agents, t, dt, gated):
     for a in agents:
         if t >= a.next_turn:
             a.wz = random.uniform(-0.6, 0.6)
             a.next_turn = t + random.uniform(1.5, 4.0)
-        a.yaw += a.wz * dt
-        vx, vy = a.vel()
+        if gated:
+            # Held (the gate scales the command below 5%) for a second: turn in place.
+            want_v, _ = plan(a, t)
+            held = t >= a.escape_until and want_v > 0 and abs(a.out_v) < 0.05 * want_v
+            if not held:
+                a.held_since = None
+            elif a.held_since is None:
+                a.held_since = t
+            elif t - a.held_since > 1.0:
+                a.escape_until = t + random.uniform(1.0, 2.5)
+                a.escape_w = random.choice((-1.0, 1.0)) * 0.8
+                a.held_since = None
+            v, w = a.out_v, a.out_w
+        else:
+            v, w = a.v, a.wz
+        a.yaw += w * dt
+        vx, vy = v * math.cos(a.yaw), v * math.sin(a.yaw)
         a.x += vx * dt
         a.y += vy * dt
         # Walls: reflect.
@@ -124,6 +161,31 @@ def step(agents, t, dt):
                 a.straight_until = b.straight_until = 0.0
 
 
+def count_contacts(agents, counts):
+    """Counts the contacts that begin now: agent-agent pairs closer than two radii, agents at a
+    wall or at the pillar (1 mm of slack: the bounces above put them exactly there)."""
+    lim = ROOM_HALF - RADIUS - 1e-3
+    for i, a in enumerate(agents):
+        now = set()
+        if abs(a.x) >= lim or abs(a.y) >= lim:
+            now.add("wall")
+        if math.hypot(a.x - PILLAR[0], a.y - PILLAR[1]) <= PILLAR[2] + RADIUS + 1e-3:
+            now.add("pillar")
+        for j, b in enumerate(agents):
+            if j != i and math.hypot(a.x - b.x, a.y - b.y) <= 2 * RADIUS + 1e-3:
+                now.add(j)
+        for what in now - a.touching:
+            if what in ("wall", "pillar"):
+                counts["obstacle"] += 1
+                rospy.loginfo("demo_sim: contact agent_%d - %s (agent at %.2f m/s)", i, what, a.out_v)
+            elif what > i:  # each pair once
+                counts["agent"] += 1
+                b = agents[what]
+                rospy.loginfo("demo_sim: contact agent_%d - agent_%d (at %.2f and %.2f m/s)", i, what,
+                              a.out_v, b.out_v)
+        a.touching = now
+
+
 def main():
     rospy.init_node("demo_sim")
     n = int(rospy.get_param("~agents", 20))
@@ -137,6 +199,18 @@ def main():
     if len(agents) < n:
         rospy.logwarn("demo_sim: only %d agents fit in the room", len(agents))
     pubs = [rospy.Publisher("/agent_%d/odom" % i, Odometry, queue_size=5) for i in range(len(agents))]
+    gated = bool(rospy.get_param("~gates", False))
+    plan_pubs, subs = [], []
+    if gated:
+        plan_pubs = [rospy.Publisher("/agent_%d/nav_vel" % i, Twist, queue_size=5) for i in range(len(agents))]
+
+        def on_cmd(msg, a):
+            a.out_v, a.out_w = msg.linear.x, msg.angular.z
+
+        subs = [rospy.Subscriber("/agent_%d/cmd_vel" % i, Twist, on_cmd, callback_args=a, queue_size=5)
+                for i, a in enumerate(agents)]
+    counts = {"agent": 0, "obstacle": 0}
+    next_report = 10.0
     tfb = tf2_ros.TransformBroadcaster()
     rospy.loginfo("demo_sim: %d agents in a %.0f m x %.0f m room, %.0f Hz%s", len(agents), 2 * ROOM_HALF,
                   2 * ROOM_HALF, rate_hz, (", stopping after %.0f s" % duration) if duration > 0 else "")
@@ -158,7 +232,19 @@ def main():
         dt = (now - last).to_sec()
         last = now
         if dt > 0:
-            step(agents, t, min(dt, 0.2))
+            step(agents, t, min(dt, 0.2), gated)
+            count_contacts(agents, counts)
+        if t >= next_report or (duration > 0 and t + 1.5 / rate_hz >= duration):
+            next_report = t + 10.0
+            minutes = max(t, 1e-9) / 60.0
+            rospy.loginfo("demo_sim: gates %s, %.0f s: %d agent-agent contacts (%.1f per minute), %d with walls or "
+                          "the pillar (%.1f per minute)", "on" if gated else "off", t, counts["agent"],
+                          counts["agent"] / minutes, counts["obstacle"], counts["obstacle"] / minutes)
+        if gated:
+            for i, a in enumerate(agents):
+                cmd = Twist()
+                cmd.linear.x, cmd.angular.z = plan(a, t)
+                plan_pubs[i].publish(cmd)
         transforms = []
         for i, a in enumerate(agents):
             frame = "agent_%d/base_link" % i
@@ -170,8 +256,8 @@ def main():
             q = quat_z(a.yaw)
             (m.pose.pose.orientation.x, m.pose.pose.orientation.y, m.pose.pose.orientation.z,
              m.pose.pose.orientation.w) = q
-            m.twist.twist.linear.x = a.v
-            m.twist.twist.angular.z = a.wz
+            m.twist.twist.linear.x = a.out_v if gated else a.v
+            m.twist.twist.angular.z = a.out_w if gated else a.wz
             pubs[i].publish(m)
 
             base = TransformStamped()

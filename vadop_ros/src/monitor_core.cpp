@@ -189,10 +189,13 @@ CommandCheck MonitorCore::checkCommand(size_t body, const Eigen::Vector3d& v, co
     Predictor::MoverContact contact;
   };
   std::vector<Seen> seen;
-  auto first_contact = [&](double s) {
+  auto build = [&](double s) {
     for (size_t k = 0; k < parts.size(); ++k) {
       motions[k] = twistMotion(parts[k].pose, parts[k].own_v + s * parts[k].cmd_v, parts[k].own_w + s * cw, t_now);
     }
+  };
+  auto first_contact = [&](double s) {
+    build(s);
     Predictor::MoverContact c;
     if (!predictor_.firstContact(movers, motions, t_now, window, skip, c)) return std::numeric_limits<double>::infinity();
     seen.push_back({s, c});
@@ -207,6 +210,11 @@ CommandCheck MonitorCore::checkCommand(size_t body, const Eigen::Vector3d& v, co
     return out;
   }
   out.status = Status::kChecked;
+  build(out.scale.scale);  // the motions at the chosen scale, for the markers
+  out.elements = movers;
+  out.motions = motions;
+  out.t0 = t_now;
+  out.window = window;
   const Seen* limit = nullptr;
   for (const Seen& x : seen) {
     // Clear: the smallest blocked scale (just above); not clear: the chosen scale's contact.
@@ -426,6 +434,47 @@ visualization_msgs::MarkerArray MonitorCore::markers() const {
     in.elements.push_back(std::move(m));
   }
   return buildMarkers(in);
+}
+
+void MonitorCore::adoptCommand(const CommandCheck& check) {
+  if (check.status != CommandCheck::Status::kChecked) return;
+  for (size_t k = 0; k < check.elements.size(); ++k) {
+    const size_t i = check.elements[k];
+    if (!predictor_.contains(i)) continue;
+    std::string error;
+    // In the world already: only its motion changes (the shape argument is not used).
+    if (!predictor_.set(i, registry_.elements()[i].id, predictor_.shape(i), check.motions[k], error)) {
+      ROS_WARN("vadop_monitor: the gated motion of \"%s\" was refused by the world: %s",
+               registry_.elements()[i].id.c_str(), error.c_str());
+    }
+  }
+}
+
+void MonitorCore::appendCommandMarkers(const CommandCheck& check, const std::string& ns,
+                                       visualization_msgs::MarkerArray& out) const {
+  if (check.status != CommandCheck::Status::kChecked) return;
+  MarkerInput in;
+  in.frame = params_.fixed_frame;
+  in.stamp = addSeconds(registry_.timeBase(), check.t0);
+  in.t0 = check.t0;
+  in.horizon = check.window;
+  for (size_t k = 0; k < check.elements.size(); ++k) {
+    const size_t i = check.elements[k];
+    if (!predictor_.contains(i)) continue;
+    const Element& e = registry_.elements()[i];
+    MarkerElement m;
+    m.body = ns;
+    m.link = e.link;
+    m.shape = predictor_.shape(i);
+    m.motion = check.motions[k];
+    m.mesh_uri = e.mesh_uri;
+    m.mesh_scale = e.mesh_scale;
+    m.soonest = check.limited ? check.time_to_contact : std::numeric_limits<double>::infinity();
+    in.elements.push_back(std::move(m));
+  }
+  const visualization_msgs::MarkerArray built = buildMarkers(in);
+  // Its first marker is the DELETEALL of a whole array.
+  out.markers.insert(out.markers.end(), built.markers.begin() + 1, built.markers.end());
 }
 
 std::string MonitorCore::describe(const vadop::Impact& i) {

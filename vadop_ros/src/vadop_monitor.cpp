@@ -256,7 +256,12 @@ class MonitorNode {
       window_.add(core_->lastStats());
       impacts_pub_.publish(impacts);
       if (core_->params().publish_markers && markers_pub_.getNumSubscribers() > 0) {
-        markers_pub_.publish(core_->markers());
+        visualization_msgs::MarkerArray markers = core_->markers();
+        // Each gate's last checked command: its swept volume, namespace "gate/<body>".
+        for (const VelocityGate& g : gates_) {
+          core_->appendCommandMarkers(g.lastCheck(), "gate/" + g.state().body, markers);
+        }
+        markers_pub_.publish(markers);
       }
       if (core_->params().log_impacts && !impacts.impacts.empty()) {
         std::string text;

@@ -106,6 +106,7 @@ geometry_msgs::Twist VelocityGate::onCommand(MonitorCore& core, const geometry_m
   }
   state_.command_in = command;
   state_.command_out = scaled(command, s);
+  core.adoptCommand(check_);
   return state_.command_out;
 }
 

@@ -82,6 +82,11 @@ struct CommandCheck {
   size_t element = 0, other = 0;
   double time_to_contact = std::numeric_limits<double>::infinity();
   bool undecided = false;  // that contact is a pair the narrow phase could not decide
+  // kChecked: the body's elements and their motions at the chosen scale over
+  // [t0, t0 + window] (the registry's seconds), for the markers of the commanded sweep.
+  std::vector<size_t> elements;
+  std::vector<vadop::Motion> motions;
+  double t0 = 0.0, window = 0.0;
 };
 
 class MonitorCore {
@@ -105,6 +110,17 @@ class MonitorCore {
 
   // Markers of the last cycle (swept volumes, impacts); see markers.h.
   visualization_msgs::MarkerArray markers() const;
+  // A gate forwarded the checked command: until the body's next cycle its elements move in the
+  // world as commanded (check.motions), so that the other gates' checks count with what this
+  // body was just told to do, not with its last reported state (two gated robots starting
+  // towards each other between two odometry messages would otherwise each see the other
+  // standing). Nothing for a check that is not kChecked.
+  void adoptCommand(const CommandCheck& check);
+  // Markers of a gate's last checked command (CommandCheck::kChecked): the body's swept volume
+  // under the gated command over the gate's window, in namespace `ns`, coloured by the limiting
+  // contact's time (markers.h's rule); no DELETEALL (appended to markers()'s array).
+  void appendCommandMarkers(const CommandCheck& check, const std::string& ns,
+                            visualization_msgs::MarkerArray& out) const;
 
   // dynamic_reconfigure: the one place its values are checked (the node's callback and the
   // fuzz target call it). Each value NaN/Inf or outside its range is refused: the current
