@@ -28,7 +28,9 @@ GateScale searchGateScale(const std::function<double(double s)>& first_contact, 
       best.contact_time = t;
       return best;
     }
-    if (t > best.contact_time) {  // strictly later: ties keep the larger s
+    // Later, or as late: ties go to the smaller s (the search runs downwards), since when every
+    // scale meets the same contact (already pressed against something), stopping harms least.
+    if (t >= best.contact_time) {
       best.scale = s;
       best.contact_time = t;
     }

@@ -43,9 +43,13 @@ TEST(GateScale, WithoutAClearScaleTheLatestContactWins) {
   EXPECT_EQ(g.evaluations, 51u);
   g = searchGateScale([](double s) { return 2.0 - s; });
   EXPECT_EQ(g.scale, 0.0);
-  // Ties: the larger scale.
+  // Ties (every scale meets the same contact): the smaller scale, stopping.
   g = searchGateScale([](double) { return 0.3; });
-  EXPECT_EQ(g.scale, 1.0);
+  EXPECT_EQ(g.scale, 0.0);
+  g = searchGateScale([](double s) { return s < 0.5 ? 0.3 : 0.2; });
+  EXPECT_EQ(g.scale, 0.0);
+  g = searchGateScale([](double s) { return s > 0.5 ? 0.3 : 0.2; });
+  EXPECT_NEAR(g.scale, 0.52, 1e-12);
   // A step that does not divide 1 still ends at 0.
   std::vector<double> tried;
   searchGateScale([&](double s) { tried.push_back(s); return 1.0; }, 0.3);

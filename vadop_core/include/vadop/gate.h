@@ -22,7 +22,8 @@ struct GateScale {
 // Guarantees: when clear, `scale` is the largest grid point that is clear and every grid point
 // above it leads to a contact (so it is within `step` of the largest clear s unless the clear
 // scales above it form an interval shorter than `step`); otherwise `scale` is a grid point of
-// the latest first contact, the largest such point on ties. Throws vadop::InvalidArgument for
+// the latest first contact, the smallest such point on ties (every scale meeting the same
+// contact, e.g. pressed against something whatever the speed: stopping harms least). Throws vadop::InvalidArgument for
 // a bad step or a NaN time; what first_contact throws propagates.
 GateScale searchGateScale(const std::function<double(double s)>& first_contact, double step = 0.02);
 
