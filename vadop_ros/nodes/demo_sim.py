@@ -49,6 +49,7 @@ class Agent:
         self.escape_until = 0.0  # s: turning in place until then
         self.escape_w = 0.0
         self.touching = set()    # what it touches now (agent indices, "wall", "pillar")
+        self.travelled = 0.0     # m
 
     def vel(self):
         return self.v * math.cos(self.yaw), self.v * math.sin(self.yaw)
@@ -122,6 +123,7 @@ def step(agents, t, dt, gated):
         else:
             v, w = a.v, a.wz
         a.yaw += w * dt
+        a.travelled += abs(v) * dt
         vx, vy = v * math.cos(a.yaw), v * math.sin(a.yaw)
         a.x += vx * dt
         a.y += vy * dt
@@ -238,8 +240,9 @@ def main():
             next_report = t + 10.0
             minutes = max(t, 1e-9) / 60.0
             rospy.loginfo("demo_sim: gates %s, %.0f s: %d agent-agent contacts (%.1f per minute), %d with walls or "
-                          "the pillar (%.1f per minute)", "on" if gated else "off", t, counts["agent"],
-                          counts["agent"] / minutes, counts["obstacle"], counts["obstacle"] / minutes)
+                          "the pillar (%.1f per minute); mean speed %.2f m/s", "on" if gated else "off", t,
+                          counts["agent"], counts["agent"] / minutes, counts["obstacle"], counts["obstacle"] / minutes,
+                          sum(a.travelled for a in agents) / len(agents) / max(t, 1e-9))
         if gated:
             for i, a in enumerate(agents):
                 cmd = Twist()
