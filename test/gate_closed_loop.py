@@ -39,11 +39,21 @@ class GateClosedLoop(unittest.TestCase):
             "n": Robot("n", 80.0, 0.0, 0.0),
             "q": Robot("q", 120.0, 0.0, 0.0),
             "s": Robot("s", 160.0, 0.0, 0.0),
+            # c drives +y across the path of u, an ungated agent driving +x at 1 m/s: u is in
+            # front of c (x 199 to 201) from 1.5 s to 3.5 s, c would reach u's lane (y > -1)
+            # at 2 s: it must wait for u, then pass.
+            "c": Robot("c", 200.0, -3.0, math.pi / 2),
+            "u": Robot("u", 197.5, 0.0, 0.0),
+            # rot: a 4 m x 0.4 m box turning in place; the pillar (radius 0.2) 1.5 m to its side:
+            # contact at a turn of acos(0.4 / 1.5) = 1.301 rad.
+            "rot": Robot("rot", 240.0, 0.0, 0.0),
         }
+        self.gated = [n for n in self.robots if n != "u"]
+        self.min_cu = float("inf")
         self.odom_pubs = {n: rospy.Publisher("/%s/odom" % n, Odometry, queue_size=10) for n in self.robots}
-        self.plan_pubs = {n: rospy.Publisher("/%s/nav_vel" % n, Twist, queue_size=10) for n in self.robots}
+        self.plan_pubs = {n: rospy.Publisher("/%s/nav_vel" % n, Twist, queue_size=10) for n in self.gated}
         self.subs = [rospy.Subscriber("/%s/cmd_vel" % n, Twist, self.on_cmd, callback_args=n, queue_size=100)
-                     for n in self.robots]
+                     for n in self.gated]
         self.states = []
         self.state_sub = rospy.Subscriber("/vadop_monitor/gate_states", GateStateArray, self.on_states,
                                           queue_size=100)
@@ -67,6 +77,8 @@ class GateClosedLoop(unittest.TestCase):
                 r.yaw += r.w * dt
             h1, h2 = self.robots["h1"], self.robots["h2"]
             self.min_gap = min(self.min_gap, math.hypot(h1.x - h2.x, h1.y - h2.y) - 2 * RADIUS)
+            c, u = self.robots["c"], self.robots["u"]
+            self.min_cu = min(self.min_cu, math.hypot(c.x - u.x, c.y - u.y) - 2 * RADIUS)
 
     def publish_odom(self, stamp):
         with self.lock:
@@ -129,8 +141,10 @@ class GateClosedLoop(unittest.TestCase):
         # away from the wall it touches; n, q and s drive on their own.
         t0 = rospy.get_time()
         with self.lock:
-            for n in ("h1", "h2", "w", "n", "q", "s"):
+            for n in ("h1", "h2", "w", "n", "q", "s", "c"):
                 self.robots[n].plan = (1.0, 0.0)
+            self.robots["rot"].plan = (0.0, 1.0)
+            self.robots["u"].v = 1.0  # ungated: it just drives
         self.simulate(1.0)
         # n gets a NaN command: a zero command comes back.
         with self.lock:
@@ -168,8 +182,21 @@ class GateClosedLoop(unittest.TestCase):
         s_out = self.outputs_since("s", t_stale + 0.45)
         self.assertTrue(s_out and all(v == 0.0 for _, v, _ in s_out), "stale odometry gave %s" % s_out[:3])
 
+        c, rot = self.robots["c"], self.robots["rot"]
+        rospy.loginfo("gate_closed_loop: c at y = %.2f, closest to u %.3f m; rot turned %.3f rad", c.y, self.min_cu,
+                      rot.yaw)
+        self.assertGreater(self.min_cu, 0.0, "c touched the ungated agent u")
+        self.assertGreater(c.y, 0.5, "c never passed the crossing")
+        c_out = [v for _, v, _ in self.outputs_since("c", t0 + 0.2)]
+        self.assertLess(min(c_out), 0.5, "c never slowed down for u")
+        self.assertLess(rot.yaw, math.acos(0.4 / 1.5), "rot turned into the pillar")
+        self.assertGreater(rot.yaw, 0.5, "rot barely turned")
+        last_rot = self.outputs_since("rot", rospy.get_time() - 0.5)
+        self.assertTrue(last_rot and all(abs(w) < 0.05 for _, _, w in last_rot), "rot not stopped: %s" % last_rot[-3:])
+
         with self.lock:
             last_states = {g.body: g for g in self.states[-1].gates}
+        self.assertEqual(last_states["rot"].limiting_body, "pillar")
         self.assertEqual(last_states["s"].reason, "stale")
         self.assertEqual(last_states["n"].reason, "bad_command")
         self.assertEqual(last_states["q"].reason, "timeout")
