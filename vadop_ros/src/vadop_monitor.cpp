@@ -23,8 +23,11 @@
 #include <tf2_ros/transform_listener.h>
 #include <visualization_msgs/MarkerArray.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <limits>
 #include <exception>
 #include <memory>
 #include <mutex>
@@ -122,12 +125,19 @@ class MonitorNode {
       const GateParams& gp = bodies[i].params.gate;
       gate_pubs_.push_back(nh_.advertise<geometry_msgs::Twist>(gp.cmd_vel_out, 10));
       subs_.push_back(nh_.subscribe<geometry_msgs::Twist>(
-          gp.cmd_vel_in, 10, [this, g](const geometry_msgs::TwistConstPtr& msg) { onCommand(g, *msg); },
+          gp.cmd_vel_in, 10,
+          boost::function<void(const ros::MessageEvent<geometry_msgs::Twist const>&)>(
+              [this, g](const ros::MessageEvent<geometry_msgs::Twist const>& event) {
+                onCommand(g, *event.getConstMessage(), event.getReceiptTime());
+              }),
           ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
       updater_.add("gate " + bodies[i].name, [this, g](diagnostic_updater::DiagnosticStatusWrapper& s) {
         reportGate(s, gates_[g]);
+        s.add("latency median (ms)", gate_latency_[g].percentile(0.5));
+        s.add("latency p99 (ms)", gate_latency_[g].percentile(0.99));
       });
     }
+    gate_latency_.resize(gates_.size());
     if (!gates_.empty()) gate_states_pub_ = pnh_.advertise<vadop::GateStateArray>("gate_states", 10);
 
     updater_.setHardwareID("vadop_monitor");
@@ -168,7 +178,7 @@ class MonitorNode {
 
   // A command on a gate's cmd_vel_in: checked and forwarded at once. Whatever goes wrong, the
   // gate publishes a zero command rather than nothing or the unchecked one.
-  void onCommand(size_t g, const geometry_msgs::Twist& msg) {
+  void onCommand(size_t g, const geometry_msgs::Twist& msg, const ros::Time& receipt) {
     const ros::Time now = ros::Time::now();
     geometry_msgs::Twist out;  // zero
     try {
@@ -179,7 +189,17 @@ class MonitorNode {
                          gates_[g].state().body.c_str(), e.what());
     }
     gate_pubs_[g].publish(out);
+    // From the message's arrival at the node (transport thread) to the gated command's
+    // publication: the check and any wait behind a cycle running on the callback thread. Wall
+    // clock (ros::Time may be simulated).
+    gate_latency_[g].add((ros::WallTime::now().toSec() - receiptWall(receipt)) * 1e3);
     publishGateStates(now);
+  }
+
+  // ros::MessageEvent's receipt time is ros::Time::now() at arrival: with use_sim_time it is
+  // simulated time, and latency is then not measured (NaN).
+  double receiptWall(const ros::Time& receipt) const {
+    return ros::Time::isSimTime() ? std::numeric_limits<double>::quiet_NaN() : receipt.toSec();
   }
 
   void publishGateStates(const ros::Time& now) {
@@ -215,6 +235,29 @@ class MonitorNode {
     s.add("bad commands (zero sent)", c.bad);
     s.add("timeouts (zero sent)", c.timeouts);
   }
+
+  // The last commands' latencies (ms) of one gate: median and 99th percentile.
+  struct LatencyWindow {
+    std::vector<double> ms;
+    size_t next = 0;
+    static constexpr size_t kSize = 1000;
+    void add(double v) {
+      if (!std::isfinite(v)) return;
+      if (ms.size() < kSize) {
+        ms.push_back(v);
+      } else {
+        ms[next] = v;
+        next = (next + 1) % kSize;
+      }
+    }
+    double percentile(double p) const {
+      if (ms.empty()) return std::numeric_limits<double>::quiet_NaN();
+      std::vector<double> v = ms;
+      const size_t k = std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size() - 1) + 0.5));
+      std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
+      return v[k];
+    }
+  };
 
   // dynamic_reconfigure clamps to the ranges of cfg/Monitor.cfg, but NaN passes its min/max:
   // MonitorCore::reconfigure checks every value (the one place), keeps the previous value of a
@@ -293,6 +336,7 @@ class MonitorNode {
   std::vector<ros::Subscriber> subs_;
   std::vector<VelocityGate> gates_;
   std::vector<ros::Publisher> gate_pubs_;  // by gate: cmd_vel_out
+  std::vector<LatencyWindow> gate_latency_;  // by gate
   ros::Publisher gate_states_pub_;
   diagnostic_updater::Updater updater_;
   CycleTimeWindow window_;
