@@ -24,9 +24,11 @@ double secondsSince(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
-Predictor makePredictor(const MonitorParams& p) {
+Predictor makePredictor(const MonitorParams& p, bool queries_only = false) {
   try {
-    return Predictor(predictorConfig(p));
+    PredictorConfig c = predictorConfig(p);
+    c.queries_only = queries_only;
+    return Predictor(c);
   } catch (const vadop::InvalidArgument& e) {
     throw ParamError(std::string("~axes / ~phi_deg: rejected by the VADOP broad phase: ") + e.what());
   }
@@ -56,7 +58,8 @@ MonitorCore::MonitorCore(const MonitorParams& params, const ParamReader& read_pa
     : params_(params),
       registry_(params, read_param, load_mesh),
       filter_(params.ignore_pairs),
-      predictor_(makePredictor(params)) {
+      predictor_(makePredictor(params)),
+      gate_predictor_(makePredictor(params, true)) {
   soonest_.assign(registry_.bodies().size(), std::numeric_limits<double>::infinity());
   impacts_.header.frame_id = params_.fixed_frame;
   registry_.setMaxStampSkew(params.max_stamp_skew);
@@ -70,6 +73,24 @@ MonitorCore::MonitorCore(const MonitorParams& params, const ParamReader& read_pa
   }
   // `this` in the world: MonitorCore is neither copyable nor movable (Predictor is neither).
   predictor_.setIgnored([this](size_t a, size_t b) { return pairIgnored(a, b); });
+  gate_predictor_.setIgnored([this](size_t a, size_t b) { return pairIgnored(a, b); });
+}
+
+void MonitorCore::syncGateWorld() {
+  const auto& elements = registry_.elements();
+  std::string error;
+  for (size_t i = 0; i < elements.size(); ++i) {
+    if (!predictor_.contains(i)) {
+      gate_predictor_.unset(i);
+      continue;
+    }
+    const bool is_static = registry_.bodies()[elements[i].body].is_static;
+    // The shape as in the cycle's world (padded): used when the element enters.
+    if (!gate_predictor_.set(i, elements[i].id, predictor_.shape(i), predictor_.motion(i), error,
+                             is_static ? kStaticGroup : kMovingGroup, is_static ? ~kStaticGroup : ~0u)) {
+      gate_predictor_.unset(i);  // the cycle's world took it: cannot happen but for memory
+    }
+  }
 }
 
 RuntimeSettings MonitorCore::settings() const {
@@ -98,6 +119,7 @@ RuntimeSettings MonitorCore::reconfigure(const RuntimeSettings& requested, std::
     // Shapes change: every element leaves the world and comes back, padded anew, at the next
     // cycle (World has no setShape).
     predictor_.clear();
+    gate_predictor_.clear();
   }
   return settings();
 }
@@ -139,7 +161,7 @@ CommandCheck MonitorCore::checkCommand(size_t body, const Eigen::Vector3d& v, co
     return out;
   }
   for (size_t ei : b.elements) {
-    if (!predictor_.contains(ei)) {
+    if (!gate_predictor_.contains(ei)) {
       out.status = Status::kNotInWorld;
       out.why = "element \"" + registry_.elements()[ei].id + "\" is not in the world (no cycle since it had a state)";
       return out;
@@ -166,7 +188,7 @@ CommandCheck MonitorCore::checkCommand(size_t body, const Eigen::Vector3d& v, co
   std::vector<Mover> parts;
   for (size_t ei : b.elements) {
     const Element& e = registry_.elements()[ei];
-    if (!e.active || !predictor_.contains(ei)) {
+    if (!e.active || !gate_predictor_.contains(ei)) {
       out.status = Status::kNotInWorld;
       out.why = "element \"" + e.id + "\" is not in the world";
       return out;
@@ -197,7 +219,7 @@ CommandCheck MonitorCore::checkCommand(size_t body, const Eigen::Vector3d& v, co
   auto first_contact = [&](double s) {
     build(s);
     Predictor::MoverContact c;
-    if (!predictor_.firstContact(movers, motions, t_now, window, skip, c)) return std::numeric_limits<double>::infinity();
+    if (!gate_predictor_.firstContact(movers, motions, t_now, window, skip, c)) return std::numeric_limits<double>::infinity();
     seen.push_back({s, c});
     return c.time;
   };
@@ -236,6 +258,7 @@ void MonitorCore::reset() {
   for (size_t i = 0; i < elements.size(); ++i) {
     if (!registry_.bodies()[elements[i].body].is_static) {
       predictor_.unset(i);
+      gate_predictor_.unset(i);
       refused_[i] = 0;
     }
   }
@@ -333,6 +356,16 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
   const auto predict_start = std::chrono::steady_clock::now();
   for (int attempt = 0; attempt < 2; ++attempt) {
     try {
+      // The gates' thread may take the lock meanwhile: it uses the gates' world, not this one.
+      struct Unlocked {
+        std::mutex* m;
+        explicit Unlocked(std::mutex* lock) : m(lock) {
+          if (m) m->unlock();
+        }
+        ~Unlocked() {
+          if (m) m->lock();
+        }
+      } unlocked(prediction_lock_);
       raw = predictor_.predict(t0_, params_.horizon);
       stats_.error.clear();
       break;
@@ -405,6 +438,7 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
                    "clear until then, unknown after (not reported as impacts; throttled to one line per 5 s)",
                    stats_.undecided, stats_.undecided_first.c_str());
   }
+  syncGateWorld();
   stats_.cycle_seconds = secondsSince(start);
   return impacts_;
 }
@@ -440,10 +474,10 @@ void MonitorCore::adoptCommand(const CommandCheck& check) {
   if (check.status != CommandCheck::Status::kChecked) return;
   for (size_t k = 0; k < check.elements.size(); ++k) {
     const size_t i = check.elements[k];
-    if (!predictor_.contains(i)) continue;
+    if (!gate_predictor_.contains(i)) continue;
     std::string error;
     // In the world already: only its motion changes (the shape argument is not used).
-    if (!predictor_.set(i, registry_.elements()[i].id, predictor_.shape(i), check.motions[k], error)) {
+    if (!gate_predictor_.set(i, registry_.elements()[i].id, gate_predictor_.shape(i), check.motions[k], error)) {
       ROS_WARN("vadop_monitor: the gated motion of \"%s\" was refused by the world: %s",
                registry_.elements()[i].id.c_str(), error.c_str());
     }

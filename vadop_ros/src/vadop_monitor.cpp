@@ -17,6 +17,7 @@
 #include <geometry_msgs/Twist.h>
 #include <geometry_msgs/TwistStamped.h>
 #include <nav_msgs/Odometry.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_ros/buffer.h>
@@ -124,13 +125,17 @@ class MonitorNode {
       gates_.emplace_back(i, core_->registry());
       const GateParams& gp = bodies[i].params.gate;
       gate_pubs_.push_back(nh_.advertise<geometry_msgs::Twist>(gp.cmd_vel_out, 10));
-      subs_.push_back(nh_.subscribe<geometry_msgs::Twist>(
+      // On the gates' own queue and thread: a command is checked while a cycle predicts.
+      ros::SubscribeOptions options;
+      options.init<geometry_msgs::Twist>(
           gp.cmd_vel_in, 10,
           boost::function<void(const ros::MessageEvent<geometry_msgs::Twist const>&)>(
               [this, g](const ros::MessageEvent<geometry_msgs::Twist const>& event) {
                 onCommand(g, *event.getConstMessage(), event.getReceiptTime());
-              }),
-          ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
+              }));
+      options.transport_hints = ros::TransportHints().tcpNoDelay();
+      options.callback_queue = &gate_queue_;
+      subs_.push_back(nh_.subscribe(options));
       updater_.add("gate " + bodies[i].name, [this, g](diagnostic_updater::DiagnosticStatusWrapper& s) {
         reportGate(s, gates_[g]);
         s.add("latency median (ms)", gate_latency_[g].percentile(0.5));
@@ -139,6 +144,7 @@ class MonitorNode {
     }
     gate_latency_.resize(gates_.size());
     if (!gates_.empty()) gate_states_pub_ = pnh_.advertise<vadop::GateStateArray>("gate_states", 10);
+    core_->setPredictionLock(&core_mutex_);
 
     updater_.setHardwareID("vadop_monitor");
     updater_.add("cycle", [this](diagnostic_updater::DiagnosticStatusWrapper& s) {
@@ -160,6 +166,10 @@ class MonitorNode {
         [this](vadop::MonitorConfig& c, uint32_t) { onReconfigure(c); });
 
     timer_ = nh_.createTimer(ros::Duration(1.0 / rate_), [this](const ros::TimerEvent&) { onTimer(); });
+    if (!gates_.empty()) {
+      gate_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &gate_queue_);
+      gate_spinner_->start();
+    }
     if (moving >= kProgressEvery) {
       ROS_INFO("vadop_monitor: subscribed to %zu topics in %.1f s; start-up took %.1f s", moving,
                secondsSince(subscribe_start), secondsSince(start));
@@ -171,14 +181,21 @@ class MonitorNode {
   }
 
  private:
-  void onOdometry(size_t i, const nav_msgs::Odometry& msg) { core_->registry().onOdometry(i, msg, ros::Time::now()); }
+  // Every use of core_ holds core_mutex_ (the gates' thread checks commands); the cycle
+  // releases it while its world predicts (MonitorCore::setPredictionLock).
+  void onOdometry(size_t i, const nav_msgs::Odometry& msg) {
+    std::lock_guard<std::mutex> lock(core_mutex_);
+    core_->registry().onOdometry(i, msg, ros::Time::now());
+  }
   void onTwist(size_t i, const geometry_msgs::TwistStamped& msg) {
+    std::lock_guard<std::mutex> lock(core_mutex_);
     core_->registry().onTwist(i, msg, ros::Time::now());
   }
 
   // A command on a gate's cmd_vel_in: checked and forwarded at once. Whatever goes wrong, the
   // gate publishes a zero command rather than nothing or the unchecked one.
   void onCommand(size_t g, const geometry_msgs::Twist& msg, const ros::Time& receipt) {
+    std::lock_guard<std::mutex> lock(core_mutex_);
     const ros::Time now = ros::Time::now();
     geometry_msgs::Twist out;  // zero
     try {
@@ -264,6 +281,7 @@ class MonitorNode {
   // refused one, and the kept values are written back into `c`, which the server stores and
   // publishes, so dynparam shows what is in effect.
   void onReconfigure(vadop::MonitorConfig& c) {
+    std::lock_guard<std::mutex> lock(core_mutex_);
     RuntimeSettings requested;
     requested.horizon = c.horizon;
     requested.rate = c.rate;
@@ -283,6 +301,7 @@ class MonitorNode {
   }
 
   void onTimer() {
+    std::unique_lock<std::mutex> lock(core_mutex_);  // released while the world predicts
     const ros::Time now = ros::Time::now();
     if (now.isZero()) return;  // use_sim_time and no /clock yet
     if (!last_now_.isZero() && now < last_now_) {
@@ -337,6 +356,9 @@ class MonitorNode {
   std::vector<VelocityGate> gates_;
   std::vector<ros::Publisher> gate_pubs_;  // by gate: cmd_vel_out
   std::vector<LatencyWindow> gate_latency_;  // by gate
+  std::mutex core_mutex_;
+  ros::CallbackQueue gate_queue_;
+  std::unique_ptr<ros::AsyncSpinner> gate_spinner_;
   ros::Publisher gate_states_pub_;
   diagnostic_updater::Updater updater_;
   CycleTimeWindow window_;

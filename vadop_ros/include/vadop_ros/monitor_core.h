@@ -24,6 +24,7 @@
 
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -150,6 +151,13 @@ class MonitorCore {
                             TransformSource& tf, double window, double state_timeout,
                             const std::function<bool(size_t element)>& skip = {});
 
+  // Threads (the node): the gates answer from their own copy of the world, synced at the end
+  // of every cycle, so that a command never waits for a prediction. With `lock` set, the
+  // caller holds it around cycle() and every other call, and cycle() releases it while the
+  // world predicts (only the cycle's own world is used then): a gate's thread may then check
+  // a command, locking it, in the middle of a cycle. Null (the default): one thread.
+  void setPredictionLock(std::mutex* lock) { prediction_lock_ = lock; }
+
   // Time jumped backwards: forget every state (and the world's moving elements).
   void reset();
 
@@ -177,6 +185,11 @@ class MonitorCore {
   PairFilter filter_;
   std::vector<PairFilter::Matches> element_matches_;  // ~ignore_pairs per element (elements())
   Predictor predictor_;
+  // The gates' world: every element of predictor_ with the same shape and motion as at the
+  // end of the last cycle (syncGateWorld), and the gated commands adopted since.
+  Predictor gate_predictor_;
+  void syncGateWorld();
+  std::mutex* prediction_lock_ = nullptr;
   vadop::ImpactArray impacts_;
   CycleStats stats_;
   std::vector<double> soonest_;

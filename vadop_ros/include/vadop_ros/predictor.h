@@ -27,6 +27,9 @@ struct PredictorConfig {
   int axes = 32;         // VADOP pool size
   double phi_deg = 25.0; // VADOP zone half-width
   int max_iterations = 10000;  // the narrow phase's budget per pair (vadop::ToiOptions)
+  // A world that is never predicted, only asked (the gates' copy): a broad phase whose
+  // single-body queries scan every body, with nothing to maintain per setMotion.
+  bool queries_only = false;
 };
 
 // One contact predicted by the world, between two elements (indices given to sync()).
