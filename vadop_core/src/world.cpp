@@ -270,10 +270,48 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
   return out;
 }
 
+World::Reachable World::reachable(const std::vector<std::string>& movers, const std::vector<Eigen::Vector3d>& origins,
+                                  const std::vector<double>& reach, double t0, double horizon) {
+  const char* op = "reachable";
+  if (movers.size() != origins.size() || movers.size() != reach.size()) {
+    throw InvalidArgument(std::string(op) + ": " + std::to_string(movers.size()) + " movers but " +
+                          std::to_string(origins.size()) + " origins and " + std::to_string(reach.size()) +
+                          " reaches");
+  }
+  if (!std::isfinite(t0) || !std::isfinite(horizon) || horizon < 0.0) {
+    throw InvalidArgument(std::string(op) + ": need finite t0 and horizon >= 0, got " + formatNumber(t0) + ", " +
+                          formatNumber(horizon));
+  }
+  std::vector<BodyId> ids;
+  for (const std::string& m : movers) ids.push_back(bodyId(m, op));
+  Reachable out;
+  std::vector<BodyId> found;
+  for (size_t i = 0; i < ids.size(); ++i) {
+    if (!origins[i].allFinite() || !std::isfinite(reach[i]) || reach[i] < 0.0) {
+      throw InvalidArgument(std::string(op) + ": origin and reach of " + quoted(movers[i]) +
+                            " must be finite (reach >= 0), got reach " + formatNumber(reach[i]));
+    }
+    const Shape ball = makeSphere(broad_phase_->shape(ids[i]).bounding_radius + reach[i]);
+    const Motion still = makeMotion(origins[i], Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero(),
+                                    Eigen::Vector3d::Zero(), t0);
+    broad_phase_->query(ball, still, t0, t0 + horizon, found);
+    out.ids.insert(out.ids.end(), found.begin(), found.end());
+  }
+  std::sort(out.ids.begin(), out.ids.end());
+  out.ids.erase(std::unique(out.ids.begin(), out.ids.end()), out.ids.end());
+  std::vector<BodyId> sorted_movers = ids;
+  std::sort(sorted_movers.begin(), sorted_movers.end());
+  out.ids.erase(std::remove_if(out.ids.begin(), out.ids.end(),
+                               [&](BodyId b) { return std::binary_search(sorted_movers.begin(), sorted_movers.end(), b); }),
+                out.ids.end());
+  return out;
+}
+
 std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::string>& movers,
                                                          const std::vector<Motion>& motions, double t0,
                                                          double horizon,
-                                                         const std::function<bool(uint64_t key)>& skip) {
+                                                         const std::function<bool(uint64_t key)>& skip,
+                                                         const Reachable* among) {
   const char* op = "firstContactIf";
   if (movers.size() != motions.size()) {
     throw InvalidArgument(std::string(op) + ": " + std::to_string(movers.size()) + " movers but " +
@@ -304,7 +342,14 @@ std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::
   for (size_t i = 0; i < ids.size(); ++i) {
     const Record& rm = records_[ids[i]];
     // The broad phase holds the mover's shape padded by the tolerance, as for its own queries.
-    broad_phase_->query(broad_phase_->shape(ids[i]), motions[i], t0, t1, found);
+    if (among) {
+      found.clear();
+      for (BodyId b : among->ids) {
+        if (broad_phase_->contains(b)) found.push_back(b);
+      }
+    } else {
+      broad_phase_->query(broad_phase_->shape(ids[i]), motions[i], t0, t1, found);
+    }
     for (BodyId other : found) {
       if (std::binary_search(sorted.begin(), sorted.end(), other)) continue;
       const Record& ro = records_[other];

@@ -147,6 +147,29 @@ TEST(GateScale, MatchesBruteForceOnRandomScenes) {
       const auto hit = gate_world.firstContactIf(links, robot.motions(s, t0), t0, window);
       return hit ? hit->impact.time : kInf;
     };
+    // The same from one reachable set for every scale: each link's origin travels at most
+    // window * max(|v(0)|, |v(1)|) (a constant twist keeps its origin's speed).
+    std::vector<Eigen::Vector3d> origins;
+    std::vector<double> reach;
+    const std::vector<Motion> at0 = robot.motions(0.0, t0), at1 = robot.motions(1.0, t0);
+    for (size_t i = 0; i < links.size(); ++i) {
+      origins.push_back(at1[i].positionAt(t0));
+      reach.push_back(window * std::max(at0[i].velocityOfPoint(origins[i], t0).norm(),
+                                        at1[i].velocityOfPoint(origins[i], t0).norm()));
+    }
+    const World::Reachable among = gate_world.reachable(links, origins, reach, t0, window);
+    auto reachContact = [&](double s) {
+      const auto hit = gate_world.firstContactIf(links, robot.motions(s, t0), t0, window, {}, &among);
+      return hit ? hit->impact.time : kInf;
+    };
+    for (double s : {0.0, 0.25, 0.5, 0.75, 1.0}) {
+      const double a = gateContact(s), b = reachContact(s);
+      if (std::isinf(a)) {
+        EXPECT_TRUE(std::isinf(b)) << "seed " << seed << " s " << s;
+      } else {
+        EXPECT_NEAR(a, b, 1e-12) << "seed " << seed << " s " << s;
+      }
+    }
     const GateScale g = searchGateScale(gateContact);
     // The same search over the brute-force contacts must give the same answer, and every
     // contact time on the way must agree.

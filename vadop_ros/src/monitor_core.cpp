@@ -223,7 +223,20 @@ CommandCheck MonitorCore::checkCommand(size_t body, const Eigen::Vector3d& v, co
     seen.push_back({s, c});
     return c.time;
   };
+  // One candidate query for all the scales: under a constant twist an origin keeps its speed,
+  // |own_v + s cmd_v|, largest at s = 0 or 1.
+  std::vector<Eigen::Vector3d> origins;
+  std::vector<double> reach;
+  for (const Mover& m : parts) {
+    origins.push_back(m.pose.translation());
+    reach.push_back(window * std::max(m.own_v.norm(), (m.own_v + m.cmd_v).norm()));
+  }
+  struct EndReach {
+    Predictor& p;
+    ~EndReach() { p.endReach(); }
+  } end_reach{gate_predictor_};
   try {
+    gate_predictor_.beginReach(movers, origins, reach, t_now, window);
     out.scale = vadop::searchGateScale(first_contact);
   } catch (const vadop::InvalidArgument& e) {
     // A commanded motion out of the library's range (a twist far beyond any robot's).

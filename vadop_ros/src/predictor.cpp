@@ -3,6 +3,7 @@
 #include <vadop/error.h>
 #include <vadop/world.h>
 
+#include <optional>
 #include <unordered_map>
 
 namespace vadop_ros {
@@ -42,6 +43,7 @@ struct Predictor::Impl {
   std::vector<Slot> slots;
   std::unordered_map<uint64_t, size_t> by_key;
   std::vector<RawImpact> undecided;  // of the last predict
+  std::optional<vadop::World::Reachable> reach;  // beginReach .. endReach
 };
 
 Predictor::Predictor(const PredictorConfig& config) : impl_(std::make_unique<Impl>(config)) {}
@@ -118,7 +120,8 @@ bool Predictor::firstContact(const std::vector<size_t>& movers, const std::vecto
       return it == impl_->by_key.end() || skip(it->second);
     };
   }
-  const std::optional<vadop::World::MoverContact> hit = impl_->world.firstContactIf(ids, motions, t0, horizon, skip_key);
+  const std::optional<vadop::World::MoverContact> hit =
+      impl_->world.firstContactIf(ids, motions, t0, horizon, skip_key, impl_->reach ? &*impl_->reach : nullptr);
   if (!hit) return false;
   const auto other = impl_->by_key.find(hit->other_key);
   contact.mover = movers[hit->mover];
@@ -127,6 +130,18 @@ bool Predictor::firstContact(const std::vector<size_t>& movers, const std::vecto
   contact.undecided = hit->undecided;
   return true;
 }
+
+void Predictor::beginReach(const std::vector<size_t>& movers, const std::vector<Eigen::Vector3d>& origins,
+                           const std::vector<double>& reach, double t0, double horizon) {
+  std::vector<std::string> ids;
+  for (size_t i : movers) {
+    if (!contains(i)) throw vadop::InvalidArgument("beginReach: element " + std::to_string(i) + " is not in the world");
+    ids.push_back(impl_->slots[i].id);
+  }
+  impl_->reach = impl_->world.reachable(ids, origins, reach, t0, horizon);
+}
+
+void Predictor::endReach() { impl_->reach.reset(); }
 
 std::vector<RawImpact> Predictor::predict(double t0, double horizon) {
   if (before_predict_for_testing) {

@@ -141,9 +141,24 @@ class World {
     // gate, a contact there (it cannot certify the command beyond).
     bool undecided = false;
   };
+  // The bodies a family of candidate motions may reach (a gate's scales of one command), found
+  // with one query per mover instead of one per motion: every body whose swept volume over
+  // [t0, t0 + horizon] may meet the ball about `origins[i]` (the mover's origin at t0) of the
+  // mover's bounding radius plus `reach[i]` (a bound on how far its origin travels over the
+  // window under any of the motions). Movers are left out. Valid until the world changes
+  // (opaque: pass it back to firstContactIf). Throws as firstContactIf, and for a reach or
+  // origin that is not finite or a reach < 0.
+  struct Reachable {
+    std::vector<BodyId> ids;  // sorted
+  };
+  Reachable reachable(const std::vector<std::string>& movers, const std::vector<Eigen::Vector3d>& origins,
+                      const std::vector<double>& reach, double t0, double horizon);
+  // `among` (optional): test only those bodies (from reachable() with a bound that holds for
+  // `motions`), instead of querying the broad phase for each mover.
   std::optional<MoverContact> firstContactIf(const std::vector<std::string>& movers,
                                              const std::vector<Motion>& motions, double t0, double horizon,
-                                             const std::function<bool(uint64_t key)>& skip = {});
+                                             const std::function<bool(uint64_t key)>& skip = {},
+                                             const Reachable* among = nullptr);
 
   const WorldConfig& config() const { return config_; }
   const BroadPhase& broadPhase() const { return *broad_phase_; }

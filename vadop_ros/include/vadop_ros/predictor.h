@@ -93,6 +93,14 @@ class Predictor {
   };
   bool firstContact(const std::vector<size_t>& movers, const std::vector<vadop::Motion>& motions, double t0,
                     double horizon, const std::function<bool(size_t element)>& skip, MoverContact& contact);
+  // For a family of firstContact calls on the same movers (a gate's scales): the candidates
+  // found once, from a ball about each mover's origin at t0 of its bounding radius plus
+  // `reach` (how far its origin may travel under any of the motions; vadop::World::reachable);
+  // firstContact then tests only those until endReach() or a change of the world. Throws as
+  // firstContact.
+  void beginReach(const std::vector<size_t>& movers, const std::vector<Eigen::Vector3d>& origins,
+                  const std::vector<double>& reach, double t0, double horizon);
+  void endReach();
 
   // Tests only: called before every predict with each element in the world (index, id); it
   // may throw to simulate a world that refuses one element (MonitorCore's recovery).
