@@ -11,6 +11,7 @@ import rospy
 import rostest
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
+from rosgraph_msgs.msg import Log
 from vadop.msg import GateStateArray
 
 RADIUS = 0.5
@@ -58,12 +59,19 @@ class GateClosedLoop(unittest.TestCase):
         self.state_sub = rospy.Subscriber("/vadop_monitor/gate_states", GateStateArray, self.on_states,
                                           queue_size=100)
         self.min_gap = float("inf")
+        self.warnings = []
+        self.log_sub = rospy.Subscriber("/rosout", Log, self.on_log, queue_size=1000)
 
     def on_cmd(self, msg, name):
         with self.lock:
             r = self.robots[name]
             r.v, r.w = msg.linear.x, msg.angular.z
             r.outputs.append((rospy.get_time(), msg.linear.x, msg.angular.z))
+
+    def on_log(self, msg):
+        if msg.level >= Log.WARN and "vadop_monitor" in msg.name:
+            with self.lock:
+                self.warnings.append(msg.msg)
 
     def on_states(self, msg):
         with self.lock:
@@ -173,6 +181,9 @@ class GateClosedLoop(unittest.TestCase):
 
         n_out = self.outputs_since("n", t_nan + 0.2)
         self.assertTrue(n_out and all(v == 0.0 and w == 0.0 for _, v, w in n_out), "NaN gave %s" % n_out[:3])
+        with self.lock:
+            nan_warnings = [w for w in self.warnings if "/n/nav_vel" in w and "NaN" in w]
+        self.assertTrue(nan_warnings, "no warning about the NaN command; warnings: %s" % self.warnings[:5])
 
         q_out = self.outputs_since("q", t_stop + 0.1)
         zeros = [o for o in q_out if o[1] == 0.0]
