@@ -39,10 +39,12 @@ export ROS_MASTER_URI=http://localhost:${PORT}
 
 RVIZ=false
 if [[ -n ${DISPLAY:-} ]]; then RVIZ=true; fi
+# By path: after .ci/run, build/ also holds an install space with its own copy of the package,
+# and `roslaunch vadop demo.launch` would find two.
 echo "ros_demo: ${SECONDS_TO_RUN} s, rviz=${RVIZ}, master on port ${PORT}"
 rc=0
 timeout --signal=INT --kill-after=15 $((SECONDS_TO_RUN + 30)) \
-  roslaunch -p "${PORT}" vadop demo.launch duration:="${SECONDS_TO_RUN}" rviz:="${RVIZ}" "$@" || rc=$?
+  roslaunch -p "${PORT}" "${PWD}/launch/demo.launch" duration:="${SECONDS_TO_RUN}" rviz:="${RVIZ}" "$@" || rc=$?
 # roslaunch exits 0 when the simulator (required) stops after SECONDS; 124 = the timeout hit.
 if ((rc != 0)); then echo "ros_demo: roslaunch exited with status ${rc}" >&2; fi
 exit "${rc}"
