@@ -125,14 +125,30 @@ void World::remove(const std::string& id) {
   const BodyId bid = bodyId(id, "remove");
   broad_phase_->remove(bid);  // strong guarantee; nothing below throws
   by_name_.erase(id);
+  if (records_[bid].path) path_bodies_.erase(std::lower_bound(path_bodies_.begin(), path_bodies_.end(), bid));
   records_[bid] = Record{};
 }
 
 void World::setMotion(const std::string& id, const Motion& motion) {
   const BodyId bid = bodyId(id, "setMotion");
   validateMotion(motion, "setMotion body " + quoted(id) + ": motion");
-  broad_phase_->setMotion(bid, motion);
+  broad_phase_->setMotion(bid, motion);  // strong guarantee; nothing below throws
+  if (records_[bid].path) {
+    path_bodies_.erase(std::lower_bound(path_bodies_.begin(), path_bodies_.end(), bid));
+    records_[bid].path.reset();
+  }
 }
+
+void World::setPath(const std::string& id, const TimedPath& path) {
+  const BodyId bid = bodyId(id, "setPath");
+  auto copy = std::make_shared<const TimedPath>(path);
+  path_bodies_.reserve(path_bodies_.size() + 1);
+  broad_phase_->setMotion(bid, path.motion(0));  // strong guarantee; nothing below throws
+  if (!records_[bid].path) path_bodies_.insert(std::lower_bound(path_bodies_.begin(), path_bodies_.end(), bid), bid);
+  records_[bid].path = std::move(copy);
+}
+
+const TimedPath* World::path(const std::string& id) const { return record(id, "path").path.get(); }
 
 void World::setFilter(const std::string& id, uint32_t group, uint32_t mask) {
   Record& r = records_[bodyId(id, "setFilter")];
@@ -195,19 +211,26 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
   // straight line (its coordinates are largest at an end) and the origin stays within
   // |pivot_offset| of it. Motions are within range (validateMotion), so nothing overflows.
   // Every body for a full predict; for a query, the bodies it involves (before anything runs).
-  auto checkReach = [&](BodyId id) {
-    const Motion& m = broad_phase_->motion(id);
-    const Eigen::Vector3d c0 = m.hasPivot() ? m.pivotAt(t0) : m.positionAt(t0);
-    const Eigen::Vector3d c1 = m.hasPivot() ? m.pivotAt(t1) : m.positionAt(t1);
+  auto checkMotionReach = [&](BodyId id, const Motion& m, double s, double e) {
+    const Eigen::Vector3d c0 = m.hasPivot() ? m.pivotAt(s) : m.positionAt(s);
+    const Eigen::Vector3d c1 = m.hasPivot() ? m.pivotAt(e) : m.positionAt(e);
     const double arm = m.hasPivot() ? m.pivot_offset.norm() : 0.0;
     for (int k = 0; k < 3; ++k) {
       const double reach = std::max(std::abs(c0[k]), std::abs(c1[k])) + arm;
       if (reach <= kMaxReach) continue;  // the message (two formatted numbers) only on failure
       const std::string error = rangeError(reach, kMaxReach,
-                                           "position[" + std::to_string(k) + "] over [" + formatNumber(t0) + ", " +
-                                               formatNumber(t1) + "] (bound)",
+                                           "position[" + std::to_string(k) + "] over [" + formatNumber(s) + ", " +
+                                               formatNumber(e) + "] (bound)",
                                            "m");
       if (!error.empty()) throw InvalidArgument("predict: body " + quoted(records_[id].name) + ": " + error);
+    }
+  };
+  // A body on a path: each piece over its stretch of the window.
+  auto checkReach = [&](BodyId id) {
+    const TimedPath* path = records_[id].path.get();
+    if (!path) return checkMotionReach(id, broad_phase_->motion(id), t0, t1);
+    for (size_t k = path->pieceAt(t0); k < path->pieces() && (k == path->pieceAt(t0) || path->start(k) < t1); ++k) {
+      checkMotionReach(id, path->motion(k), std::max(t0, path->start(k)), std::min(t1, path->start(k + 1)));
     }
   };
   if (!only) {
@@ -217,26 +240,46 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
   // The candidate pairs: the whole broad phase, or the queries of `only` (a pair of two of them
   // once: from the query of its smaller id).
   std::vector<Pair> queried;
+  const bool paths = !path_bodies_.empty();  // bodies on paths: their pairs from pathPairs
   if (only) {
     // `only` is sorted: membership by binary search, no O(n) mask per query.
     auto in_only = [only](BodyId id) { return std::binary_search(only->begin(), only->end(), id); };
     std::vector<BodyId> found;
     for (BodyId id : *only) checkReach(id);
     for (BodyId id : *only) {
+      if (paths && onPath(id)) continue;  // from pathPairs
       broad_phase_->query(id, t0, t1, found);
       for (BodyId other : found) {
         if (other < id && in_only(other)) continue;
+        if (paths && onPath(other)) continue;  // the broad phase holds it at rest: from pathPairs
         if (!in_only(other)) checkReach(other);
         queried.push_back(makePair(id, other));
       }
     }
+    const size_t direct = queried.size();
+    if (paths) pathPairs(t0, t1, only, queried);
+    for (size_t i = direct; i < queried.size(); ++i) {
+      for (BodyId id : {queried[i].a, queried[i].b}) {
+        if (!in_only(id)) checkReach(id);
+      }
+    }
     std::sort(queried.begin(), queried.end());
+    queried.erase(std::unique(queried.begin(), queried.end()), queried.end());
   } else {
     broad_phase_->update(t0, t1);
+    if (paths) {
+      // The broad phase's pairs without the path bodies (it holds them at rest), and theirs.
+      for (const Pair& p : broad_phase_->pairs()) {
+        if (!onPath(p.a) && !onPath(p.b)) queried.push_back(p);
+      }
+      pathPairs(t0, t1, nullptr, queried);
+      std::sort(queried.begin(), queried.end());
+      queried.erase(std::unique(queried.begin(), queried.end()), queried.end());
+    }
   }
   std::vector<WorldImpact> out, undecided;
   size_t calls = 0;
-  for (const Pair& p : only ? queried : broad_phase_->pairs()) {
+  for (const Pair& p : only || paths ? queried : broad_phase_->pairs()) {
     BodyId ia = p.a, ib = p.b;
     if (records_[ib].key < records_[ia].key) std::swap(ia, ib);  // a = the body added first
     const Record* ra = &records_[ia];
@@ -245,9 +288,7 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
     if (!(ra->group & rb->mask) || !(rb->group & ra->mask)) continue;
     if (pair_filter_ && !pair_filter_(ra->key, rb->key)) continue;
     ++calls;
-    const Motion& ma = broad_phase_->motion(ia);
-    const Motion& mb = broad_phase_->motion(ib);
-    const Impact hit = timeOfImpact(*ra->prepared, ma, *rb->prepared, mb, t0, t1, config_.toi);
+    const Impact hit = narrow(ia, ib, t0, t1);
     if (!hit.hit && !hit.undecided) continue;
     WorldImpact w;
     w.a = ra->name;
@@ -268,6 +309,39 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
   last_candidates_ = calls;
   last_undecided_ = std::move(undecided);
   return out;
+}
+
+void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std::vector<Pair>& out) {
+  auto in_only = [only](BodyId id) { return !only || std::binary_search(only->begin(), only->end(), id); };
+  std::vector<BodyId> found;
+  for (size_t i = 0; i < path_bodies_.size(); ++i) {
+    const BodyId p = path_bodies_[i];
+    const TimedPath& path = *records_[p].path;
+    const bool p_only = in_only(p);
+    const size_t first = path.pieceAt(t0);
+    for (size_t k = first; k < path.pieces() && (k == first || path.start(k) < t1); ++k) {
+      // The broad phase holds p's shape padded; p itself (at rest there) is found too: skipped.
+      broad_phase_->query(broad_phase_->shape(p), path.motion(k), std::max(t0, path.start(k)),
+                          std::min(t1, path.start(k + 1)), found);
+      for (BodyId other : found) {
+        if (!onPath(other) && (p_only || in_only(other))) out.push_back(makePair(p, other));
+      }
+    }
+    for (size_t j = i + 1; j < path_bodies_.size(); ++j) {
+      if (p_only || in_only(path_bodies_[j])) out.push_back(makePair(p, path_bodies_[j]));
+    }
+  }
+}
+
+Impact World::narrow(BodyId a, BodyId b, double t0, double t1) const {
+  const Record& ra = records_[a];
+  const Record& rb = records_[b];
+  if (!ra.path && !rb.path) {
+    return timeOfImpact(*ra.prepared, broad_phase_->motion(a), *rb.prepared, broad_phase_->motion(b), t0, t1, config_.toi);
+  }
+  const TimedPath pa = ra.path ? *ra.path : TimedPath(broad_phase_->motion(a));
+  const TimedPath pb = rb.path ? *rb.path : TimedPath(broad_phase_->motion(b));
+  return timeOfImpact(*ra.prepared, pa, *rb.prepared, pb, t0, t1, config_.toi);
 }
 
 World::Reachable World::reachable(const std::vector<std::string>& movers, const std::vector<Eigen::Vector3d>& origins,
@@ -297,6 +371,8 @@ World::Reachable World::reachable(const std::vector<std::string>& movers, const 
     broad_phase_->query(ball, still, t0, t0 + horizon, found);
     out.ids.insert(out.ids.end(), found.begin(), found.end());
   }
+  // The broad phase holds the path bodies at rest: every one may be reached.
+  out.ids.insert(out.ids.end(), path_bodies_.begin(), path_bodies_.end());
   std::sort(out.ids.begin(), out.ids.end());
   out.ids.erase(std::unique(out.ids.begin(), out.ids.end()), out.ids.end());
   std::vector<BodyId> sorted_movers = ids;
@@ -349,6 +425,11 @@ std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::
       }
     } else {
       broad_phase_->query(broad_phase_->shape(ids[i]), motions[i], t0, t1, found);
+      // The broad phase holds the path bodies at rest: every one is a candidate.
+      if (!path_bodies_.empty()) {
+        found.erase(std::remove_if(found.begin(), found.end(), [this](BodyId b) { return onPath(b); }), found.end());
+        found.insert(found.end(), path_bodies_.begin(), path_bodies_.end());
+      }
     }
     for (BodyId other : found) {
       if (std::binary_search(sorted.begin(), sorted.end(), other)) continue;
@@ -357,11 +438,13 @@ std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::
       if (pair_filter_ && !pair_filter_(std::min(rm.key, ro.key), std::max(rm.key, ro.key))) continue;
       if (skip && skip(ro.key)) continue;
       // Only the first contact matters: later windows shrink to the best time so far.
-      const Impact hit = timeOfImpact(*rm.prepared, motions[i], *ro.prepared, broad_phase_->motion(other), t0, t1, config_.toi);
+      const Impact hit =
+          ro.path ? timeOfImpact(*rm.prepared, TimedPath(motions[i]), *ro.prepared, *ro.path, t0, t1, config_.toi)
+                  : timeOfImpact(*rm.prepared, motions[i], *ro.prepared, broad_phase_->motion(other), t0, t1, config_.toi);
       if (!hit.hit && !hit.undecided) continue;
       if (hit.hit && hit.initially_touching) {
-        const Eigen::Vector3d closing = motions[i].velocityOfPoint(hit.point, t0) -
-                                        broad_phase_->motion(other).velocityOfPoint(hit.point, t0);
+        const Motion& mo = ro.path ? ro.path->motion(ro.path->pieceAt(t0)) : broad_phase_->motion(other);
+        const Eigen::Vector3d closing = motions[i].velocityOfPoint(hit.point, t0) - mo.velocityOfPoint(hit.point, t0);
         if (closing.dot(hit.normal) <= 0.0) continue;  // separating or sliding: not blocked
       }
       if (!best || hit.time < best->impact.time) {

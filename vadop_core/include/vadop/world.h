@@ -16,6 +16,12 @@
 // The filters see each candidate pair once, whatever the broad phase, so the result still does
 // not depend on the broad phase (given a predicate that depends only on its arguments).
 //
+// Bodies on timed paths (setPath: a planned path, keyframes of a trajectory) take part like the
+// others: the broad phase's single-body queries find their partners along each piece of the
+// path within the window (the broad phase itself holds them at rest), and the narrow phase
+// follows both bodies piece by piece (timed_path.h). Their cost grows with their pieces in the
+// window; pairs of two path bodies are tested directly (meant for tens of them, not thousands).
+//
 // Names are any non-empty strings. Bad input throws vadop::InvalidArgument naming the body and
 // leaves the world unchanged (strong guarantee). Not thread-safe.
 #pragma once
@@ -25,6 +31,7 @@
 #include "vadop/motion.h"
 #include "vadop/shapes.h"
 #include "vadop/time_of_impact.h"
+#include "vadop/timed_path.h"
 #include "vadop/vadop.h"
 
 #include <cstdint>
@@ -78,9 +85,14 @@ class World {
   void add(const std::string& id, const Shape& shape, const Motion& motion);
   // Throws when the id is unknown.
   void remove(const std::string& id);
-  // A new velocity (or pose): takes effect at the next predict. Throws when the id is unknown
-  // or the motion invalid.
+  // A new velocity (or pose): takes effect at the next predict (and ends a path). Throws when
+  // the id is unknown or the motion invalid.
   void setMotion(const std::string& id, const Motion& motion);
+  // The body follows `path` from the next predict on (every window, whatever its t0), until
+  // setMotion. Throws when the id is unknown (nothing changed).
+  void setPath(const std::string& id, const TimedPath& path);
+  // The body's path, or nullptr when it moves with one Motion.
+  const TimedPath* path(const std::string& id) const;
 
   // Collision filtering (see the top of this file). A body's group (its category bits) and
   // mask (the groups it is tested against): the pair (a, b) reaches the narrow phase only when
@@ -104,6 +116,8 @@ class World {
   // Ids in insertion order.
   std::vector<std::string> ids() const;
   const Shape& shape(const std::string& id) const;
+  // The body's motion; for a body on a path, the first piece of its path (at rest at the first
+  // keyframe): see path().
   const Motion& motion(const std::string& id) const;
   // The body's insertion-order key: later adds get larger keys (a body removed and added again
   // gets a new one). These are the keys WorldImpact and ImpactQueue use.
@@ -178,7 +192,13 @@ class World {
     std::optional<PreparedShape> prepared;
     uint32_t group = kDefaultGroup;  // setFilter
     uint32_t mask = kDefaultMask;
+    std::shared_ptr<const TimedPath> path;  // setPath; the broad phase holds its first piece
   };
+  // The pairs (sorted, unique) of the path bodies in [t0, t1]: each piece's query against the
+  // other bodies, and every pair of two path bodies; with `only`, those involving one of them.
+  void pathPairs(double t0, double t1, const std::vector<BodyId>* only, std::vector<Pair>& out);
+  Impact narrow(BodyId a, BodyId b, double t0, double t1) const;
+  bool onPath(BodyId id) const { return records_[id].path != nullptr; }
   const Record& record(const std::string& id, const char* operation) const;
   BodyId bodyId(const std::string& id, const char* operation) const;
   std::vector<WorldImpact> run(double t0, double horizon, const std::vector<BodyId>* only);
@@ -187,6 +207,7 @@ class World {
   std::unique_ptr<BroadPhase> broad_phase_;
   std::vector<Record> records_;  // by BodyId of the broad phase
   std::unordered_map<std::string, BodyId> by_name_;
+  std::vector<BodyId> path_bodies_;  // sorted
   uint64_t next_key_ = 0;
   size_t last_candidates_ = 0;
   std::vector<WorldImpact> last_undecided_;
