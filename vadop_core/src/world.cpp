@@ -225,9 +225,11 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
       if (!error.empty()) throw InvalidArgument("predict: body " + quoted(records_[id].name) + ": " + error);
     }
   };
-  // A body on a path: each piece over its stretch of the window.
+  // A body on a path: each piece over its stretch of the window (records_ read only when some
+  // body is on one: a query's hot path reads no more than the broad phase's motion).
+  const bool paths = !path_bodies_.empty();
   auto checkReach = [&](BodyId id) {
-    const TimedPath* path = records_[id].path.get();
+    const TimedPath* path = paths ? records_[id].path.get() : nullptr;
     if (!path) return checkMotionReach(id, broad_phase_->motion(id), t0, t1);
     for (size_t k = path->pieceAt(t0); k < path->pieces() && (k == path->pieceAt(t0) || path->start(k) < t1); ++k) {
       checkMotionReach(id, path->motion(k), std::max(t0, path->start(k)), std::min(t1, path->start(k + 1)));
@@ -240,7 +242,6 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
   // The candidate pairs: the whole broad phase, or the queries of `only` (a pair of two of them
   // once: from the query of its smaller id).
   std::vector<Pair> queried;
-  const bool paths = !path_bodies_.empty();  // bodies on paths: their pairs from pathPairs
   if (only) {
     // `only` is sorted: membership by binary search, no O(n) mask per query.
     auto in_only = [only](BodyId id) { return std::binary_search(only->begin(), only->end(), id); };
