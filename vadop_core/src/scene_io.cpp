@@ -431,6 +431,45 @@ Eigen::Quaterniond readOrientation(const json& v, const Checker& c) {
   return Eigen::Quaterniond(q[3], q[0], q[1], q[2]).normalized();
 }
 
+// "path": [{"t": s, "position": [x, y, z], "orientation": [x, y, z, w] (optional)}, ...] and
+// "after_path": "hold" | "continue" (default): the body follows the keyframes (timed_path.h)
+// instead of a constant twist, which it must then not have.
+void readPath(const json& v, const json& path, const Checker& c, SceneBody& body) {
+  for (const char* key : {"position", "orientation", "linear_velocity", "angular_velocity"}) {
+    if (v.count(key)) c.fail(key, "must not be given with a path (the path sets the motion)");
+  }
+  if (!path.is_array() || path.empty()) c.fail("path", "must be a non-empty array of keyframes, got " + brief(path));
+  std::vector<Keyframe> keys;
+  for (size_t i = 0; i < path.size(); ++i) {
+    const std::string field = "path[" + std::to_string(i) + "]";
+    const json& k = path[i];
+    if (!k.is_object()) c.fail(field, "must be an object, got " + brief(k));
+    c.onlyKeys(k, {"t", "position", "orientation"}, field);
+    Keyframe f;
+    f.time = c.number(c.required(k, "t", field + ".t"), field + ".t");
+    const std::string range = rangeError(f.time, kMaxTime, field + ".t", "s");
+    if (!range.empty()) c.failPlain(range);
+    f.position = c.rangedVec(c.vec3(c.required(k, "position", field + ".position"), field + ".position"),
+                             kMaxCoordinate, field + ".position", "m", false);
+    if (const auto it = k.find("orientation"); it != k.end()) f.orientation = readOrientation(*it, c);
+    keys.push_back(f);
+  }
+  AfterPath after = AfterPath::kContinue;
+  if (const auto it = v.find("after_path"); it != v.end()) {
+    if (*it == "hold") {
+      after = AfterPath::kHold;
+    } else if (*it != "continue") {
+      c.fail("after_path", "must be \"hold\" or \"continue\", got " + brief(*it));
+    }
+  }
+  try {
+    body.path = std::make_shared<const TimedPath>(std::move(keys), after);
+  } catch (const InvalidArgument& e) {
+    c.failPlain(e.what());
+  }
+  body.motion = body.path->motion(0);
+}
+
 SceneBody readBody(const json& v, size_t index, std::unordered_map<std::string, size_t>& seen) {
   if (!v.is_object()) Checker(bodyLabel(index, nullptr)).failPlain("must be a JSON object, got " + brief(v));
   const auto id_it = v.find("id");
@@ -445,7 +484,8 @@ SceneBody readBody(const json& v, size_t index, std::unordered_map<std::string, 
   if (dup != seen.end()) {
     c.fail("id", "is already used by the body at index " + std::to_string(dup->second));
   }
-  c.onlyKeys(v, {"id", "shape", "position", "orientation", "linear_velocity", "angular_velocity"}, "");
+  c.onlyKeys(v, {"id", "shape", "position", "orientation", "linear_velocity", "angular_velocity", "path", "after_path"},
+             "");
   try {
     body.shape = readShape(c.required(v, "shape", "shape"), c);
   } catch (const InvalidArgument& e) {
@@ -454,6 +494,12 @@ SceneBody readBody(const json& v, size_t index, std::unordered_map<std::string, 
     if (msg.rfind("body ", 0) == 0) throw;
     c.fail("shape:", msg);
   }
+  if (const auto path = v.find("path"); path != v.end()) {
+    readPath(v, *path, c, body);
+    seen.emplace(body.id, index);
+    return body;
+  }
+  if (v.count("after_path")) c.fail("after_path", "needs a path");
   const Eigen::Vector3d position =
       c.rangedVec(c.vec3(c.required(v, "position", "position"), "position"), kMaxCoordinate, "position", "m", false);
   Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();
@@ -570,6 +616,7 @@ void addToWorld(const Scene& scene, World& world) {
     for (const SceneBody& b : scene.bodies) {
       world.add(b.id, b.shape, b.motion);
       ++added;
+      if (b.path) world.setPath(b.id, *b.path);
     }
   } catch (...) {
     while (added > 0) world.remove(scene.bodies[--added].id);

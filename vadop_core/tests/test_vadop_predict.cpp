@@ -25,6 +25,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <map>
+#include <set>
 #include <stdexcept>
 #include <utility>
 #include <sstream>
@@ -212,6 +213,36 @@ TEST(VadopPredict, BroadPhasesPrintByteIdenticalOutputOnRandomScenes) {
   RecordProperty("impact_lines", static_cast<int>(total));
 }
 
+TEST(VadopPredict, ScenesWithPathsPrintByteIdenticalOutput) {
+  TempDir dir;
+  testing_scene::GenParams gp;
+  gp.n = 600;
+  gp.path_fraction = 0.05;
+  const std::string text = testing_scene::randomSceneJson(42, gp);
+  const std::string scene = dir.file("paths.json", text);
+  const Scene parsed = parseScene(text);
+  std::set<std::string> on_path;
+  for (const SceneBody& b : parsed.bodies) {
+    if (b.path) on_path.insert(b.id);
+  }
+  EXPECT_GT(on_path.size(), 15u);
+  const ToolRun vadop = run(shellQuote(scene));
+  ASSERT_EQ(vadop.status, 0) << vadop.err;
+  for (const char* kind : {"vadop_sap", "sap", "grid", "brute"}) {
+    const ToolRun r = run("--broadphase " + std::string(kind) + " " + shellQuote(scene));
+    ASSERT_EQ(r.status, 0) << kind << ": " << r.err;
+    EXPECT_EQ(r.out, vadop.out) << kind;
+  }
+  size_t path_lines = 0;
+  for (const auto& l : lines(vadop.out)) {
+    const auto j = nlohmann::json::parse(l);
+    path_lines += on_path.count(j["a"].get<std::string>()) || on_path.count(j["b"].get<std::string>());
+  }
+  EXPECT_GT(path_lines, 20u);  // not vacuous: the paths meet the others
+  std::printf("%zu bodies on paths, %zu impact lines, %zu of them with a path body\n", on_path.size(),
+              lines(vadop.out).size(), path_lines);
+}
+
 struct BadRun {
   const char* name;
   std::string args;       // shell words
@@ -237,6 +268,21 @@ TEST(VadopPredict, BadInputExitsWithStatus2AndPrintsNothing) {
       {"unknown shape", "-", scene(R"({"id": "b", "shape": {"type": "cone"}, "position": [0, 0, 0]})"),
        {"body \"b\" (index 1)", "shape.type"}},
       {"body not an object", "-", scene("[]"), {"body at index 1"}},
+      {"path times not increasing", "-",
+       scene(R"({"id": "b", "shape": {"type": "sphere", "radius": 1}, "path": [{"t": 1, "position": [0, 0, 0]}, {"t": 1, "position": [1, 0, 0]}]})"),
+       {"body \"b\" (index 1)", "keyframe 1", "does not increase"}},
+      {"path and velocity", "-",
+       scene(R"({"id": "b", "shape": {"type": "sphere", "radius": 1}, "linear_velocity": [1, 0, 0], "path": [{"t": 0, "position": [0, 0, 0]}]})"),
+       {"body \"b\" (index 1)", "linear_velocity", "path"}},
+      {"path keyframe without position", "-",
+       scene(R"({"id": "b", "shape": {"type": "sphere", "radius": 1}, "path": [{"t": 0}]})"),
+       {"body \"b\" (index 1)", "path[0].position", "missing"}},
+      {"after_path unknown", "-",
+       scene(R"({"id": "b", "shape": {"type": "sphere", "radius": 1}, "path": [{"t": 0, "position": [0, 0, 0]}], "after_path": "stop"})"),
+       {"body \"b\" (index 1)", "after_path", "stop"}},
+      {"after_path without a path", "-",
+       scene(R"({"id": "b", "shape": {"type": "sphere", "radius": 1}, "position": [0, 0, 0], "after_path": "hold"})"),
+       {"body \"b\" (index 1)", "after_path", "needs a path"}},
       {"negative horizon", "-", R"({"horizon": -2, "bodies": []})", {"horizon"}},
       {"malformed", "-", R"({"horizon": 1, "bodies": [)", {"malformed JSON"}},
       {"empty input", "", "", {"malformed JSON"}},

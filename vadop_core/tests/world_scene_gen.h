@@ -19,6 +19,8 @@ struct GenParams {
   double rotating_fraction = 0.3;
   double static_fraction = 0.2;
   double horizon = 1.0;
+  // Bodies on a timed path of 2 to 4 keyframes over the window (instead of a constant twist).
+  double path_fraction = 0.0;
 };
 
 inline std::string num(double v) {
@@ -62,8 +64,20 @@ inline std::string randomSceneJson(uint64_t seed, const GenParams& p = {}) {
         break;
       }
     }
-    std::string body = "{\"id\":\"b" + std::to_string(i) + (i % 7 == 3 ? "_x" : "") + "\",\"shape\":" + shape +
-                       ",\"position\":" + vec(pos(rng), pos(rng), pos(rng));
+    std::string body = "{\"id\":\"b" + std::to_string(i) + (i % 7 == 3 ? "_x" : "") + "\",\"shape\":" + shape;
+    if (p.path_fraction > 0.0 && u01(rng) < p.path_fraction) {
+      const int keys = 2 + static_cast<int>(rng() % 3);
+      body += ",\"path\":[";
+      for (int k = 0; k < keys; ++k) {
+        const double t = p.horizon * (k - 0.3 + 0.5 * u01(rng)) / (keys - 1);
+        body += std::string(k ? "," : "") + "{\"t\":" + num(t) + ",\"position\":" + vec(pos(rng), pos(rng), pos(rng)) +
+                ",\"orientation\":[" + num(g(rng)) + "," + num(g(rng)) + "," + num(g(rng)) + "," + num(g(rng) + 3.0) + "]}";
+      }
+      body += std::string("],\"after_path\":\"") + (u01(rng) < 0.5 ? "hold" : "continue") + "\"";
+      s += body + "}" + (i + 1 < p.n ? ",\n" : "\n");
+      continue;
+    }
+    body += ",\"position\":" + vec(pos(rng), pos(rng), pos(rng));
     if (u01(rng) < 0.5) {
       double q[4] = {g(rng), g(rng), g(rng), g(rng)};
       body += ",\"orientation\":[" + num(q[0]) + "," + num(q[1]) + "," + num(q[2]) + "," + num(q[3]) + "]";

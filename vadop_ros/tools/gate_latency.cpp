@@ -3,13 +3,15 @@
 // cmd_vel_in /g_<i>/nav_vel, cmd_vel_out /g_<i>/cmd_vel) and N - G others "b_<i>"
 // (/b_<i>/odom): it publishes every
 // body's odometry at --rate Hz (the bodies wander a square room at 6 m^2 per body, 0.3-1.5
-// m/s, bouncing off its walls, as in vadop_monitor_bench) and each gate's command (the body's
+// m/s, bouncing off its walls: wandering_fleet.h, as in vadop_monitor_bench) and each gate's command (the body's
 // current twist) at --cmd-rate Hz, staggered, and measures for every command the time until
 // its gated command arrives back (two transport hops and the node's work). At the end it
 // prints those figures and the node's own (its /diagnostics: from the command's arrival at
 // the node to the publication of the gated one, including any wait behind a cycle), and
 // exits. launch/gate_latency.launch starts both:
 //   roslaunch vadop gate_latency.launch bodies:=1000 gates:=10 seconds:=20
+#include "wandering_fleet.h"
+
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/Twist.h>
 #include <nav_msgs/Odometry.h>
@@ -25,10 +27,6 @@
 #include <vector>
 
 namespace {
-
-struct Sim {
-  double x = 0, y = 0, yaw = 0, v = 0, w = 0;
-};
 
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return std::nan("");
@@ -51,16 +49,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   std::mt19937 rng(1);
-  std::uniform_real_distribution<double> u(0.0, 1.0);
-  const double half = 0.5 * std::sqrt(6.0 * n);
-  std::vector<Sim> sim(n);
-  for (Sim& s : sim) {
-    s.x = (2 * u(rng) - 1) * (half - 0.5);
-    s.y = (2 * u(rng) - 1) * (half - 0.5);
-    s.yaw = (2 * u(rng) - 1) * M_PI;
-    s.v = 0.3 + 1.2 * u(rng);
-    s.w = (2 * u(rng) - 1) * 0.5;
-  }
+  vadop_ros::WanderingFleet sim(static_cast<size_t>(n), 6.0, 0.5, rng);
   std::vector<ros::Publisher> odom(n), cmd(gates);
   std::vector<ros::Subscriber> out(gates);
   std::mutex lock;
@@ -118,13 +107,9 @@ int main(int argc, char** argv) {
   const int cmd_every = std::max(1, static_cast<int>(std::lround(rate / cmd_rate)));
   while (ros::ok() && (ros::WallTime::now() - start).toSec() < seconds + warmup) {
     const ros::Time stamp = ros::Time::now();
+    sim.step(dt, rng);
     for (int i = 0; i < n; ++i) {
-      Sim& s = sim[i];
-      s.yaw += s.w * dt;
-      s.x += s.v * std::cos(s.yaw) * dt;
-      s.y += s.v * std::sin(s.yaw) * dt;
-      if (std::fabs(s.x) > half) { s.x = std::copysign(half, s.x); s.yaw = M_PI - s.yaw; }
-      if (std::fabs(s.y) > half) { s.y = std::copysign(half, s.y); s.yaw = -s.yaw; }
+      const vadop_ros::WanderingFleet::Body& s = sim[static_cast<size_t>(i)];
       msg.header.stamp = stamp;
       msg.child_frame_id = name(i);
       msg.pose.pose.position.x = s.x;
@@ -140,8 +125,8 @@ int main(int argc, char** argv) {
     for (int g = 0; g < gates; ++g) {
       if (tick % cmd_every != g % cmd_every) continue;
       geometry_msgs::Twist t;
-      t.linear.x = sim[g].v;
-      t.angular.z = sim[g].w;
+      t.linear.x = sim[static_cast<size_t>(g)].v;
+      t.angular.z = sim[static_cast<size_t>(g)].w;
       {
         std::lock_guard<std::mutex> guard(lock);
         sent[g] = ros::WallTime::now();

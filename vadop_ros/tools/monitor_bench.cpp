@@ -28,6 +28,7 @@
 // period at the given rate.
 #include "vadop_ros/monitor_core.h"
 #include "vadop_ros/velocity_gate.h"
+#include "wandering_fleet.h"
 
 #include <time.h>
 
@@ -57,10 +58,6 @@ double threadCpuMs() {
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
   return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
-
-struct SimBody {
-  double x, y, yaw, v, w;
-};
 
 struct Result {
   size_t n = 0;
@@ -142,8 +139,6 @@ std::string chainUrdf(int links) {
 Result run(size_t n, int cycles, int warmup, double rate, double horizon, double area, double turn, bool markers,
            unsigned seed, int links, size_t gates) {
   std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(0.0, 1.0);
-  const double half = 0.5 * std::sqrt(area * static_cast<double>(n));
 
   vadop_ros::MonitorParams p;
   p.fixed_frame = "odom";
@@ -184,14 +179,7 @@ Result run(size_t n, int cycles, int warmup, double rate, double horizon, double
   for (size_t i = 0; i < std::min(gates, n); ++i) gate_list.emplace_back(i, core.registry());
   Result r;
 
-  std::vector<SimBody> sim(n);
-  for (auto& s : sim) {
-    s.x = (2 * u(rng) - 1) * (half - 0.5);
-    s.y = (2 * u(rng) - 1) * (half - 0.5);
-    s.yaw = (2 * u(rng) - 1) * M_PI;
-    s.v = 0.3 + 1.2 * u(rng);
-    s.w = (2 * u(rng) - 1) * turn;
-  }
+  vadop_ros::WanderingFleet sim(n, area, turn, rng);
 
   NoTf tf;
   const double dt = 1.0 / rate;
@@ -202,24 +190,11 @@ Result run(size_t n, int cycles, int warmup, double rate, double horizon, double
   msg.header.frame_id = "odom";
   for (int c = 0; c < warmup + cycles; ++c) {
     now += ros::Duration(dt);
-    for (auto& s : sim) {
-      if (u(rng) < dt / 3.0) s.w = (2 * u(rng) - 1) * turn;  // a new turn rate every ~3 s
-      s.yaw += s.w * dt;
-      s.x += s.v * std::cos(s.yaw) * dt;
-      s.y += s.v * std::sin(s.yaw) * dt;
-      if (std::fabs(s.x) > half) {
-        s.x = std::copysign(half, s.x);
-        s.yaw = M_PI - s.yaw;
-      }
-      if (std::fabs(s.y) > half) {
-        s.y = std::copysign(half, s.y);
-        s.yaw = -s.yaw;
-      }
-    }
+    sim.step(dt, rng);
     const double cpu0 = threadCpuMs();
     const auto t0 = std::chrono::steady_clock::now();
     for (size_t i = 0; i < n; ++i) {
-      const SimBody& s = sim[i];
+      const vadop_ros::WanderingFleet::Body& s = sim[i];
       msg.header.stamp = now;
       msg.child_frame_id = p.bodies[i].name;
       msg.pose.pose.position.x = s.x;

@@ -20,6 +20,9 @@
 //  - linear_velocity [m/s] and angular_velocity [rad/s, fixed frame, about the body origin]:
 //    [x, y, z], default zero. The pose holds at t = 0; the motion is rigid with constant
 //    velocities (motion.h).
+//  - or instead of those four, path: [{"t": s, "position": [x, y, z], "orientation": [x, y, z,
+//    w] (optional)}, ...] with t increasing, and after_path: "hold" | "continue" (default):
+//    the body follows the timed poses (timed_path.h).
 // Range (limits.h): |position[i]| <= kMaxCoordinate; every shape dimension (radius, length,
 // size[i], point coordinates and |point|) <= kMaxSize; |velocity[i]| and |velocity| <=
 // kMaxLinearSpeed (m/s) / kMaxAngularSpeed (rad/s); horizon <= kMaxTime. Each is checked where
@@ -36,10 +39,12 @@
 
 #include "vadop/motion.h"
 #include "vadop/shapes.h"
+#include "vadop/timed_path.h"
 #include "vadop/world.h"
 
 #include <cstddef>
 #include <iosfwd>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -62,7 +67,8 @@ constexpr size_t kMaxQuotedChars = 40;
 struct SceneBody {
   std::string id;
   Shape shape;
-  Motion motion;  // t_ref = 0
+  Motion motion;  // t_ref = 0; with a path, its first piece
+  std::shared_ptr<const TimedPath> path;  // "path" given (addToWorld: World::setPath), else null
 };
 
 struct Scene {
