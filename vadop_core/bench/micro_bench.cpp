@@ -105,6 +105,8 @@ void BM_PredictOne(benchmark::State& state) {
 }
 BENCHMARK(BM_PredictOne)
     ->ArgsProduct({{0, 1}, {10000, 100000}, {0, 1}})
+    ->Args({0, 1000000, 0})  // 10^6: the cost once every lookup misses the caches
+    ->Args({0, 1000000, 1})
     ->Args({2, 10000, 0})
     ->Args({3, 10000, 0})
     ->Unit(benchmark::kMicrosecond);
