@@ -340,8 +340,9 @@ Impact World::narrow(BodyId a, BodyId b, double t0, double t1) const {
   if (!ra.path && !rb.path) {
     return timeOfImpact(*ra.prepared, broad_phase_->motion(a), *rb.prepared, broad_phase_->motion(b), t0, t1, config_.toi);
   }
-  const TimedPath pa = ra.path ? *ra.path : TimedPath(broad_phase_->motion(a));
-  const TimedPath pb = rb.path ? *rb.path : TimedPath(broad_phase_->motion(b));
+  std::optional<TimedPath> twist;  // the side with one Motion, as a path of one piece
+  const TimedPath& pa = ra.path ? *ra.path : twist.emplace(broad_phase_->motion(a));
+  const TimedPath& pb = rb.path ? *rb.path : twist.emplace(broad_phase_->motion(b));
   return timeOfImpact(*ra.prepared, pa, *rb.prepared, pb, t0, t1, config_.toi);
 }
 
@@ -418,6 +419,7 @@ std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::
   std::vector<BodyId> found;
   for (size_t i = 0; i < ids.size(); ++i) {
     const Record& rm = records_[ids[i]];
+    std::optional<TimedPath> mover_path;  // made for the first path body met
     // The broad phase holds the mover's shape padded by the tolerance, as for its own queries.
     if (among) {
       found.clear();
@@ -440,7 +442,8 @@ std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::
       if (skip && skip(ro.key)) continue;
       // Only the first contact matters: later windows shrink to the best time so far.
       const Impact hit =
-          ro.path ? timeOfImpact(*rm.prepared, TimedPath(motions[i]), *ro.prepared, *ro.path, t0, t1, config_.toi)
+          ro.path ? timeOfImpact(*rm.prepared, mover_path ? *mover_path : mover_path.emplace(motions[i]), *ro.prepared,
+                                 *ro.path, t0, t1, config_.toi)
                   : timeOfImpact(*rm.prepared, motions[i], *ro.prepared, broad_phase_->motion(other), t0, t1, config_.toi);
       if (!hit.hit && !hit.undecided) continue;
       if (hit.hit && hit.initially_touching) {
