@@ -4,8 +4,8 @@
 // it), so each piece is a Motion and the narrow phase keeps its certificate on every piece.
 // Before the first keyframe the body holds its first pose; after the last it holds
 // (AfterPath::kHold) or goes on with the last piece's twist (kContinue). It does not smooth:
-// the velocity jumps at the keyframes. The broad phase does not take paths (yet): World and
-// the broad phases still move every body with one Motion.
+// the velocity jumps at the keyframes. The broad phases move every body with one Motion;
+// World::setPath puts a body on a path (its partners found by queries along each piece).
 #pragma once
 
 #include "vadop/motion.h"
