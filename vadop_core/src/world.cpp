@@ -231,9 +231,7 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
   auto checkReach = [&](BodyId id) {
     const TimedPath* path = paths ? records_[id].path.get() : nullptr;
     if (!path) return checkMotionReach(id, broad_phase_->motion(id), t0, t1);
-    for (size_t k = path->pieceAt(t0); k < path->pieces() && (k == path->pieceAt(t0) || path->start(k) < t1); ++k) {
-      checkMotionReach(id, path->motion(k), std::max(t0, path->start(k)), std::min(t1, path->start(k + 1)));
-    }
+    path->forEachPiece(t0, t1, [&](size_t k, double s, double e) { checkMotionReach(id, path->motion(k), s, e); });
   };
   if (!only) {
     for (const auto& kv : by_name_) checkReach(kv.second);
@@ -319,15 +317,13 @@ void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std
     const BodyId p = path_bodies_[i];
     const TimedPath& path = *records_[p].path;
     const bool p_only = in_only(p);
-    const size_t first = path.pieceAt(t0);
-    for (size_t k = first; k < path.pieces() && (k == first || path.start(k) < t1); ++k) {
+    path.forEachPiece(t0, t1, [&](size_t k, double s, double e) {
       // The broad phase holds p's shape padded; p itself (at rest there) is found too: skipped.
-      broad_phase_->query(broad_phase_->shape(p), path.motion(k), std::max(t0, path.start(k)),
-                          std::min(t1, path.start(k + 1)), found);
+      broad_phase_->query(broad_phase_->shape(p), path.motion(k), s, e, found);
       for (BodyId other : found) {
         if (!onPath(other) && (p_only || in_only(other))) out.push_back(makePair(p, other));
       }
-    }
+    });
     for (size_t j = i + 1; j < path_bodies_.size(); ++j) {
       if (p_only || in_only(path_bodies_[j])) out.push_back(makePair(p, path_bodies_[j]));
     }

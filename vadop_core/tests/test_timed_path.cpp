@@ -25,6 +25,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <string>
+#include <tuple>
 #include <vector>
 
 namespace {
@@ -145,6 +146,17 @@ TEST(TimedPath, HoldsBeforeTheFirstAndHoldsOrContinuesAfterTheLast) {
   EXPECT_EQ(go.pieces(), 2u);
   EXPECT_EQ(go.pieceAt(1.0), 1u);  // a piece holds from its first keyframe
   EXPECT_EQ(go.pieceAt(0.999), 0u);
+  // The stretches of a window tile it, piece by piece.
+  std::vector<std::tuple<size_t, double, double>> got;
+  hold.forEachPiece(0.5, 2.5, [&](size_t k, double a, double b) { got.emplace_back(k, a, b); });
+  const std::vector<std::tuple<size_t, double, double>> want = {{0, 0.5, 1.0}, {1, 1.0, 2.0}, {2, 2.0, 2.5}};
+  EXPECT_EQ(got, want);
+  got.clear();
+  hold.forEachPiece(2.0, 2.0, [&](size_t k, double a, double b) { got.emplace_back(k, a, b); });
+  EXPECT_EQ(got, (std::vector<std::tuple<size_t, double, double>>{{2, 2.0, 2.0}}));
+  got.clear();
+  hold.forEachPiece(1.2, 1.5, [&](size_t k, double a, double b) { got.emplace_back(k, a, b); });
+  EXPECT_EQ(got, (std::vector<std::tuple<size_t, double, double>>{{1, 1.2, 1.5}}));
 }
 
 TEST(TimedPath, MeetsThePostOnTheCurveNotTheOneAhead) {

@@ -15,6 +15,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cstddef>
 #include <vector>
 
@@ -45,6 +46,15 @@ class TimedPath {
   const Motion& motion(size_t k) const { return motion_[k]; }
   // The piece that holds at t.
   size_t pieceAt(double t) const;
+  // f(k, from, to) for each piece k that holds somewhere in [t0, t1] (t0 <= t1), in order, with
+  // the stretch [from, to] of the window it covers (the stretches tile the window).
+  template <class F>
+  void forEachPiece(double t0, double t1, F&& f) const {
+    const size_t first = pieceAt(t0);
+    for (size_t k = first; k < pieces() && (k == first || start(k) < t1); ++k) {
+      f(k, std::max(t0, start(k)), std::min(t1, start(k + 1)));
+    }
+  }
   Eigen::Isometry3d poseAt(double t) const { return motion_[pieceAt(t)].poseAt(t); }
 
  private:
