@@ -1,5 +1,6 @@
 // MonitorCore: the cycle from registry to published impacts, without ROS transport.
 #include "vadop_ros/monitor_core.h"
+#include "vadop_ros/monitor_diagnostics.h"
 #include "fake_tf.h"
 #include "yaml_xmlrpc.h"
 
@@ -537,4 +538,79 @@ TEST(Predictor, UndecidedPairsAreListedApartFromContacts) {
   ASSERT_TRUE(decided.set(1, "post", post, predictor.motion(1), error));
   EXPECT_TRUE(decided.predict(0.0, 10.0).empty());
   EXPECT_TRUE(decided.lastUndecided().empty());
+}
+
+// A robot whose odometry says "straight on" while its plan (path_topic) turns left: the
+// prediction follows the plan, so the pillar on the curve is reported at the time the arc
+// reaches it and the pillar ahead on the straight line is not; without the plan, the reverse.
+TEST(MonitorCore, PredictsAlongThePlannedPath) {
+  const char* yaml_text = R"(
+horizon: 3.0
+bodies:
+  - {name: robot, odom_topic: /robot/odom, path_topic: /robot/plan, shape: {type: sphere, radius: 0.3}}
+static_obstacles:
+  - {name: on_curve, shape: {type: sphere, radius: 0.2}, pose: {position: [1.8640782, 1.2752885, 0.0]}}
+  - {name: ahead, shape: {type: sphere, radius: 0.2}, pose: {position: [2.0, -0.3, 0.0]}}
+)";
+  // The arc: radius 2 m about (0, 2), 0.5 rad/s from the origin at t = 100 s; on_curve sits on
+  // it at 1.2 rad. First contact (centres 0.5 m apart) at 1.2 - 2 asin(0.5 / 4) rad.
+  const double expected = (1.2 - 2.0 * std::asin(0.125)) / 0.5;
+  auto arc = [](double t, geometry_msgs::Pose& p) {
+    const double th = 0.5 * (t - 100.0);
+    p.position.x = 2.0 * std::sin(th);
+    p.position.y = 2.0 - 2.0 * std::cos(th);
+    p.orientation.z = std::sin(th / 2);
+    p.orientation.w = std::cos(th / 2);
+  };
+  nav_msgs::Path plan;
+  plan.header.stamp = ros::Time(100.0);
+  plan.header.frame_id = "odom";
+  for (int k = 0; k <= 30; ++k) {
+    geometry_msgs::PoseStamped s;
+    s.header.stamp = ros::Time(100.0 + 0.1 * k);
+    arc(s.header.stamp.toSec(), s.pose);
+    plan.poses.push_back(s);
+  }
+  for (const bool with_plan : {true, false}) {
+    MonitorCore core = makeCore(yaml_text);
+    FakeTf tf;
+    core.registry().onOdometry(0, odom(100.0, 0.0, 0.0, 1.0), ros::Time(100.0));
+    if (with_plan) {
+      ASSERT_EQ(core.registry().onPath(0, plan, ros::Time(100.0), tf), vadop_ros::InputResult::kAccepted);
+    }
+    const auto& out = core.cycle(ros::Time(100.0), tf);
+    ASSERT_EQ(out.impacts.size(), 1u) << "with_plan " << with_plan;
+    const vadop::Impact& i = out.impacts[0];
+    if (with_plan) {
+      EXPECT_EQ(i.body_b, "on_curve");
+      EXPECT_NEAR(i.time_to_impact, expected, 1e-4);
+      // The point lies between the centres, the normal along them; closing speed from the arc's
+      // velocity there (1 m/s along the tangent).
+      const double th = 0.5 * i.time_to_impact;
+      const Eigen::Vector3d c(2.0 * std::sin(th), 2.0 - 2.0 * std::cos(th), 0.0);
+      const Eigen::Vector3d o(1.8640782, 1.2752885, 0.0);
+      const Eigen::Vector3d n = (o - c).normalized();
+      EXPECT_NEAR(i.normal.x, n.x(), 1e-3);
+      EXPECT_NEAR(i.normal.y, n.y(), 1e-3);
+      EXPECT_NEAR(i.closing_speed, Eigen::Vector3d(std::cos(th), std::sin(th), 0.0).dot(n), 1e-3);
+      // Markers draw the curve: the line of the robot ends on the arc, not on the straight line.
+      const auto markers = core.markers();
+      bool found = false;
+      for (const auto& m : markers.markers) {
+        if (m.ns != "robot" || m.type != visualization_msgs::Marker::LINE_STRIP) continue;
+        found = true;
+        EXPECT_NEAR(m.points.back().x, 2.0 * std::sin(1.5), 1e-6);
+        EXPECT_NEAR(m.points.back().y, 2.0 - 2.0 * std::cos(1.5), 1e-6);
+      }
+      EXPECT_TRUE(found);
+    } else {
+      EXPECT_EQ(i.body_b, "ahead");
+    }
+    // The diagnostics name the source the prediction follows.
+    const std::string text = vadop_ros::describeBody(core.registry().bodies()[0], ros::Time(100.0), 0.5, nullptr);
+    EXPECT_NE(text.find(with_plan ? "predicted along: path (1 path(s) accepted, 0 dropped, plan ends in 3.00 s)"
+                                  : "predicted along: odometry (0 path(s)"),
+              std::string::npos)
+        << text;
+  }
 }

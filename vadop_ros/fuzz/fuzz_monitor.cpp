@@ -2,7 +2,7 @@
 // operations on a MonitorCore built from a small fixed configuration (three primitive bodies,
 // one with TwistStamped and a pose from tf; a rigid URDF body and a URDF body whose links come
 // from tf, both test/data/two_link.urdf; two static obstacles):
-//   odometry / twist messages with arbitrary doubles (NaN, Inf, huge, tiny) and arbitrary
+//   odometry / twist / planned-path messages with arbitrary doubles (NaN, Inf, huge, tiny) and arbitrary
 //   stamps (sec up to 2^32 - 1) and receipt times; tf poses with arbitrary values and stamps;
 //   clock steps, jumps forward and back (a jump back resets, as the node's timer does);
 //   horizon / rate / padding through MonitorCore::reconfigure (the node's dynamic_reconfigure
@@ -83,10 +83,10 @@ horizon: 2.0
 stale_timeout: 0.5
 max_stamp_skew: 5.0
 bodies:
-  - {name: a, odom_topic: /a, shape: {type: sphere, radius: 0.5}}
+  - {name: a, odom_topic: /a, path_topic: /a/plan, shape: {type: sphere, radius: 0.5}}
   - {name: b, odom_topic: /b, shape: {type: box, size: [1, 0.5, 0.3]}}
   - {name: c, twist_topic: /c, frame: c_link, shape: {type: capsule, radius: 0.2, length: 1.0}}
-  - {name: robot, odom_topic: /robot, robot_description: /robot_description}
+  - {name: robot, odom_topic: /robot, path_topic: /robot/plan, after_path: hold, robot_description: /robot_description}
   - {name: arm, odom_topic: /arm, robot_description: /robot_description, tf_prefix: arm}
 static_obstacles:
   - {name: wall, shape: {type: box, size: [0.2, 10, 2]}, pose: {position: [5, 0, 0]}}
@@ -216,7 +216,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   };
 
   for (size_t op = 0; op < kMaxOps && in.remaining_bytes() > 0; ++op) {
-    switch (in.ConsumeIntegralInRange<int>(0, 8)) {
+    switch (in.ConsumeIntegralInRange<int>(0, 9)) {
       case 0: {  // odometry
         nav_msgs::Odometry m;
         const size_t bi = odom_bodies[in.ConsumeIntegralInRange<size_t>(0, odom_bodies.size() - 1)];
@@ -295,6 +295,29 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       case 8:
         core->reset();
         break;
+      case 9: {  // a planned path (bodies a and robot have a path_topic)
+        nav_msgs::Path m;
+        const size_t bi = core->registry().find(in.ConsumeBool() ? "a" : "robot");
+        m.header.stamp = in.ConsumeBool() ? ros::Time() : pickTime(in, now);
+        m.header.frame_id = in.ConsumeBool() ? "odom" : kFrames[in.ConsumeIntegralInRange<int>(0, 5)];
+        const size_t n = in.ConsumeIntegralInRange<size_t>(0, 12);
+        ros::Time t = in.ConsumeBool() ? now : pickTime(in, now);
+        for (size_t k = 0; k < n; ++k) {
+          geometry_msgs::PoseStamped p;
+          // Mostly increasing stamps (a usable plan), sometimes anything.
+          t = in.ConsumeBool() ? vadop_ros::addSeconds(t, in.ConsumeFloatingPointInRange<double>(0.0, 0.5))
+                               : pickTime(in, now);
+          p.header.stamp = t;
+          p.pose.position.x = in.ConsumeBool() ? in.ConsumeFloatingPointInRange<double>(-5.0, 5.0) : pickDouble(in);
+          p.pose.position.y = in.ConsumeBool() ? in.ConsumeFloatingPointInRange<double>(-5.0, 5.0) : pickDouble(in);
+          p.pose.position.z = in.ConsumeBool() ? 0.0 : pickDouble(in);
+          p.pose.orientation.w = in.ConsumeBool() ? 1.0 : pickDouble(in);
+          p.pose.orientation.z = in.ConsumeBool() ? 0.0 : pickDouble(in);
+          m.poses.push_back(p);
+        }
+        core->registry().onPath(bi, m, in.ConsumeBool() ? now : pickTime(in, now), tf);
+        break;
+      }
     }
   }
   cycle();

@@ -2,6 +2,7 @@
 
 #include <vadop/error.h>
 #include <vadop/limits.h>
+#include <vadop/timed_path.h>
 
 #include <ros/console.h>
 #include <ros/time.h>
@@ -452,6 +453,148 @@ InputResult BodyRegistry::onTwist(size_t bi, const geometry_msgs::TwistStamped& 
   return InputResult::kAccepted;
 }
 
+InputResult BodyRegistry::onPath(size_t bi, const nav_msgs::Path& msg, const ros::Time& receipt, TransformSource& tf) {
+  Body& b = bodies_.at(bi);
+  auto drop = [&](const std::string& why) {
+    ++b.status.paths_dropped;
+    rejectInput(b, "path: " + why + " (the previous plan is kept)", receipt);
+    return InputResult::kInvalid;
+  };
+  const ros::Time header_stamp = msg.header.stamp.isZero() ? receipt : msg.header.stamp;
+  const double skew = secondsBetween(header_stamp, receipt);
+  if (!(std::fabs(skew) <= max_stamp_skew_)) {
+    return drop("header.stamp " + stampText(header_stamp) + " is " + number(std::fabs(skew)) + " s " +
+                (skew > 0 ? "ahead of" : "behind") + " the node's clock at its receipt: beyond ~max_stamp_skew = " +
+                number(max_stamp_skew_) + " s");
+  }
+  if (header_stamp < b.plan_stamp && b.plan_stamp <= receipt) {
+    ++b.status.dropped_out_of_order;
+    return InputResult::kOutOfOrder;
+  }
+  if (msg.poses.empty()) {
+    b.plan.clear();
+    b.plan_stamp = header_stamp;
+    ++b.status.paths_accepted;
+    return InputResult::kAccepted;
+  }
+  const std::string frame = stripSlash(msg.header.frame_id);
+  if (frame.empty()) return drop("header.frame_id is empty (the frame of the poses)");
+  std::vector<std::pair<ros::Time, Eigen::Isometry3d>> plan;
+  plan.reserve(msg.poses.size());
+  for (size_t i = 0; i < msg.poses.size(); ++i) {
+    const geometry_msgs::PoseStamped& ps = msg.poses[i];
+    const std::string field = "poses[" + std::to_string(i) + "]";
+    const std::string pose_frame = stripSlash(ps.header.frame_id);
+    if (!pose_frame.empty() && pose_frame != frame) {
+      return drop(field + ".header.frame_id \"" + pose_frame + "\" differs from header.frame_id \"" + frame + "\"");
+    }
+    std::string why;
+    if (!checkPoint(ps.pose.position, field + ".pose.position", why) ||
+        !checkQuaternion(ps.pose.orientation, field + ".pose.orientation", why)) {
+      return drop(why);
+    }
+    if (ps.header.stamp.isZero()) {
+      return drop(field + ".header.stamp is zero (a timed path needs the time the body is at each pose)");
+    }
+    if (!(std::fabs(secondsBetween(ps.header.stamp, receipt)) <= kRebaseAfterSeconds)) {
+      return drop(field + ".header.stamp " + stampText(ps.header.stamp) + " is more than " +
+                  number(kRebaseAfterSeconds) + " s from the node's clock");
+    }
+    if (!plan.empty() && !(ps.header.stamp > plan.back().first)) {
+      return drop(field + ".header.stamp " + stampText(ps.header.stamp) + " is not after poses[" +
+                  std::to_string(i - 1) + "]'s " + stampText(plan.back().first));
+    }
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    const auto& q = ps.pose.orientation;
+    pose.linear() = Eigen::Quaterniond(q.w, q.x, q.y, q.z).normalized().toRotationMatrix();
+    pose.translation() = Eigen::Vector3d(ps.pose.position.x, ps.pose.position.y, ps.pose.position.z);
+    plan.emplace_back(ps.header.stamp, pose);
+  }
+  if (frame != fixed_frame_) {
+    Eigen::Isometry3d fixed_path;
+    ros::Time stamp;
+    std::string error;
+    if (!lookup(tf, fixed_frame_, frame, header_stamp, fixed_path, stamp, error) &&
+        !lookup(tf, fixed_frame_, frame, ros::Time(0), fixed_path, stamp, error)) {
+      return drop("header.frame_id \"" + frame + "\": " + error);
+    }
+    for (auto& [t, pose] : plan) {
+      pose = fixed_path * pose;
+      std::string why;
+      if (!(pose.translation().cwiseAbs().maxCoeff() <= vadop::kMaxCoordinate)) {
+        return drop("a pose is out of range in the fixed frame (|position| > " + number(vadop::kMaxCoordinate) + " m)");
+      }
+    }
+  }
+  b.plan = std::move(plan);
+  b.plan_stamp = header_stamp;
+  ++b.status.paths_accepted;
+  return InputResult::kAccepted;
+}
+
+void BodyRegistry::followPlan(Body& b, const ros::Time& now, double t_now, double t_check_end,
+                              const Eigen::Isometry3d& frame_now) {
+  if (b.plan.empty() || !(b.plan.back().first > now)) return;
+  // The body frame from its pose now through the poses stamped after now. A pose within 1 ms
+  // after now is left out: the current pose stands for it (a piece that short would turn a
+  // centimetre of odometry error into metres per second).
+  constexpr double kMinPiece = 1e-3;
+  std::vector<vadop::Keyframe> frames;
+  frames.reserve(b.plan.size() + 1);
+  frames.push_back({t_now, frame_now.translation(), Eigen::Quaternion<double>(frame_now.linear())});
+  for (const auto& [stamp, pose] : b.plan) {
+    const double t = seconds(stamp);
+    if (t < t_now + kMinPiece) continue;
+    frames.push_back({t, pose.translation(), Eigen::Quaterniond(pose.linear())});
+  }
+  if (frames.size() < 2) return;
+  const vadop::AfterPath after = b.params.path_continue ? vadop::AfterPath::kContinue : vadop::AfterPath::kHold;
+  std::vector<std::shared_ptr<const vadop::TimedPath>> paths;
+  paths.reserve(b.elements.size());
+  try {
+    for (const size_t ei : b.elements) {
+      const Element& e = elements_[ei];
+      if (!e.active) {
+        paths.push_back(nullptr);
+        continue;
+      }
+      // The element's pose in the body frame now, kept along the plan.
+      const Eigen::Isometry3d in_body = frame_now.inverse() * e.motion.poseAt(t_now);
+      std::vector<vadop::Keyframe> k = frames;
+      for (vadop::Keyframe& f : k) {
+        Eigen::Isometry3d fp = Eigen::Isometry3d::Identity();
+        fp.linear() = f.orientation.toRotationMatrix();
+        fp.translation() = f.position;
+        const Eigen::Isometry3d pe = fp * in_body;
+        f.position = pe.translation();
+        f.orientation = Eigen::Quaterniond(pe.linear());
+      }
+      auto path = std::make_shared<const vadop::TimedPath>(std::move(k), after);
+      // Each piece within the library's range over the window in which it holds.
+      for (size_t piece = 0; piece < path->pieces(); ++piece) {
+        const double from = std::max(t_now, path->start(piece)), to = std::min(t_check_end, path->start(piece + 1));
+        if (!(from <= to)) continue;
+        const std::string why = motionRangeError(path->motion(piece), from, to);
+        if (!why.empty()) throw vadop::InvalidArgument("piece " + std::to_string(piece) + ": " + why);
+      }
+      paths.push_back(std::move(path));
+    }
+  } catch (const vadop::InvalidArgument& ex) {
+    // The plan cannot be followed (e.g. two poses 1 ms apart and metres away): the twist is.
+    b.status.last_invalid = std::string("path: not followed, the body's twist is used instead: ") + ex.what();
+    b.status.last_invalid_receipt = now;
+    const double wall = wallNow();
+    if (wall - b.last_warn_invalid >= kWarnPeriod) {
+      b.last_warn_invalid = wall;
+      ROS_WARN_NAMED("vadop_monitor", "body \"%s\": %s (warnings for this body throttled to one per %.0f s)",
+                     b.name.c_str(), b.status.last_invalid.c_str(), kWarnPeriod);
+    }
+    return;
+  }
+  for (size_t k = 0; k < b.elements.size(); ++k) elements_[b.elements[k]].path = std::move(paths[k]);
+  b.status.on_path = true;
+}
+
 bool BodyRegistry::lookup(TransformSource& tf, const std::string& target, const std::string& source,
                           const ros::Time& time, Eigen::Isometry3d& pose, ros::Time& stamp, std::string& error) {
   try {
@@ -592,7 +735,11 @@ bool BodyRegistry::updateBody(size_t body, const ros::Time& now, TransformSource
 }
 
 void BodyRegistry::updateMoving(Body& b, const ros::Time& now, double t_now, double t_check_end, TransformSource& tf) {
-  for (const size_t ei : b.elements) elements_[ei].active = false;
+  for (const size_t ei : b.elements) {
+    elements_[ei].active = false;
+    elements_[ei].path.reset();
+  }
+  b.status.on_path = false;
   b.frame_motion.valid = false;
   b.status.tf_error.clear();
   b.status.links_skipped = 0;
@@ -706,7 +853,19 @@ void BodyRegistry::updateMoving(Body& b, const ros::Time& now, double t_now, dou
     b.tf_missing_since = ros::Time();
     b.status.state = stale ? BodyState::kStale : BodyState::kOk;
     b.frame_motion = FrameMotion{true, stale, fb, v, w, tr};
+    if (!stale && !b.plan.empty()) {
+      // (twistMotion cannot throw here: the elements' motions from the same values were accepted.)
+      followPlan(b, now, t_now, t_check_end, twistMotion(fb, v, w, tr).poseAt(t_now));
+    }
   }
+}
+
+const char* motionSource(const Body& b) {
+  if (b.is_static) return "static";
+  if (!b.frame_motion.valid) return "none";
+  if (b.frame_motion.stale) return "stale";
+  if (b.status.on_path) return "path";
+  return b.params.source == VelocitySource::kOdometry ? "odometry" : "twist";
 }
 
 void BodyRegistry::reset() {
@@ -715,6 +874,9 @@ void BodyRegistry::reset() {
     if (b.is_static) continue;
     b.has_state = false;
     b.stamp = ros::Time();
+    b.plan.clear();
+    b.plan_stamp = ros::Time();
+    b.status.on_path = false;
     b.status.state = b.elements.empty() ? BodyState::kNoGeometry : BodyState::kWaiting;
     b.status.last_receipt = ros::Time();
     b.status.last_invalid_receipt = ros::Time();
@@ -723,6 +885,7 @@ void BodyRegistry::reset() {
     for (const size_t ei : b.elements) {
       Element& e = elements_[ei];
       e.active = false;
+      e.path.reset();
       if (!e.tf_frame.empty()) {
         e.has_rel = false;
         e.rel_v.setZero();

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <vector>
+#include <algorithm>
 
 namespace vadop_ros {
 namespace {
@@ -132,16 +134,32 @@ visualization_msgs::MarkerArray buildMarkers(const MarkerInput& in) {
     start.id = id;
     id += 3;  // capsules use id + 1 and id + 2
     setColour(start, colour, e.is_static ? 0.9f : 0.8f);
-    addShape(out, start, e, e.motion.poseAt(in.t0));
+    auto poseAt = [&e](double t) { return e.path_pose ? e.path_pose(t) : e.motion.poseAt(t); };
+    addShape(out, start, e, poseAt(in.t0));
     if (e.is_static) continue;
 
-    const bool moves = e.motion.linear_velocity.squaredNorm() > 0.0 || e.motion.isRotating();
+    const bool moves = e.path_pose || e.motion.linear_velocity.squaredNorm() > 0.0 || e.motion.isRotating();
     if (!moves || in.horizon <= 0.0) continue;
     Marker end = base;
     end.id = id;
     id += 3;
     setColour(end, colour, 0.25f);
-    addShape(out, end, e, e.motion.poseAt(t1));
+    addShape(out, end, e, poseAt(t1));
+    if (e.path_pose) {
+      // The path's own poses inside the horizon: the curve the prediction follows.
+      std::vector<double> inside;
+      for (const double t : e.path_times) {
+        if (t > in.t0 && t < t1) inside.push_back(t);
+      }
+      const size_t n = std::min(inside.size(), static_cast<size_t>(kPathGhosts));
+      for (size_t g = 0; g < n; ++g) {
+        Marker ghost = base;
+        ghost.id = id;
+        id += 3;
+        setColour(ghost, colour, 0.15f);
+        addShape(out, ghost, e, poseAt(inside[(g + 1) * inside.size() / (n + 1)]));
+      }
+    }
 
     Marker path = base;
     path.id = id++;
@@ -149,10 +167,10 @@ visualization_msgs::MarkerArray buildMarkers(const MarkerInput& in) {
     path.scale.x = 0.03;
     setColour(path, colour, 0.9f);
     path.pose.orientation.w = 1.0;
-    constexpr int kSamples = 12;
-    for (int k = 0; k <= kSamples; ++k) {
-      const double t = in.t0 + in.horizon * k / kSamples;
-      path.points.push_back(point(e.motion.positionAt(t)));
+    const int samples = e.path_pose ? 48 : 12;
+    for (int k = 0; k <= samples; ++k) {
+      const double t = in.t0 + in.horizon * k / samples;
+      path.points.push_back(point(poseAt(t).translation()));
     }
     out.markers.push_back(path);
   }

@@ -87,7 +87,8 @@ void MonitorCore::syncGateWorld() {
     const bool is_static = registry_.bodies()[elements[i].body].is_static;
     // The shape as in the cycle's world (padded): used when the element enters.
     if (!gate_predictor_.set(i, elements[i].id, predictor_.shape(i), predictor_.motion(i), error,
-                             is_static ? kStaticGroup : kMovingGroup, is_static ? ~kStaticGroup : ~0u)) {
+                             is_static ? kStaticGroup : kMovingGroup, is_static ? ~kStaticGroup : ~0u,
+                             predictor_.path(i))) {
       gate_predictor_.unset(i);  // the cycle's world took it: cannot happen but for memory
     }
   }
@@ -297,8 +298,9 @@ void MonitorCore::syncWorld(const ros::Time& now) {
     const uint32_t group = is_static ? kStaticGroup : kMovingGroup;
     const uint32_t mask = is_static ? ~kStaticGroup : ~0u;
     const bool ok = (!predictor_.contains(i) && params_.padding > 0.0)
-                        ? predictor_.set(i, e.id, vadop::inflate(e.shape, params_.padding), e.motion, error, group, mask)
-                        : predictor_.set(i, e.id, e.shape, e.motion, error, group, mask);
+                        ? predictor_.set(i, e.id, vadop::inflate(e.shape, params_.padding), e.motion, error, group,
+                                         mask, e.path)
+                        : predictor_.set(i, e.id, e.shape, e.motion, error, group, mask, e.path);
     if (!ok) {
       predictor_.unset(i);
       registry_.markElementBad(i, "refused by the world: " + error, now);  // throttled per body
@@ -475,6 +477,10 @@ visualization_msgs::MarkerArray MonitorCore::markers() const {
     m.is_static = bodies[e.body].is_static;
     m.shape = predictor_.shape(i);  // padded, as given to the world
     m.motion = predictor_.motion(i);
+    if (predictor_.path(i)) {
+      m.path_pose = [this, i](double t) { return predictor_.poseAt(i, t); };
+      m.path_times = predictor_.pathTimes(i);
+    }
     m.mesh_uri = e.mesh_uri;
     m.mesh_scale = e.mesh_scale;
     m.soonest = soonest_[e.body];

@@ -104,6 +104,15 @@ std::string describeBody(const Body& b, const ros::Time& now, double stale_timeo
     if (s.geometry_errors.size() > 1) text += " (+" + std::to_string(s.geometry_errors.size() - 1) + " more)";
   }
   if (s.dropped_out_of_order > 0) text += "; " + std::to_string(s.dropped_out_of_order) + " out-of-order/duplicate ignored";
+  if (!b.is_static && !b.params.path_topic.empty()) {
+    // Which source the prediction follows (bodies without a path_topic have only their twist).
+    text += std::string("; predicted along: ") + motionSource(b) + " (" + std::to_string(s.paths_accepted) +
+            " path(s) accepted, " + std::to_string(s.paths_dropped) + " dropped";
+    if (s.on_path && !b.plan.empty()) {
+      text += ", plan ends in " + fmt("%.2f", secondsBetween(b.plan.back().first, now)) + " s";
+    }
+    text += ")";
+  }
   if (level) *level = lvl;
   return text;
 }
@@ -113,7 +122,9 @@ void reportBodies(diagnostic_updater::DiagnosticStatusWrapper& stat, const BodyR
   unsigned char worst = DiagnosticStatus::OK;
   size_t counts[6] = {0, 0, 0, 0, 0, 0};
   size_t bad_input = 0;
+  size_t on_path = 0;
   for (const Body& b : registry.bodies()) {
+    on_path += b.status.on_path ? 1 : 0;
     unsigned char lvl = 0;
     stat.add(b.name, describeBody(b, now, registry.staleTimeout(), &lvl));
     worst = std::max(worst, lvl);
@@ -129,7 +140,9 @@ void reportBodies(diagnostic_updater::DiagnosticStatusWrapper& stat, const BodyR
                 counts[static_cast<int>(BodyState::kWaiting)], counts[static_cast<int>(BodyState::kStale)],
                 counts[static_cast<int>(BodyState::kTfMissing)], counts[static_cast<int>(BodyState::kNoGeometry)],
                 bad_input);
-  stat.summary(worst, buf);
+  std::string summary = buf;
+  if (on_path > 0) summary += ", " + std::to_string(on_path) + " following a path";
+  stat.summary(worst, summary);
 }
 
 }  // namespace vadop_ros

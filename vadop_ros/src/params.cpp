@@ -227,6 +227,7 @@ void checkBodyNames(const BodyParams& b, const std::string& path, const std::str
   checkFrame(b.frame, path + ".frame" + suffix, b.source == VelocitySource::kOdometry);
   if (!b.has_shape) checkRosName(b.robot_description, path + ".robot_description" + suffix, "parameter");
   if (b.links_from_tf) checkFrame(b.tf_prefix, path + ".tf_prefix" + suffix, true);
+  if (!b.path_topic.empty()) checkRosName(b.path_topic, path + ".path_topic" + suffix, "topic");
 }
 
 GateParams parseGate(const XmlRpcValue& v, const std::string& path, double stale_timeout) {
@@ -272,7 +273,8 @@ void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::stri
     const std::string path = entryPath("bodies", i, e);
     requireStruct(e, path);
     rejectUnknown(e,
-                  {"name", "odom_topic", "twist_topic", "frame", "shape", "robot_description", "tf_prefix", "count", "gate"},
+                  {"name", "odom_topic", "twist_topic", "frame", "shape", "robot_description", "tf_prefix", "count", "gate",
+                   "path_topic", "after_path"},
                   path);
     BodyParams b;
     const XmlRpcValue* name = member(e, "name");
@@ -308,6 +310,20 @@ void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::stri
       b.links_from_tf = true;
       while (!b.tf_prefix.empty() && b.tf_prefix.back() == '/') b.tf_prefix.pop_back();
       b.tf_prefix = stripLeadingSlashes(b.tf_prefix);
+    }
+
+    if (const XmlRpcValue* p = member(e, "path_topic")) {
+      b.path_topic = toString(*p, path + ".path_topic");
+      if (b.path_topic.empty()) fail(path + ".path_topic", "must not be empty (a nav_msgs/Path topic)");
+      if (b.path_topic == b.topic) fail(path + ".path_topic", "must differ from the body's velocity topic");
+    }
+    if (const XmlRpcValue* a = member(e, "after_path")) {
+      const std::string mode = toString(*a, path + ".after_path");
+      if (mode != "hold" && mode != "continue") {
+        fail(path + ".after_path", "must be \"hold\" or \"continue\", got \"" + mode + "\"");
+      }
+      if (b.path_topic.empty()) fail(path + ".after_path", "applies only with path_topic");
+      b.path_continue = mode == "continue";
     }
 
     if (const XmlRpcValue* g = member(e, "gate")) {
@@ -347,6 +363,7 @@ void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::stri
       copy.frame = substitute(b.frame, k);
       copy.robot_description = substitute(b.robot_description, k);
       copy.tf_prefix = substitute(b.tf_prefix, k);
+      copy.path_topic = substitute(b.path_topic, k);
       copy.gate.cmd_vel_in = substitute(b.gate.cmd_vel_in, k);
       copy.gate.cmd_vel_out = substitute(b.gate.cmd_vel_out, k);
       for (std::string& pattern : copy.gate.ignore) pattern = substitute(pattern, k);

@@ -1,6 +1,7 @@
 #include "vadop_ros/predictor.h"
 
 #include <vadop/error.h>
+#include <vadop/timed_path.h>
 #include <vadop/world.h>
 
 #include <optional>
@@ -38,6 +39,7 @@ struct Predictor::Impl {
     std::string id;
     uint64_t key = 0;
     vadop::Motion motion;
+    std::shared_ptr<const vadop::TimedPath> path;  // null: motion alone
   };
   vadop::World world;
   std::vector<Slot> slots;
@@ -50,7 +52,8 @@ Predictor::Predictor(const PredictorConfig& config) : impl_(std::make_unique<Imp
 Predictor::~Predictor() = default;
 
 bool Predictor::set(size_t i, const std::string& id, const vadop::Shape& shape, const vadop::Motion& motion,
-                    std::string& error, uint32_t group, uint32_t mask) {
+                    std::string& error, uint32_t group, uint32_t mask,
+                    const std::shared_ptr<const vadop::TimedPath>& path) {
   if (i >= impl_->slots.size()) impl_->slots.resize(i + 1);
   Impl::Slot& s = impl_->slots[i];
   try {
@@ -61,10 +64,16 @@ bool Predictor::set(size_t i, const std::string& id, const vadop::Shape& shape, 
       s.id = id;
       s.key = impl_->world.key(id);
       s.motion = motion;
+      s.path = nullptr;
       impl_->by_key[s.key] = i;
-    } else if (!sameMotion(s.motion, motion)) {
-      impl_->world.setMotion(s.id, motion);
+    } else if (!sameMotion(s.motion, motion) || (s.path && !path)) {
+      impl_->world.setMotion(s.id, motion);  // ends a path
       s.motion = motion;
+      s.path = nullptr;
+    }
+    if (path && path != s.path) {
+      impl_->world.setPath(s.id, *path);
+      s.path = path;
     }
     return true;
   } catch (const vadop::InvalidArgument& e) {
@@ -100,6 +109,19 @@ void Predictor::clear() {
 
 bool Predictor::contains(size_t i) const { return i < impl_->slots.size() && impl_->slots[i].in; }
 const vadop::Motion& Predictor::motion(size_t i) const { return impl_->slots.at(i).motion; }
+const std::shared_ptr<const vadop::TimedPath>& Predictor::path(size_t i) const { return impl_->slots.at(i).path; }
+Eigen::Isometry3d Predictor::poseAt(size_t i, double t) const {
+  const Impl::Slot& s = impl_->slots.at(i);
+  return s.path ? s.path->poseAt(t) : s.motion.poseAt(t);
+}
+std::vector<double> Predictor::pathTimes(size_t i) const {
+  std::vector<double> times;
+  const Impl::Slot& s = impl_->slots.at(i);
+  if (s.path) {
+    for (const vadop::Keyframe& k : s.path->keyframes()) times.push_back(k.time);
+  }
+  return times;
+}
 const vadop::Shape& Predictor::shape(size_t i) const { return impl_->world.shape(impl_->slots.at(i).id); }
 size_t Predictor::size() const { return impl_->world.size(); }
 size_t Predictor::lastCandidateCount() const { return impl_->world.lastCandidateCount(); }
@@ -173,8 +195,10 @@ std::vector<RawImpact> Predictor::predict(double t0, double horizon) {
     r.point = w.impact.point;
     r.normal = w.impact.normal;
     r.initially_touching = w.impact.initially_touching;
-    const vadop::Motion& ma = impl_->slots[r.a].motion;
-    const vadop::Motion& mb = impl_->slots[r.b].motion;
+    const Impl::Slot& sa = impl_->slots[r.a];
+    const Impl::Slot& sb = impl_->slots[r.b];
+    const vadop::Motion& ma = sa.path ? sa.path->motion(sa.path->pieceAt(r.time)) : sa.motion;
+    const vadop::Motion& mb = sb.path ? sb.path->motion(sb.path->pieceAt(r.time)) : sb.motion;
     r.closing_speed = (pointVelocity(ma, r.point, r.time) - pointVelocity(mb, r.point, r.time)).dot(r.normal);
     out.push_back(r);
   }

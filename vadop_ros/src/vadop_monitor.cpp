@@ -17,6 +17,7 @@
 #include <geometry_msgs/Twist.h>
 #include <geometry_msgs/TwistStamped.h>
 #include <nav_msgs/Odometry.h>
+#include <nav_msgs/Path.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <tf2_eigen/tf2_eigen.h>
@@ -116,6 +117,11 @@ class MonitorNode {
             b.params.topic, 20, [this, i](const geometry_msgs::TwistStampedConstPtr& msg) { onTwist(i, *msg); },
             ros::VoidConstPtr(), hints));
       }
+      if (!b.params.path_topic.empty()) {
+        subs_.push_back(nh_.subscribe<nav_msgs::Path>(
+            b.params.path_topic, 2, [this, i](const nav_msgs::PathConstPtr& msg) { onPath(i, *msg); },
+            ros::VoidConstPtr(), hints));
+      }
     }
 
     // Velocity gates: each command is checked as it arrives (not at the cycle rate).
@@ -190,6 +196,10 @@ class MonitorNode {
   void onTwist(size_t i, const geometry_msgs::TwistStamped& msg) {
     std::lock_guard<std::mutex> lock(core_mutex_);
     core_->registry().onTwist(i, msg, ros::Time::now());
+  }
+  void onPath(size_t i, const nav_msgs::Path& msg) {
+    std::lock_guard<std::mutex> lock(core_mutex_);
+    core_->registry().onPath(i, msg, ros::Time::now(), tf_source_);
   }
 
   // A command on a gate's cmd_vel_in: checked and forwarded at once. Whatever goes wrong, the

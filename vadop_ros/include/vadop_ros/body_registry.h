@@ -16,6 +16,12 @@
 //    rigid-body velocity field: v + w x r, angular velocity w;
 //  - a link whose pose comes from tf also gets the velocity of its own motion relative to the
 //    body frame, estimated from its two latest distinct tf poses.
+// A body with a planned path (path_topic, onPath) follows it instead while the plan reaches
+// beyond `now`: its body frame moves from its pose at `now` (as above) through the plan's poses
+// stamped after `now`, between consecutive ones with the constant twist that joins them
+// (vadop::TimedPath), then holds or goes on with the last piece's twist (after_path); every
+// element keeps its pose relative to the body frame at `now`. A plan whose last pose is not
+// after `now`, an empty plan, or a stale body: the twist as above.
 //
 // Bad input never throws and never affects another body:
 //  - NaN/Inf anywhere in a message, a zero-norm quaternion or a value beyond the library's
@@ -50,6 +56,7 @@
 
 #include <geometry_msgs/TwistStamped.h>
 #include <nav_msgs/Odometry.h>
+#include <nav_msgs/Path.h>
 #include <ros/time.h>
 
 #include <Eigen/Geometry>
@@ -57,9 +64,14 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
+
+namespace vadop {
+class TimedPath;  // vadop/timed_path.h (not included: see predictor.h)
+}
 
 namespace vadop_ros {
 
@@ -113,6 +125,11 @@ struct BodyStatus {
   std::string tf_error;             // this cycle's missing transform, if any
   size_t links_skipped = 0;         // this cycle, tf links without a transform
   std::vector<std::string> geometry_errors;  // URDF / link conversion errors
+  // path_topic: paths accepted / dropped as invalid (a dropped path is also counted in
+  // dropped_invalid), and whether this cycle's prediction follows the plan.
+  uint64_t paths_accepted = 0;
+  uint64_t paths_dropped = 0;
+  bool on_path = false;
 };
 
 struct Element {
@@ -135,6 +152,9 @@ struct Element {
   // frame; t_ref in the registry's seconds, see seconds()).
   bool active = false;
   vadop::Motion motion;
+  // The element's motion along its body's planned path this cycle (null: `motion` alone). Its
+  // pose at the cycle time equals motion's.
+  std::shared_ptr<const vadop::TimedPath> path;
 
   // Own motion estimate from tf (link pose in the body frame at two distinct stamps).
   bool has_rel = false;
@@ -183,6 +203,11 @@ struct Body {
   Eigen::Vector3d w = Eigen::Vector3d::Zero();
   std::string twist_frame;         // TwistStamped header.frame_id (empty: the body frame)
 
+  // Planned path (onPath): the body frame's poses in the fixed frame with their stamps, from
+  // the last accepted nav_msgs/Path (empty: none, or an empty path cleared it).
+  std::vector<std::pair<ros::Time, Eigen::Isometry3d>> plan;
+  ros::Time plan_stamp;  // header stamp of that path (its receipt time when zero)
+
   BodyStatus status;
   // The body frame's motion in the fixed frame as of the last update (of all bodies, or of
   // this one by updateBody): valid when the pose and every link's transform were found.
@@ -191,6 +216,10 @@ struct Body {
   double last_warn_invalid = -1e300, last_warn_tf = -1e300;
   ros::Time tf_missing_since;  // zero while the transforms are there
 };
+
+// The source of a body's predicted motion this cycle, for the diagnostics: "path" (its planned
+// path), "odometry" or "twist" (its velocity extrapolated), "stale" (standing still), "none".
+const char* motionSource(const Body& b);
 
 class BodyRegistry {
  public:
@@ -211,6 +240,15 @@ class BodyRegistry {
   // in the header comment: beyond max_stamp_skew from `receipt` -> kInvalid.
   InputResult onOdometry(size_t body, const nav_msgs::Odometry& msg, const ros::Time& receipt);
   InputResult onTwist(size_t body, const geometry_msgs::TwistStamped& msg, const ros::Time& receipt);
+  // A planned path of the body frame (path_topic): each pose stamped with the time the body is
+  // there, in header.frame_id (transformed into the fixed frame with tf at header.stamp, else the
+  // latest transform). Dropped as kInvalid, with a throttled warning naming the body and the
+  // field, and the previous plan kept: no frame, a frame tf cannot resolve, a header stamp
+  // beyond max_stamp_skew from `receipt`, a pose in another frame, NaN/Inf or out of range, a
+  // zero quaternion, a zero pose stamp, stamps that do not increase or farther than
+  // kRebaseAfterSeconds from `receipt`. Older than the accepted plan: kOutOfOrder. An empty
+  // path clears the plan (the planner has none).
+  InputResult onPath(size_t body, const nav_msgs::Path& msg, const ros::Time& receipt, TransformSource& tf);
 
   // Computes every element's motion at `now` (sets Element::active and motion, body states).
   void update(const ros::Time& now, TransformSource& tf);
@@ -268,6 +306,8 @@ class BodyRegistry {
   bool bodyMotion(Body& b, const ros::Time& now, TransformSource& tf, Eigen::Isometry3d& pose,
                   Eigen::Vector3d& v, Eigen::Vector3d& w, ros::Time& t_ref, std::string& frame);
   void warnTf(Body& b, const std::string& error, const ros::Time& now);
+  // Puts the body's active elements on its plan when it reaches beyond `now` (see the header).
+  void followPlan(Body& b, const ros::Time& now, double t_now, double t_check_end, const Eigen::Isometry3d& frame_now);
 
   std::string fixed_frame_;
   double stale_timeout_ = 0.5;

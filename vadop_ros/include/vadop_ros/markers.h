@@ -2,8 +2,10 @@
 //
 // Swept volume representation: for every element of a moving body, its shape at the start
 // pose (now) and, fainter, at the end pose (now + horizon), joined by a line strip along the
-// path of its origin (sampled, so a turning body draws an arc). Static obstacles: the shape
-// only. Meshes are drawn as MESH_RESOURCE from their URI (without the padding); the other
+// path of its origin (sampled, so a turning body draws an arc). An element on a planned path
+// (MarkerElement::path) is also drawn, faint, at each pose of the path inside the horizon (at
+// most kPathGhosts of them, evenly picked), and its line follows the path. Static obstacles:
+// the shape only. Meshes are drawn as MESH_RESOURCE from their URI (without the padding); the other
 // shapes include the padding (boxes and cylinders as their padded bounding primitive).
 // Colour: by the body's soonest time to impact: red below 0.5 s, amber below the horizon,
 // grey when clear.
@@ -20,8 +22,10 @@
 #include <visualization_msgs/MarkerArray.h>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include <array>
+#include <functional>
 
 #include <string>
 #include <vector>
@@ -34,6 +38,11 @@ struct MarkerElement {
   bool is_static = false;
   vadop::Shape shape;  // padded, as in the world
   vadop::Motion motion;
+  // An element on a planned path: its pose at a time (empty: motion's) and the times of the
+  // path's poses. (This header cannot see vadop::TimedPath: the message's vadop::Impact would
+  // clash with the library's.)
+  std::function<Eigen::Isometry3d(double)> path_pose;
+  std::vector<double> path_times;
   std::string mesh_uri;
   Eigen::Vector3d mesh_scale = Eigen::Vector3d::Ones();
   double soonest = 0.0;  // the body's soonest time to impact (s), +inf when clear
@@ -47,6 +56,9 @@ struct MarkerInput {
   std::vector<MarkerElement> elements;
   const vadop::ImpactArray* impacts = nullptr;
 };
+
+// Most intermediate poses drawn for an element on a planned path.
+constexpr int kPathGhosts = 8;
 
 // Time to impact below which a body is drawn red.
 constexpr double kRedSeconds = 0.5;

@@ -68,6 +68,12 @@ struct BodyParams {
   std::string tf_prefix;
   bool has_gate = false;
   GateParams gate;
+  // Optional planned path (nav_msgs/Path, poses of the body frame with their stamps): while
+  // one covers the present, the body is predicted along it instead of its twist (body_registry.h).
+  std::string path_topic;  // empty: none
+  // After the path's last pose: keep the last piece's twist (true, "continue") or stop there
+  // ("hold").
+  bool path_continue = true;
 };
 
 struct StaticObstacleParams {
