@@ -2,7 +2,7 @@
 // operations on a MonitorCore built from a small fixed configuration (three primitive bodies,
 // one with TwistStamped and a pose from tf; a rigid URDF body and a URDF body whose links come
 // from tf, both test/data/two_link.urdf; two static obstacles):
-//   odometry / twist / planned-path messages with arbitrary doubles (NaN, Inf, huge, tiny) and arbitrary
+//   odometry / twist / planned-path / joint-state messages with arbitrary doubles (NaN, Inf, huge, tiny) and arbitrary
 //   stamps (sec up to 2^32 - 1) and receipt times; tf poses with arbitrary values and stamps;
 //   clock steps, jumps forward and back (a jump back resets, as the node's timer does);
 //   horizon / rate / padding through MonitorCore::reconfigure (the node's dynamic_reconfigure
@@ -88,6 +88,7 @@ bodies:
   - {name: c, twist_topic: /c, frame: c_link, shape: {type: capsule, radius: 0.2, length: 1.0}}
   - {name: robot, odom_topic: /robot, path_topic: /robot/plan, after_path: hold, robot_description: /robot_description}
   - {name: arm, odom_topic: /arm, robot_description: /robot_description, tf_prefix: arm}
+  - {name: jarm, odom_topic: /jarm, robot_description: /robot_description, joint_states_topic: /jarm/joints}
 static_obstacles:
   - {name: wall, shape: {type: box, size: [0.2, 10, 2]}, pose: {position: [5, 0, 0]}}
   - {name: post, shape: {type: cylinder, radius: 0.1, length: 2}, pose: {position: [0, 3, 0]}}
@@ -216,7 +217,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   };
 
   for (size_t op = 0; op < kMaxOps && in.remaining_bytes() > 0; ++op) {
-    switch (in.ConsumeIntegralInRange<int>(0, 9)) {
+    switch (in.ConsumeIntegralInRange<int>(0, 10)) {
       case 0: {  // odometry
         nav_msgs::Odometry m;
         const size_t bi = odom_bodies[in.ConsumeIntegralInRange<size_t>(0, odom_bodies.size() - 1)];
@@ -316,6 +317,20 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
           m.poses.push_back(p);
         }
         core->registry().onPath(bi, m, in.ConsumeBool() ? now : pickTime(in, now), tf);
+        break;
+      }
+      case 10: {  // joint states of jarm (its URDF's one movable joint is arm_joint)
+        sensor_msgs::JointState m;
+        m.header.stamp = in.ConsumeBool() ? ros::Time() : pickTime(in, now);
+        static const char* kJoints[] = {"arm_joint", "mast_joint", "nope", ""};
+        const size_t n = in.ConsumeIntegralInRange<size_t>(0, 3);
+        for (size_t k = 0; k < n; ++k) {
+          m.name.push_back(in.ConsumeBool() ? "arm_joint" : kJoints[in.ConsumeIntegralInRange<int>(0, 3)]);
+          if (in.ConsumeIntegralInRange<int>(0, 7) > 0) m.position.push_back(in.ConsumeBool() ? 0.3 : pickDouble(in));
+          if (in.ConsumeBool()) m.velocity.push_back(in.ConsumeBool() ? 0.5 : pickDouble(in));
+        }
+        core->registry().onJointState(static_cast<size_t>(core->registry().find("jarm")), m,
+                                      in.ConsumeBool() ? now : pickTime(in, now));
         break;
       }
     }

@@ -202,6 +202,10 @@ BodyRegistry::BodyRegistry(const MonitorParams& params, const ParamReader& read_
     return true;
   };
 
+  // Kinematics of the joint-states bodies, by description parameter (null: failed).
+  std::map<std::string, std::shared_ptr<const JointKinematics>> kinematics;
+  std::map<std::string, std::string> kinematics_error;
+
   bodies_.reserve(params.bodies.size() + params.static_obstacles.size());
   elements_.reserve(params.bodies.size() + params.static_obstacles.size());  // at least one each, usually
   for (const BodyParams& bp : params.bodies) {
@@ -209,7 +213,39 @@ BodyRegistry::BodyRegistry(const MonitorParams& params, const ParamReader& read_
     b.name = bp.name;
     b.params = bp;
     bodies_.push_back(std::move(b));
-    addGeometry(bodies_.size() - 1, bp.has_shape, bp.shape, bp.robot_description, bp.links_from_tf, bp.tf_prefix);
+    const size_t bi = bodies_.size() - 1;
+    if (!addGeometry(bi, bp.has_shape, bp.shape, bp.robot_description, bp.links_from_tf, bp.tf_prefix)) continue;
+    if (!bp.joint_states_topic.empty() && !bodies_[bi].elements.empty()) {
+      Body& jb = bodies_[bi];
+      auto it = kinematics.find(bp.robot_description);
+      if (it == kinematics.end()) {
+        std::shared_ptr<const JointKinematics> k;
+        std::string text;
+        try {
+          if (read_param(bp.robot_description, text)) k = std::make_shared<const JointKinematics>(text);
+        } catch (const UrdfError& e) {
+          kinematics_error[bp.robot_description] = e.what();
+        }
+        it = kinematics.emplace(bp.robot_description, k).first;
+      }
+      if (!it->second) {
+        jb.status.geometry_errors.push_back("robot_description \"" + bp.robot_description +
+                                            "\": no kinematics for joint_states_topic: " +
+                                            kinematics_error[bp.robot_description]);
+        continue;  // its links stay rigid (joints at zero)
+      }
+      jb.kinematics = it->second;
+      const size_t nj = jb.kinematics->joints().size();
+      jb.q.assign(nj, 0.0);
+      jb.qd.assign(nj, 0.0);
+      jb.q_time.assign(nj, ros::Time());
+      // Element offsets: the collision origin in its link's frame.
+      for (const size_t ei : jb.elements) {
+        Element& e = elements_[ei];
+        const auto li = jb.link_in_root.find(e.link);
+        if (li != jb.link_in_root.end()) e.offset = li->second.inverse() * e.root_offset;
+      }
+    }
   }
 
   for (const StaticObstacleParams& op : params.static_obstacles) {
@@ -532,6 +568,154 @@ InputResult BodyRegistry::onPath(size_t bi, const nav_msgs::Path& msg, const ros
   return InputResult::kAccepted;
 }
 
+void BodyRegistry::setSampleWindow(double window) {
+  sample_window_ = std::isfinite(window) ? std::min(std::max(window, 0.0), kMotionCheckWindow) : 2.0;
+}
+
+InputResult BodyRegistry::onJointState(size_t bi, const sensor_msgs::JointState& msg, const ros::Time& receipt) {
+  Body& b = bodies_.at(bi);
+  auto drop = [&](const std::string& why) {
+    ++b.status.joint_states_dropped;
+    rejectInput(b, "joint_states: " + why, receipt);
+    return InputResult::kInvalid;
+  };
+  if (!b.kinematics) return drop("the body has no kinematics (see its geometry error)");
+  const size_t n = msg.name.size();
+  if (msg.position.size() != n) {
+    return drop("position has " + std::to_string(msg.position.size()) + " values for " + std::to_string(n) + " names");
+  }
+  if (!msg.velocity.empty() && msg.velocity.size() != n) {
+    return drop("velocity has " + std::to_string(msg.velocity.size()) + " values for " + std::to_string(n) +
+                " names (give none or one per name)");
+  }
+  std::vector<int> index(n);
+  std::vector<char> seen(b.kinematics->joints().size(), 0);
+  for (size_t i = 0; i < n; ++i) {
+    const std::string field = "name[" + std::to_string(i) + "] \"" + msg.name[i] + "\"";
+    index[i] = b.kinematics->jointIndex(msg.name[i]);
+    if (index[i] < 0) return drop(field + " is not a movable joint of the body's URDF");
+    if (seen[static_cast<size_t>(index[i])]++) return drop(field + " repeats");
+    std::string why;
+    if (!checkValue(msg.position[i], vadop::kMaxCoordinate, "rad or m", "position[" + std::to_string(i) + "]", why)) {
+      return drop(why);
+    }
+    if (!msg.velocity.empty() &&
+        !checkValue(msg.velocity[i], vadop::kMaxAngularSpeed, "rad/s or m/s", "velocity[" + std::to_string(i) + "]", why)) {
+      return drop(why);
+    }
+  }
+  ros::Time stamp = msg.header.stamp.isZero() ? receipt : msg.header.stamp;
+  const double skew = secondsBetween(stamp, receipt);
+  if (!(std::fabs(skew) <= max_stamp_skew_)) {
+    return drop("header.stamp " + stampText(stamp) + " is " + number(std::fabs(skew)) + " s " +
+                (skew > 0 ? "ahead of" : "behind") + " the node's clock at its receipt: beyond ~max_stamp_skew = " +
+                number(max_stamp_skew_) + " s");
+  }
+  if (b.has_joints && stamp <= b.joint_stamp && b.joint_stamp <= receipt) {
+    ++b.status.dropped_out_of_order;
+    return InputResult::kOutOfOrder;
+  }
+  for (size_t i = 0; i < n; ++i) {
+    const size_t j = static_cast<size_t>(index[i]);
+    b.q[j] = msg.position[i];
+    b.qd[j] = msg.velocity.empty() ? 0.0 : msg.velocity[i];
+    b.q_time[j] = stamp;
+  }
+  b.has_joints = true;
+  b.joint_stamp = stamp;
+  b.joint_receipt = receipt;
+  ++b.status.joint_states_accepted;
+  return InputResult::kAccepted;
+}
+
+void BodyRegistry::updateJointBody(Body& b, const ros::Time& now, double t_now, double t_check_end,
+                                   const vadop::Motion& frame, bool stale) {
+  const JointKinematics& kin = *b.kinematics;
+  const size_t nj = kin.joints().size();
+  // Joint j at time t (registry seconds): its position carried from its stamp with its velocity
+  // (none when the joint states or the body are stale), clamped at its limits.
+  const bool joints_stale = !b.has_joints || secondsBetween(now, b.joint_receipt) > stale_timeout_;
+  std::vector<double> qt(nj, 0.0), rate(nj, 0.0), since(nj, t_now);
+  bool moving = false;
+  for (size_t j = 0; j < nj; ++j) {
+    if (b.q_time[j].isZero()) continue;  // never reported: at zero
+    since[j] = seconds(b.q_time[j]);
+    rate[j] = (stale || joints_stale) ? 0.0 : b.qd[j];
+    moving = moving || rate[j] != 0.0;
+  }
+  auto jointsAt = [&](double t) {
+    for (size_t j = 0; j < nj; ++j) qt[j] = kin.clamp(j, b.q[j] + rate[j] * (t - since[j]));
+  };
+  // Every element's pose relative to the body frame at joint positions qt.
+  std::vector<Eigen::Isometry3d> rel(b.elements.size());
+  auto relativePoses = [&]() {
+    Eigen::Isometry3d ref;
+    if (!kin.linkPose(qt, b.reference_link, ref)) ref.setIdentity();
+    const Eigen::Isometry3d ref_inv = ref.inverse();
+    for (size_t k = 0; k < b.elements.size(); ++k) {
+      const Element& e = elements_[b.elements[k]];
+      Eigen::Isometry3d link;
+      if (!kin.linkPose(qt, e.link, link)) link.setIdentity();
+      rel[k] = ref_inv * link * e.offset;
+    }
+  };
+  auto accept = [&](Element& e, const vadop::Motion& m, std::shared_ptr<const vadop::TimedPath> path) {
+    const std::string why = motionRangeError(m, t_now, t_check_end);
+    if (!why.empty()) {
+      rejectInput(b, "link \"" + e.link + "\": motion out of range: " + why, now, false);
+      return;
+    }
+    e.motion = m;
+    e.path = std::move(path);
+    e.active = true;
+  };
+  if (!moving) {
+    // Rigid at the current joint positions: the body frame's constant twist, exact.
+    jointsAt(t_now);
+    relativePoses();
+    const Eigen::Isometry3d fb = frame.poseAt(frame.t_ref);
+    for (size_t k = 0; k < b.elements.size(); ++k) {
+      Element& e = elements_[b.elements[k]];
+      const Eigen::Isometry3d pe = fb * rel[k];
+      accept(e, twistMotion(pe, frame.velocityOfPoint(pe.translation(), frame.t_ref), frame.angular_velocity,
+                            frame.t_ref),
+             nullptr);
+    }
+    return;
+  }
+  // Sampled along the joint motion over the window, then the last piece goes on.
+  const int steps = std::max(1, static_cast<int>(std::ceil(sample_window_ / kJointSampleStep - 1e-9)));
+  std::vector<std::vector<vadop::Keyframe>> frames(b.elements.size());
+  for (auto& f : frames) f.reserve(static_cast<size_t>(steps) + 1);
+  for (int s = 0; s <= steps; ++s) {
+    const double t = t_now + s * kJointSampleStep;
+    jointsAt(t);
+    relativePoses();
+    const Eigen::Isometry3d fb = frame.poseAt(t);
+    for (size_t k = 0; k < b.elements.size(); ++k) {
+      const Eigen::Isometry3d pe = fb * rel[k];
+      frames[k].push_back({t, pe.translation(), Eigen::Quaterniond(pe.linear())});
+    }
+  }
+  for (size_t k = 0; k < b.elements.size(); ++k) {
+    Element& e = elements_[b.elements[k]];
+    try {
+      auto path = std::make_shared<const vadop::TimedPath>(std::move(frames[k]), vadop::AfterPath::kContinue);
+      for (size_t piece = 0; piece < path->pieces(); ++piece) {
+        const double from = std::max(t_now, path->start(piece)), to = std::min(t_check_end, path->start(piece + 1));
+        if (!(from <= to)) continue;
+        const std::string why = motionRangeError(path->motion(piece), from, to);
+        if (!why.empty()) throw vadop::InvalidArgument("piece " + std::to_string(piece) + ": " + why);
+      }
+      const vadop::Motion first = path->motion(path->pieceAt(t_now));
+      accept(e, first, std::move(path));
+    } catch (const vadop::InvalidArgument& ex) {
+      rejectInput(b, "link \"" + e.link + "\": joint motion out of range: " + ex.what(), now, false);
+    }
+  }
+  b.status.joints_moving = true;
+}
+
 void BodyRegistry::followPlan(Body& b, const ros::Time& now, double t_now, double t_check_end,
                               const Eigen::Isometry3d& frame_now) {
   if (b.plan.empty() || !(b.plan.back().first > now)) return;
@@ -635,8 +819,10 @@ void BodyRegistry::resolveReference(Body& b, const std::string& body_frame) {
     const size_t slash = ref.find_last_of('/');
     if (slash != std::string::npos) ref = ref.substr(slash + 1);
   }
-  Eigen::Isometry3d root_in_ref = Eigen::Isometry3d::Identity();
   const auto it = b.link_in_root.find(ref);
+  b.reference_link = it != b.link_in_root.end() ? ref : b.root_link;
+  if (b.kinematics) return;  // link poses from the joints each cycle
+  Eigen::Isometry3d root_in_ref = Eigen::Isometry3d::Identity();
   if (it != b.link_in_root.end()) root_in_ref = it->second.inverse();
   for (const size_t ei : b.elements) {
     Element& e = elements_[ei];
@@ -740,6 +926,7 @@ void BodyRegistry::updateMoving(Body& b, const ros::Time& now, double t_now, dou
     elements_[ei].path.reset();
   }
   b.status.on_path = false;
+  b.status.joints_moving = false;
   b.frame_motion.valid = false;
   b.status.tf_error.clear();
   b.status.links_skipped = 0;
@@ -769,6 +956,17 @@ void BodyRegistry::updateMoving(Body& b, const ros::Time& now, double t_now, dou
   // `now` (its stamp may be hours old, beyond the library's time range).
   const ros::Time motion_ref = stale ? now : t_ref;
   const double tr = seconds(motion_ref);
+  if (b.kinematics) {
+    try {
+      updateJointBody(b, now, t_now, t_check_end, twistMotion(fb, v, w, tr), stale);
+    } catch (const vadop::InvalidArgument& ex) {
+      rejectInput(b, std::string("invalid motion: ") + ex.what(), now, false);
+    }
+    b.tf_missing_since = ros::Time();
+    b.status.state = stale ? BodyState::kStale : BodyState::kOk;
+    b.frame_motion = FrameMotion{true, stale, fb, v, w, tr};
+    return;
+  }
   const Eigen::Matrix3d& rb = fb.linear();
   for (const size_t ei : b.elements) {
     Element& e = elements_[ei];
@@ -865,6 +1063,7 @@ const char* motionSource(const Body& b) {
   if (!b.frame_motion.valid) return "none";
   if (b.frame_motion.stale) return "stale";
   if (b.status.on_path) return "path";
+  if (b.status.joints_moving) return b.params.source == VelocitySource::kOdometry ? "odometry + joint states" : "twist + joint states";
   return b.params.source == VelocitySource::kOdometry ? "odometry" : "twist";
 }
 
@@ -877,6 +1076,11 @@ void BodyRegistry::reset() {
     b.plan.clear();
     b.plan_stamp = ros::Time();
     b.status.on_path = false;
+    b.has_joints = false;
+    b.joint_stamp = ros::Time();
+    std::fill(b.q.begin(), b.q.end(), 0.0);
+    std::fill(b.qd.begin(), b.qd.end(), 0.0);
+    std::fill(b.q_time.begin(), b.q_time.end(), ros::Time());
     b.status.state = b.elements.empty() ? BodyState::kNoGeometry : BodyState::kWaiting;
     b.status.last_receipt = ros::Time();
     b.status.last_invalid_receipt = ros::Time();

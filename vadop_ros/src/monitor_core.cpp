@@ -355,6 +355,12 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
   const auto start = std::chrono::steady_clock::now();
   stats_ = CycleStats();
   stats_.stamp = now;
+  // Joint motions are sampled over the longest window any prediction looks at.
+  double window = params_.horizon;
+  for (const BodyParams& b : params_.bodies) {
+    if (b.has_gate) window = std::max(window, b.gate.time_before_collision);
+  }
+  registry_.setSampleWindow(window);
   registry_.update(now, tf);
   syncWorld(now);
 

@@ -228,6 +228,7 @@ void checkBodyNames(const BodyParams& b, const std::string& path, const std::str
   if (!b.has_shape) checkRosName(b.robot_description, path + ".robot_description" + suffix, "parameter");
   if (b.links_from_tf) checkFrame(b.tf_prefix, path + ".tf_prefix" + suffix, true);
   if (!b.path_topic.empty()) checkRosName(b.path_topic, path + ".path_topic" + suffix, "topic");
+  if (!b.joint_states_topic.empty()) checkRosName(b.joint_states_topic, path + ".joint_states_topic" + suffix, "topic");
 }
 
 GateParams parseGate(const XmlRpcValue& v, const std::string& path, double stale_timeout) {
@@ -274,7 +275,7 @@ void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::stri
     requireStruct(e, path);
     rejectUnknown(e,
                   {"name", "odom_topic", "twist_topic", "frame", "shape", "robot_description", "tf_prefix", "count", "gate",
-                   "path_topic", "after_path"},
+                   "path_topic", "after_path", "joint_states_topic"},
                   path);
     BodyParams b;
     const XmlRpcValue* name = member(e, "name");
@@ -326,6 +327,21 @@ void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::stri
       b.path_continue = mode == "continue";
     }
 
+    if (const XmlRpcValue* j = member(e, "joint_states_topic")) {
+      b.joint_states_topic = toString(*j, path + ".joint_states_topic");
+      if (b.joint_states_topic.empty()) fail(path + ".joint_states_topic", "must not be empty (a sensor_msgs/JointState topic)");
+      if (b.has_shape) fail(path + ".joint_states_topic", "applies to robot_description bodies only");
+      if (b.links_from_tf) {
+        fail(path + ".joint_states_topic", "give one source of link poses: joint_states_topic or tf_prefix, not both");
+      }
+      if (!b.path_topic.empty()) {
+        fail(path + ".joint_states_topic", "cannot be combined with path_topic (a planned path moves the body rigidly)");
+      }
+      if (b.joint_states_topic == b.topic) {
+        fail(path + ".joint_states_topic", "must differ from the body's other topics");
+      }
+    }
+
     if (const XmlRpcValue* g = member(e, "gate")) {
       b.has_gate = true;
       b.gate = parseGate(*g, path + ".gate", out.stale_timeout);
@@ -364,6 +380,7 @@ void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::stri
       copy.robot_description = substitute(b.robot_description, k);
       copy.tf_prefix = substitute(b.tf_prefix, k);
       copy.path_topic = substitute(b.path_topic, k);
+      copy.joint_states_topic = substitute(b.joint_states_topic, k);
       copy.gate.cmd_vel_in = substitute(b.gate.cmd_vel_in, k);
       copy.gate.cmd_vel_out = substitute(b.gate.cmd_vel_out, k);
       for (std::string& pattern : copy.gate.ignore) pattern = substitute(pattern, k);

@@ -18,6 +18,7 @@
 #include <geometry_msgs/TwistStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
+#include <sensor_msgs/JointState.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <tf2_eigen/tf2_eigen.h>
@@ -117,6 +118,12 @@ class MonitorNode {
             b.params.topic, 20, [this, i](const geometry_msgs::TwistStampedConstPtr& msg) { onTwist(i, *msg); },
             ros::VoidConstPtr(), hints));
       }
+      if (!b.params.joint_states_topic.empty()) {
+        subs_.push_back(nh_.subscribe<sensor_msgs::JointState>(
+            b.params.joint_states_topic, 20,
+            [this, i](const sensor_msgs::JointStateConstPtr& msg) { onJointState(i, *msg); }, ros::VoidConstPtr(),
+            hints));
+      }
       if (!b.params.path_topic.empty()) {
         subs_.push_back(nh_.subscribe<nav_msgs::Path>(
             b.params.path_topic, 2, [this, i](const nav_msgs::PathConstPtr& msg) { onPath(i, *msg); },
@@ -196,6 +203,10 @@ class MonitorNode {
   void onTwist(size_t i, const geometry_msgs::TwistStamped& msg) {
     std::lock_guard<std::mutex> lock(core_mutex_);
     core_->registry().onTwist(i, msg, ros::Time::now());
+  }
+  void onJointState(size_t i, const sensor_msgs::JointState& msg) {
+    std::lock_guard<std::mutex> lock(core_mutex_);
+    core_->registry().onJointState(i, msg, ros::Time::now());
   }
   void onPath(size_t i, const nav_msgs::Path& msg) {
     std::lock_guard<std::mutex> lock(core_mutex_);

@@ -16,6 +16,14 @@
 //    rigid-body velocity field: v + w x r, angular velocity w;
 //  - a link whose pose comes from tf also gets the velocity of its own motion relative to the
 //    body frame, estimated from its two latest distinct tf poses.
+// A URDF body with joint states (joint_states_topic, onJointState): its links' poses relative
+// to the body frame come from the URDF's kinematics (JointKinematics) at the joint positions
+// instead of tf, and over the horizon each joint moves at its reported velocity (clamped at its
+// limits) while the body frame moves with its twist: every link's motion is sampled every
+// kJointSampleStep over the prediction window into a timed path (between samples the constant
+// twist joining them; after the window the last one goes on). Before the first joint state the
+// joints are at zero; joints a message does not name keep their last state; joint states older
+// than stale_timeout stop moving.
 // A body with a planned path (path_topic, onPath) follows it instead while the plan reaches
 // beyond `now`: its body frame moves from its pose at `now` (as above) through the plan's poses
 // stamped after `now`, between consecutive ones with the constant twist that joins them
@@ -48,6 +56,7 @@
 //    link) in its status; the rest is monitored.
 #pragma once
 
+#include "vadop_ros/joint_kinematics.h"
 #include "vadop_ros/params.h"
 #include "vadop_ros/urdf_shapes.h"
 
@@ -57,6 +66,7 @@
 #include <geometry_msgs/TwistStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
+#include <sensor_msgs/JointState.h>
 #include <ros/time.h>
 
 #include <Eigen/Geometry>
@@ -130,6 +140,11 @@ struct BodyStatus {
   uint64_t paths_accepted = 0;
   uint64_t paths_dropped = 0;
   bool on_path = false;
+  // joint_states_topic: joint states accepted / dropped as invalid (also in dropped_invalid),
+  // and whether the links move with their joints this cycle.
+  uint64_t joint_states_accepted = 0;
+  uint64_t joint_states_dropped = 0;
+  bool joints_moving = false;
 };
 
 struct Element {
@@ -208,6 +223,16 @@ struct Body {
   std::vector<std::pair<ros::Time, Eigen::Isometry3d>> plan;
   ros::Time plan_stamp;  // header stamp of that path (its receipt time when zero)
 
+  // Joint states (onJointState): the kinematics (shared by the bodies of one description),
+  // and per movable joint (kinematics->joints() order) its position at q_time and velocity.
+  std::shared_ptr<const JointKinematics> kinematics;
+  std::string reference_link;  // the URDF link that is the body frame
+  bool has_joints = false;
+  ros::Time joint_stamp;       // of the last accepted joint state
+  ros::Time joint_receipt;
+  std::vector<double> q, qd;
+  std::vector<ros::Time> q_time;
+
   BodyStatus status;
   // The body frame's motion in the fixed frame as of the last update (of all bodies, or of
   // this one by updateBody): valid when the pose and every link's transform were found.
@@ -249,6 +274,17 @@ class BodyRegistry {
   // kRebaseAfterSeconds from `receipt`. Older than the accepted plan: kOutOfOrder. An empty
   // path clears the plan (the planner has none).
   InputResult onPath(size_t body, const nav_msgs::Path& msg, const ros::Time& receipt, TransformSource& tf);
+  // Joint positions and velocities of a joint_states_topic body, matched by name to the URDF's
+  // movable joints; a missing velocity array counts as zeros. Dropped as kInvalid (throttled
+  // warning naming the body and the field; the previous state kept): a name that is not a
+  // movable joint of the URDF or repeats, position / velocity sizes that differ from name's,
+  // NaN/Inf or beyond the library's range, a stamp beyond max_stamp_skew. A stamp not newer
+  // than the last accepted one: kOutOfOrder (as odometry).
+  InputResult onJointState(size_t body, const sensor_msgs::JointState& msg, const ros::Time& receipt);
+  // The window over which joint motions are sampled (s; MonitorCore sets its horizon, and the
+  // gates' longest window when longer). Clamped to [0, kMotionCheckWindow].
+  void setSampleWindow(double seconds);
+  static constexpr double kJointSampleStep = 0.02;  // s
 
   // Computes every element's motion at `now` (sets Element::active and motion, body states).
   void update(const ros::Time& now, TransformSource& tf);
@@ -308,6 +344,10 @@ class BodyRegistry {
   void warnTf(Body& b, const std::string& error, const ros::Time& now);
   // Puts the body's active elements on its plan when it reaches beyond `now` (see the header).
   void followPlan(Body& b, const ros::Time& now, double t_now, double t_check_end, const Eigen::Isometry3d& frame_now);
+  // The elements of a joint-states body (see the header), its frame moving with `frame`.
+  void updateJointBody(Body& b, const ros::Time& now, double t_now, double t_check_end, const vadop::Motion& frame,
+                       bool stale);
+  double sample_window_ = 2.0;
 
   std::string fixed_frame_;
   double stale_timeout_ = 0.5;

@@ -74,6 +74,10 @@ struct BodyParams {
   // After the path's last pose: keep the last piece's twist (true, "continue") or stop there
   // ("hold").
   bool path_continue = true;
+  // Optional sensor_msgs/JointState topic (robot_description bodies, not with tf_prefix): the
+  // links' poses come from the URDF's kinematics at the joint positions, and they move with
+  // the joint velocities over the horizon (body_registry.h).
+  std::string joint_states_topic;  // empty: none
 };
 
 struct StaticObstacleParams {

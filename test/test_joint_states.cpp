@@ -1,0 +1,213 @@
+// A URDF body with joint_states_topic: its links posed by the URDF's kinematics (kdl) at the
+// joint positions and moving with the joint velocities over the horizon, checked against this
+// file's own planar forward kinematics; joint limits; bad joint states dropped naming the field
+// with the state kept; stale joint states stop; the parameters.
+// (The first contact of a two-joint arm against dense ground truth: test_monitor_core.cpp.)
+#include "vadop_ros/body_registry.h"
+#include "fake_tf.h"
+#include "yaml_xmlrpc.h"
+
+#include <gtest/gtest.h>
+#include <vadop/timed_path.h>
+
+#include <cmath>
+#include <limits>
+
+using vadop_ros::BodyRegistry;
+using vadop_ros::InputResult;
+using vadop_test::FakeTf;
+
+namespace {
+
+// A planar two-joint arm: shoulder about z at the base origin, upper arm 1 m along x, elbow about
+// z at its end (limited to [-2, 2] rad), a sphere 0.8 m along the forearm, a box at the middle
+// of the upper arm.
+const char* kArm = R"(<robot name="planar_arm">
+  <link name="base_link"/>
+  <link name="upper"><collision><origin xyz="0.5 0 0"/><geometry><box size="1 0.1 0.1"/></geometry></collision></link>
+  <link name="fore"><collision><origin xyz="0.8 0 0"/><geometry><sphere radius="0.1"/></geometry></collision></link>
+  <joint name="shoulder" type="continuous"><parent link="base_link"/><child link="upper"/><axis xyz="0 0 1"/></joint>
+  <joint name="elbow" type="revolute"><parent link="upper"/><child link="fore"/><origin xyz="1 0 0"/>
+    <axis xyz="0 0 1"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
+</robot>)";
+
+BodyRegistry makeRegistry() {
+  const std::string text = R"(
+stale_timeout: 0.5
+bodies:
+  - {name: arm, odom_topic: /arm/odom, robot_description: /arm_description, joint_states_topic: /arm/joint_states}
+)";
+  return BodyRegistry(vadop_ros::parseParams(vadop_test::yaml(text)),
+                      [](const std::string&, std::string& v) {
+                        v = kArm;
+                        return true;
+                      },
+                      vadop_ros::makeDefaultMeshLoader());
+}
+
+// The base at (2, 1), turned 0.5 rad, still (or driving at vx along its heading).
+nav_msgs::Odometry baseOdom(double t, double vx = 0.0) {
+  nav_msgs::Odometry m;
+  m.header.stamp = ros::Time(t);
+  m.header.frame_id = "odom";
+  m.child_frame_id = "base_link";
+  m.pose.pose.position.x = 2.0 + vx * std::cos(0.5) * (t - 100.0);
+  m.pose.pose.position.y = 1.0 + vx * std::sin(0.5) * (t - 100.0);
+  m.pose.pose.orientation.z = std::sin(0.25);
+  m.pose.pose.orientation.w = std::cos(0.25);
+  m.twist.twist.linear.x = vx;
+  return m;
+}
+
+sensor_msgs::JointState joints(double t, double q1, double q2, double v1, double v2) {
+  sensor_msgs::JointState m;
+  m.header.stamp = ros::Time(t);
+  m.name = {"elbow", "shoulder"};  // any order
+  m.position = {q2, q1};
+  m.velocity = {v2, v1};
+  return m;
+}
+
+// This file's kinematics: the sphere's centre and the box's centre in the fixed frame.
+Eigen::Vector3d base(double t, double vx) {
+  return {2.0 + vx * std::cos(0.5) * (t - 100.0), 1.0 + vx * std::sin(0.5) * (t - 100.0), 0.0};
+}
+Eigen::Vector3d sphereCentre(double t, double q1, double q2, double vx = 0.0) {
+  const double a = 0.5 + q1, b = a + q2;
+  return base(t, vx) + Eigen::Vector3d(std::cos(a) + 0.8 * std::cos(b), std::sin(a) + 0.8 * std::sin(b), 0.0);
+}
+Eigen::Vector3d boxCentre(double t, double q1, double vx = 0.0) {
+  return base(t, vx) + 0.5 * Eigen::Vector3d(std::cos(0.5 + q1), std::sin(0.5 + q1), 0.0);
+}
+
+const vadop_ros::Element& element(const BodyRegistry& r, const std::string& link) {
+  for (const auto& e : r.elements()) {
+    if (e.link == link) return e;
+  }
+  throw std::runtime_error("no element " + link);
+}
+
+Eigen::Vector3d centreAt(const BodyRegistry& r, const vadop_ros::Element& e, double t) {
+  return e.path ? e.path->poseAt(r.seconds(ros::Time(t))).translation() : e.motion.positionAt(r.seconds(ros::Time(t)));
+}
+
+}  // namespace
+
+TEST(JointStates, LinksFollowTheJointMotionOverTheHorizon) {
+  for (const double vx : {0.0, 0.7}) {
+    BodyRegistry r = makeRegistry();
+    r.setSampleWindow(2.0);
+    FakeTf tf;
+    ASSERT_EQ(r.onOdometry(0, baseOdom(100.0, vx), ros::Time(100.0)), InputResult::kAccepted);
+    ASSERT_EQ(r.onJointState(0, joints(100.0, -0.5, 0.4, 0.3, -0.2), ros::Time(100.0)), InputResult::kAccepted);
+    r.update(ros::Time(100.1), tf);
+    const auto& fore = element(r, "fore");
+    const auto& upper = element(r, "upper");
+    ASSERT_TRUE(fore.active && fore.path);
+    ASSERT_TRUE(upper.active && upper.path);
+    EXPECT_STREQ(vadop_ros::motionSource(r.bodies()[0]), "odometry + joint states");
+    double worst = 0.0;
+    for (double t = 100.1; t <= 102.1; t += 0.0037) {
+      const double q1 = -0.5 + 0.3 * (t - 100.0), q2 = 0.4 - 0.2 * (t - 100.0);
+      worst = std::max(worst, (centreAt(r, fore, t) - sphereCentre(t, q1, q2, vx)).norm());
+      worst = std::max(worst, (centreAt(r, upper, t) - boxCentre(t, q1, vx)).norm());
+    }
+    // Between samples 20 ms apart the links follow the screw joining them: within 0.1 mm here.
+    EXPECT_LT(worst, 1e-4) << "vx " << vx;
+    // At the sample times, exactly.
+    EXPECT_LT((centreAt(r, fore, 100.5) - sphereCentre(100.5, -0.35, 0.3, vx)).norm(), 1e-9);
+  }
+}
+
+TEST(JointStates, StillJointsGiveRigidLinksAtTheirPositions) {
+  BodyRegistry r = makeRegistry();
+  FakeTf tf;
+  r.onOdometry(0, baseOdom(100.0), ros::Time(100.0));
+  sensor_msgs::JointState m = joints(100.0, 0.2, -0.7, 0, 0);
+  m.velocity.clear();  // no velocities: zero
+  ASSERT_EQ(r.onJointState(0, m, ros::Time(100.0)), InputResult::kAccepted);
+  r.update(ros::Time(100.0), tf);
+  const auto& fore = element(r, "fore");
+  ASSERT_TRUE(fore.active);
+  EXPECT_FALSE(fore.path);
+  EXPECT_LT((centreAt(r, fore, 101.0) - sphereCentre(101.0, 0.2, -0.7)).norm(), 1e-9);
+  EXPECT_STREQ(vadop_ros::motionSource(r.bodies()[0]), "odometry");
+}
+
+TEST(JointStates, JointsStopAtTheirLimitsAndWhenStale) {
+  BodyRegistry r = makeRegistry();
+  r.setSampleWindow(2.0);
+  FakeTf tf;
+  r.onOdometry(0, baseOdom(100.0), ros::Time(100.0));
+  r.onJointState(0, joints(100.0, 0.0, 1.8, 0.0, 0.5), ros::Time(100.0));
+  r.update(ros::Time(100.0), tf);
+  // The elbow reaches its 2 rad limit at 100.4 s and stays there.
+  EXPECT_LT((centreAt(r, element(r, "fore"), 101.5) - sphereCentre(101.5, 0.0, 2.0)).norm(), 1e-6);
+  EXPECT_LT((centreAt(r, element(r, "fore"), 100.2) - sphereCentre(100.2, 0.0, 1.9)).norm(), 1e-4);
+  // Odometry keeps coming, the joint states stop: after stale_timeout the joints hold their
+  // last reported positions (as a stale body holds its last pose).
+  r.onOdometry(0, baseOdom(100.8), ros::Time(100.8));
+  r.update(ros::Time(100.8), tf);
+  EXPECT_FALSE(element(r, "fore").path);
+  EXPECT_LT((centreAt(r, element(r, "fore"), 102.0) - sphereCentre(102.0, 0.0, 1.8)).norm(), 1e-9);
+}
+
+TEST(JointStates, BadJointStatesAreDroppedNamingTheFieldAndTheStateIsKept) {
+  BodyRegistry r = makeRegistry();
+  FakeTf tf;
+  r.onOdometry(0, baseOdom(100.0), ros::Time(100.0));
+  ASSERT_EQ(r.onJointState(0, joints(100.0, 0.1, 0.2, 0, 0), ros::Time(100.0)), InputResult::kAccepted);
+  struct Case {
+    const char* field;
+    std::function<void(sensor_msgs::JointState&)> spoil;
+  };
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<Case> cases = {
+      {"name[1] \"wrist\" is not a movable joint", [](sensor_msgs::JointState& m) { m.name[1] = "wrist"; }},
+      {"name[1] \"elbow\" repeats", [](sensor_msgs::JointState& m) { m.name[1] = "elbow"; }},
+      {"position has 1 values for 2 names", [](sensor_msgs::JointState& m) { m.position.pop_back(); }},
+      {"velocity has 3 values", [](sensor_msgs::JointState& m) { m.velocity.push_back(0.0); }},
+      {"NaN/Inf in position[0]", [nan](sensor_msgs::JointState& m) { m.position[0] = nan; }},
+      {"NaN/Inf in velocity[1]", [](sensor_msgs::JointState& m) { m.velocity[1] = INFINITY; }},
+      {"velocity[0] = 1e+06 is out of range", [](sensor_msgs::JointState& m) { m.velocity[0] = 1e6; }},
+      {"header.stamp", [](sensor_msgs::JointState& m) { m.header.stamp = ros::Time(9000.0); }},
+  };
+  uint64_t dropped = 0;
+  for (const Case& c : cases) {
+    sensor_msgs::JointState m = joints(100.05, 1.0, 1.0, 0.0, 0.0);
+    c.spoil(m);
+    EXPECT_EQ(r.onJointState(0, m, ros::Time(100.05)), InputResult::kInvalid) << c.field;
+    EXPECT_EQ(r.bodies()[0].status.joint_states_dropped, ++dropped);
+    EXPECT_NE(r.bodies()[0].status.last_invalid.find(c.field), std::string::npos)
+        << c.field << " not in: " << r.bodies()[0].status.last_invalid;
+  }
+  EXPECT_EQ(r.onJointState(0, joints(99.0, 1.0, 1.0, 0, 0), ros::Time(100.05)), InputResult::kOutOfOrder);
+  r.update(ros::Time(100.1), tf);
+  EXPECT_LT((centreAt(r, element(r, "fore"), 100.1) - sphereCentre(100.1, 0.1, 0.2)).norm(), 1e-9);
+  // A message naming only some joints updates those; the others keep their state.
+  sensor_msgs::JointState partial;
+  partial.header.stamp = ros::Time(100.2);
+  partial.name = {"shoulder"};
+  partial.position = {0.6};
+  ASSERT_EQ(r.onJointState(0, partial, ros::Time(100.2)), InputResult::kAccepted);
+  r.update(ros::Time(100.2), tf);
+  EXPECT_LT((centreAt(r, element(r, "fore"), 100.2) - sphereCentre(100.2, 0.6, 0.2)).norm(), 1e-9);
+}
+
+TEST(JointStates, Parameters) {
+  const auto error = [](const std::string& body) {
+    try {
+      vadop_ros::parseParams(vadop_test::yaml("bodies:\n  - {name: r, odom_topic: /o, " + body + "}\n"));
+    } catch (const vadop_ros::ParamError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(error("robot_description: /d, joint_states_topic: /r/joint_states"), "no error");
+  EXPECT_NE(error("shape: {type: sphere, radius: 1}, joint_states_topic: /j").find("robot_description bodies only"),
+            std::string::npos);
+  EXPECT_NE(error("robot_description: /d, tf_prefix: r, joint_states_topic: /j").find("not both"), std::string::npos);
+  EXPECT_NE(error("robot_description: /d, path_topic: /p, joint_states_topic: /j").find("path_topic"),
+            std::string::npos);
+  EXPECT_NE(error("robot_description: /d, joint_states_topic: /o").find("must differ"), std::string::npos);
+}
