@@ -31,6 +31,10 @@ A scenario file (test/scenarios/*.yaml) holds the vadop_monitor parameters at it
         joints:              # tf_prefix bodies: joint trajectories (rad, rad/s), others at 0
           shoulder: {q0: 0.0, segments: [{duration: 2, qd: 0.3}, {qd: 0.0}]}
         tf_rate: 50          # link tf rate (tf_prefix bodies)
+        joint_rate: 50       # sensor_msgs/JointState rate on the body's joint_states_topic
+                             # (joint_states_topic bodies: the scripted joints, true values)
+        path:                # the body also publishes its plan (nav_msgs/Path), see below
+          {topic: /robot/plan, rate: 10, lookahead: 3.0, dt: 0.1, frame: odom, phase: 0.0}
     crowd:                   # optional: generated straight-line agents
       name: "agent_{i}"  count: 200  area: [xmin, xmax, ymin, ymax]  speed: [lo, hi]
       static_fraction: 0.1  min_gap: 0.5  rate: 10  z: 0.25
@@ -41,6 +45,16 @@ nav_msgs/Odometry on each body's odom_topic (pose of child_frame_id in "odom"; t
 frame, REP 105) and tf2_msgs/TFMessage on /tf (odom -> child at the odometry stamps, and the
 links of tf_prefix bodies at tf_rate).
 
+A body script with `path:` (the node's path_topic input) also gets nav_msgs/Path messages on
+`topic` (default: the body's path_topic parameter) at `rate` Hz (default 10; first at `phase`,
+default 0; none during the body's dropouts), stamped at their bag time t, header.frame_id `frame`
+(default odom; the poses are always odom coordinates). Each holds PoseStamped poses of the body
+frame (z from `z`, yaw only) on the TRUE (noise-free) scripted trajectory at t, t + dt, ... up to
+t + lookahead (defaults 0.1 s, 3.0 s; lookahead at most 5 s), plus every boundary of the twist
+segments inside (t, t + lookahead): between consecutive poses the twist is then constant unless a
+segment accelerates, and the node's screw interpolation between them is exact. Each pose's
+header.stamp is the bag time at which the body is there (its header.frame_id is `frame` too).
+
 The ground truth is computed from the continuous motion the bag samples (before noise), with
 ground_truth.py only (independent of vadop_core): for every pair of collision elements that the
 monitor would check (different bodies; moving-moving or moving-static), the first time their
@@ -49,7 +63,11 @@ shapes, each grown by the monitor's padding, come within 1e-6 m. Truth file (JSO
    "rotating"}], "bodies": {...}}
 where t is scenario seconds, clean_since the start of the interval before t over which both
 bodies moved as the monitor models them (constant body twist, straight or turning in place,
-constant joint rates, messages flowing), and rotating whether one of them rotates there.
+constant joint rates, messages flowing), and rotating whether one of them rotates there. A body
+with a `path:` is modelled exactly by its path (any sequence of constant twists, arcs included)
+from its first path message plus one path period on (after a dropout: from the first message
+after it plus one period), over the run of unaccelerated segments (no `a`) that holds t; the
+truth's "bodies" entry of such a body has "path": {"topic", "rate", "first"}.
 
 The truth covers [0, until] (the bag's duration plus the horizon: a cycle near the end of the
 bag predicts up to a horizon beyond it, and the bodies go on moving as scripted).
@@ -236,10 +254,25 @@ class BodyScript:
         self.dropouts = [tuple(map(float, d)) for d in script.get("dropouts", [])]
         self.bad = script.get("bad", []) or []
         self.tf_rate = float(script.get("tf_rate", 50.0))
+        self.path = None
+        if script.get("path"):
+            ps = script["path"]
+            topic = ps.get("topic", cfg.get("path_topic"))
+            if not topic:
+                raise ValueError("body %s: path without a topic (neither path.topic nor path_topic)" % name)
+            self.path = {"topic": str(topic), "rate": float(ps.get("rate", 10.0)),
+                         "lookahead": float(ps.get("lookahead", 3.0)), "dt": float(ps.get("dt", 0.1)),
+                         "frame": str(ps.get("frame", "odom")), "phase": float(ps.get("phase", 0.0))}
+            if not 0.0 < self.path["lookahead"] <= TRUTH_EXTRA or self.path["dt"] <= 0.0 or self.path["rate"] <= 0.0:
+                raise ValueError("body %s: path needs 0 < lookahead <= %g, dt > 0, rate > 0" % (name, TRUTH_EXTRA))
         self.elements = []
         self.urdf = None
         self.links_from_tf = "tf_prefix" in cfg
         self.tf_prefix = cfg.get("tf_prefix", "")
+        # joint_states_topic bodies: sensor_msgs/JointState of the scripted joints at joint_rate
+        self.joint_states_topic = cfg.get("joint_states_topic")
+        self.joint_rate = float(script.get("joint_rate", 50.0))
+        self.links_move = self.links_from_tf or bool(self.joint_states_topic)
         self.joints = {}
         for jn, js in (script.get("joints", {}) or {}).items():
             pw = Piecewise(js.get("segments", []), duration, 1)
@@ -267,12 +300,12 @@ class BodyScript:
 
     def _link_local(self, link, origin):
         urdf = self.urdf
-        if not self.links_from_tf:
+        if not self.links_move:
             ref_in_root = urdf.link_in_root(self.ref_link, {})
             inv = (ref_in_root[0].T, -ref_in_root[0].T @ ref_in_root[1])
             fixed = gt.compose(gt.compose(inv, urdf.link_in_root(link, {})), origin)
             return fixed
-        # From tf: the link pose relative to the body frame (the reference link) at t.
+        # From tf or joint states: the link pose relative to the body frame (the reference link) at t.
 
         def local(t):
             qs = self.q(t)
@@ -318,10 +351,59 @@ class BodyScript:
         return any(a <= t < b for a, b in self.dropouts)
 
     def moving_joints(self):
-        return bool(self.joints) and self.links_from_tf
+        return bool(self.joints) and self.links_move
+
+    # ------------------------------------------------------------------ path (nav_msgs/Path)
+    def path_stamps(self):
+        """Scenario times of the path messages (none during dropouts)."""
+        if self.path is None:
+            return []
+        out = []
+        k = 0
+        while True:
+            t = round(self.path["phase"] + k / self.path["rate"], 9)
+            if t > self.duration + 1e-9:
+                return out
+            if not self.in_dropout(t):
+                out.append(t)
+            k += 1
+
+    def path_times(self, t):
+        """Times of the poses of the path message at t: t, t + dt, ... up to t + lookahead, and
+        the twist segments' boundaries in between."""
+        end = t + self.path["lookahead"]
+        n = int(math.floor(self.path["lookahead"] / self.path["dt"] + 1e-9))
+        times = [round(t + k * self.path["dt"], 9) for k in range(n + 1)]
+        bounds = [s[0] for s in self.twist.segs if t < s[0] < end]
+        for b in bounds:  # a sample within 1 us of a boundary gives way to it
+            times = [x for x in times if abs(x - b) > 1e-6]
+        return sorted(times + bounds)
+
+    def _path_exact_since(self, t):
+        """With a path: start of the interval ending at t over which the path models this body
+        exactly (unaccelerated segments, path messages flowing), and whether it rotates there;
+        None if the path does not model it at t."""
+        segs = self.twist.segs
+        seg = self.twist.segment(t)
+        i = next(n for n, x in enumerate(segs) if x is seg)
+        if np.any(segs[i][3]):
+            return None
+        k = i
+        while k > 0 and not np.any(segs[k - 1][3]):
+            k -= 1
+        stamps = [p for p in self.path_stamps() if p <= t]
+        if not stamps:
+            return None
+        # the latest uninterrupted run of path messages
+        j = len(stamps) - 1
+        while j > 0 and stamps[j] - stamps[j - 1] <= 1.5 / self.path["rate"]:
+            j -= 1
+        start = max(segs[k][0], stamps[j] + 1.0 / self.path["rate"])
+        rotating = any(seg[2][2] != 0.0 for seg in segs[k:i + 1] if seg[1] > start)
+        return start, rotating
 
     # Motion model of the monitor exact at t: constant body twist, no turning while driving,
-    # constant joint rates.
+    # constant joint rates; or, with a path, unaccelerated segments that the path covers.
     def exact_since(self, t):
         """Start of the interval ending at t over which the monitor's model of this body is
         exact and its messages flow; also whether it rotates there."""
@@ -329,11 +411,16 @@ class BodyScript:
         start = s
         exact = not np.any(a) and (v[2] == 0.0 or (v[0] == 0.0 and v[1] == 0.0))
         rotating = v[2] != 0.0
+        if self.path is not None:
+            by_path = self._path_exact_since(t)
+            if by_path is not None and by_path[0] <= t and (not exact or by_path[0] < start):
+                start, rotating = by_path
+                exact = True
         for jn, (q0, pw) in self.joints.items():
             js, je, jv, ja = pw.segment(t)
             start = max(start, js)
             exact = exact and not np.any(ja)
-            rotating = rotating or (self.links_from_tf and jv[0] != 0.0)
+            rotating = rotating or (self.links_move and jv[0] != 0.0)
         for (d0, d1) in self.dropouts:
             if d0 <= t:
                 start = max(start, d1)
@@ -567,6 +654,8 @@ class Scenario:
             extra = max(extra, 1.0 / el.body.rate)
             if el.body.links_from_tf:
                 extra = max(extra, 2.0 / el.body.tf_rate)
+            if el.body.joint_states_topic:
+                extra = max(extra, 2.0 / el.body.joint_rate)
         return {"a": a.body.name, "la": a.link, "b": b.body.name, "lb": b.link, "t": float(t),
                 "clean_since": float(since), "msg_delay": float(extra), "rotating": bool(rotating)}
 
@@ -577,6 +666,10 @@ class Scenario:
             ooo = sum(1 for x in b.bad if x["kind"] in ("out_of_order", "duplicate"))
             info[b.name] = {"rate": b.rate, "dropouts": b.dropouts, "invalid": invalid, "out_of_order": ooo,
                             "first": b.phase}
+            if b.path is not None:
+                stamps = b.path_stamps()
+                info[b.name]["path"] = {"topic": b.path["topic"], "rate": b.path["rate"],
+                                        "first": stamps[0] if stamps else None}
         for s in self.statics:
             info[s.name] = {"static": True}
         return info
@@ -627,6 +720,16 @@ class Scenario:
                     msg, _ = self._odom(b, t, {})
                 records.append((t + 1e-4, order, b.topic, msg))
                 order += 1
+            for t in b.path_stamps():
+                records.append((t, order, b.path["topic"], self._path(b, t)))
+                order += 1
+            if b.joint_states_topic:
+                n = int(math.floor(self.duration * b.joint_rate + 1e-9)) + 1
+                for k in range(n):
+                    t = k / b.joint_rate
+                    if not b.in_dropout(t):
+                        records.append((t, order, b.joint_states_topic, self._joint_state(b, t)))
+                        order += 1
             if b.links_from_tf:
                 n = int(math.floor(self.duration * b.tf_rate + 1e-9)) + 1
                 prefix = b.tf_prefix + "/" if b.tf_prefix else ""
@@ -672,6 +775,40 @@ class Scenario:
         m.twist.twist.linear.x, m.twist.twist.linear.y = vx, vy
         m.twist.twist.angular.z = w
         return m, (gt.rot_z(yaw), np.array([x, y, b.z]))
+
+    @staticmethod
+    def _path(b, t):
+        """nav_msgs/Path of body b at t: its true poses over the lookahead (see the docstring)."""
+        import rospy
+        from geometry_msgs.msg import PoseStamped
+        from nav_msgs.msg import Path
+        m = Path()
+        m.header.stamp = rospy.Time.from_sec(T0 + t)
+        m.header.frame_id = b.path["frame"]
+        for ti in b.path_times(t):
+            x, y, yaw = b.pose2d(ti)
+            p = PoseStamped()
+            p.header.stamp = rospy.Time.from_sec(T0 + ti)
+            p.header.frame_id = b.path["frame"]
+            p.pose.position.x, p.pose.position.y, p.pose.position.z = x, y, b.z
+            p.pose.orientation.z = math.sin(0.5 * yaw)
+            p.pose.orientation.w = math.cos(0.5 * yaw)
+            m.poses.append(p)
+        return m
+
+    @staticmethod
+    def _joint_state(b, t):
+        """sensor_msgs/JointState of body b's scripted joints at t (true positions and rates)."""
+        import rospy
+        from sensor_msgs.msg import JointState
+        m = JointState()
+        m.header.stamp = rospy.Time.from_sec(T0 + t)
+        qs = b.q(t)
+        for jn, (q0, pw) in sorted(b.joints.items()):
+            m.name.append(jn)
+            m.position.append(float(qs[jn]))
+            m.velocity.append(float(pw.at(t)[0]))
+        return m
 
     @staticmethod
     def _tf(pose, t, parent, child):
