@@ -31,6 +31,10 @@ A scenario file (test/scenarios/*.yaml) holds the vadop_monitor parameters at it
         joints:              # tf_prefix bodies: joint trajectories (rad, rad/s), others at 0
           shoulder: {q0: 0.0, segments: [{duration: 2, qd: 0.3}, {qd: 0.0}]}
         tf_rate: 50          # link tf rate (tf_prefix bodies)
+        trajectory: {stamp: 0.5, duration: 3.0, dt: 0.1, joints: [shoulder]}
+                             # one trajectory_msgs/JointTrajectory at `stamp` on the body's
+                             # joint_trajectory_topic: the true joint motion over `duration`
+                             # (positions and velocities every dt and at segment boundaries)
         joint_rate: 50       # sensor_msgs/JointState rate on the body's joint_states_topic
                              # (joint_states_topic bodies: the scripted joints, true values)
         path:                # the body also publishes its plan (nav_msgs/Path), see below
@@ -273,6 +277,16 @@ class BodyScript:
         self.joint_states_topic = cfg.get("joint_states_topic")
         self.joint_rate = float(script.get("joint_rate", 50.0))
         self.links_move = self.links_from_tf or bool(self.joint_states_topic)
+        # joint_trajectory_topic bodies: one trajectory_msgs/JointTrajectory (see the docstring)
+        self.trajectory = None
+        if script.get("trajectory"):
+            ts = script["trajectory"]
+            topic = ts.get("topic", cfg.get("joint_trajectory_topic"))
+            if not topic:
+                raise ValueError("body %s: trajectory without a topic" % name)
+            self.trajectory = {"topic": str(topic), "stamp": float(ts.get("stamp", 0.5)),
+                               "duration": float(ts.get("duration", 3.0)), "dt": float(ts.get("dt", 0.1)),
+                               "joints": list(ts.get("joints", sorted((script.get("joints") or {}).keys())))}
         self.joints = {}
         for jn, js in (script.get("joints", {}) or {}).items():
             pw = Piecewise(js.get("segments", []), duration, 1)
@@ -416,7 +430,14 @@ class BodyScript:
             if by_path is not None and by_path[0] <= t and (not exact or by_path[0] < start):
                 start, rotating = by_path
                 exact = True
+        traj = self.trajectory
         for jn, (q0, pw) in self.joints.items():
+            if traj and jn in traj["joints"] and traj["stamp"] < t <= traj["stamp"] + traj["duration"]:
+                # Followed through the trajectory's points (cubic Hermite: exact on constant-
+                # acceleration pieces whose ends are points).
+                start = max(start, traj["stamp"])
+                rotating = rotating or self.links_move
+                continue
             js, je, jv, ja = pw.segment(t)
             start = max(start, js)
             exact = exact and not np.any(ja)
@@ -723,6 +744,9 @@ class Scenario:
             for t in b.path_stamps():
                 records.append((t, order, b.path["topic"], self._path(b, t)))
                 order += 1
+            if b.trajectory is not None:
+                records.append((b.trajectory["stamp"], order, b.trajectory["topic"], self._trajectory(b)))
+                order += 1
             if b.joint_states_topic:
                 n = int(math.floor(self.duration * b.joint_rate + 1e-9)) + 1
                 for k in range(n):
@@ -794,6 +818,32 @@ class Scenario:
             p.pose.orientation.z = math.sin(0.5 * yaw)
             p.pose.orientation.w = math.cos(0.5 * yaw)
             m.poses.append(p)
+        return m
+
+    @staticmethod
+    def _trajectory(b):
+        """trajectory_msgs/JointTrajectory of body b: its true joint motion from the message's
+        stamp over `duration`, a point every dt and at every joint segment boundary inside."""
+        import rospy
+        from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+        tr = b.trajectory
+        m = JointTrajectory()
+        m.header.stamp = rospy.Time.from_sec(T0 + tr["stamp"])
+        m.joint_names = list(tr["joints"])
+        times = set(round(k * tr["dt"], 9) for k in range(int(math.floor(tr["duration"] / tr["dt"] + 1e-9)) + 1))
+        for jn in tr["joints"]:
+            for seg in b.joints[jn][1].segs:
+                for edge in (seg[0], seg[1]):
+                    if tr["stamp"] < edge < tr["stamp"] + tr["duration"]:
+                        times.add(round(edge - tr["stamp"], 9))
+        for tfs in sorted(times):
+            t = tr["stamp"] + tfs
+            qs = b.q(t)
+            p = JointTrajectoryPoint()
+            p.positions = [float(qs[jn]) for jn in tr["joints"]]
+            p.velocities = [float(b.joints[jn][1].at(t)[0]) for jn in tr["joints"]]
+            p.time_from_start = rospy.Duration.from_sec(tfs)
+            m.points.append(p)
         return m
 
     @staticmethod

@@ -10,7 +10,10 @@
 #include <gtest/gtest.h>
 #include <vadop/timed_path.h>
 
+#include <functional>
+
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 using vadop_ros::BodyRegistry;
@@ -35,7 +38,8 @@ BodyRegistry makeRegistry() {
   const std::string text = R"(
 stale_timeout: 0.5
 bodies:
-  - {name: arm, odom_topic: /arm/odom, robot_description: /arm_description, joint_states_topic: /arm/joint_states}
+  - {name: arm, odom_topic: /arm/odom, robot_description: /arm_description, joint_states_topic: /arm/joint_states,
+     joint_trajectory_topic: /arm/trajectory}
 )";
   return BodyRegistry(vadop_ros::parseParams(vadop_test::yaml(text)),
                       [](const std::string&, std::string& v) {
@@ -192,6 +196,107 @@ TEST(JointStates, BadJointStatesAreDroppedNamingTheFieldAndTheStateIsKept) {
   ASSERT_EQ(r.onJointState(0, partial, ros::Time(100.2)), InputResult::kAccepted);
   r.update(ros::Time(100.2), tf);
   EXPECT_LT((centreAt(r, element(r, "fore"), 100.2) - sphereCentre(100.2, 0.6, 0.2)).norm(), 1e-9);
+}
+
+trajectory_msgs::JointTrajectory trajectory(double stamp, bool with_velocities) {
+  trajectory_msgs::JointTrajectory m;
+  m.header.stamp = ros::Time(stamp);
+  m.joint_names = {"shoulder"};
+  const double q[] = {0.0, 0.4, 1.0}, v[] = {0.0, 0.5, 0.0}, t[] = {0.0, 0.8, 1.6};
+  for (int k = 0; k < 3; ++k) {
+    trajectory_msgs::JointTrajectoryPoint p;
+    p.positions = {q[k]};
+    if (with_velocities) p.velocities = {v[k]};
+    p.time_from_start = ros::Duration(t[k]);
+    m.points.push_back(p);
+  }
+  return m;
+}
+
+// This file's interpolation of trajectory(): cubic Hermite (or linear) between the points.
+double shoulderOnTrajectory(double s, bool with_velocities) {
+  const double q[] = {0.0, 0.4, 1.0}, v[] = {0.0, 0.5, 0.0}, t[] = {0.0, 0.8, 1.6};
+  if (s <= 0.0) return q[0];
+  if (s >= 1.6) return q[2];
+  const int k = s < 0.8 ? 0 : 1;
+  const double h = t[k + 1] - t[k], u = (s - t[k]) / h;
+  if (!with_velocities) return q[k] + (q[k + 1] - q[k]) * u;
+  const double h00 = 2 * u * u * u - 3 * u * u + 1, h10 = u * u * u - 2 * u * u + u, h01 = -2 * u * u * u + 3 * u * u,
+               h11 = u * u * u - u * u;
+  return h00 * q[k] + h10 * h * v[k] + h01 * q[k + 1] + h11 * h * v[k + 1];
+}
+
+TEST(JointStates, TrajectoryIsFollowedThenItsLastPointHeld) {
+  for (const bool with_velocities : {true, false}) {
+    BodyRegistry r = makeRegistry();
+    r.setSampleWindow(2.0);
+    FakeTf tf;
+    r.onOdometry(0, baseOdom(100.0), ros::Time(100.0));
+    // The elbow from joint states (still at 0.3); the shoulder from the trajectory.
+    r.onJointState(0, joints(100.0, 0.0, 0.3, 0.0, 0.0), ros::Time(100.0));
+    // Stamped zero: its times count from its receipt, 100.2 s.
+    ASSERT_EQ(r.onJointTrajectory(0, trajectory(0.0, with_velocities), ros::Time(100.2)), InputResult::kAccepted);
+    r.update(ros::Time(100.3), tf);
+    const auto& fore = element(r, "fore");
+    ASSERT_TRUE(fore.path);
+    EXPECT_STREQ(vadop_ros::motionSource(r.bodies()[0]), "joint trajectory");
+    double worst = 0.0;
+    for (double t = 100.3; t <= 102.3; t += 0.0041) {
+      worst = std::max(worst, (centreAt(r, fore, t) - sphereCentre(t, shoulderOnTrajectory(t - 100.2, with_velocities), 0.3))
+                                  .norm());
+    }
+    // The samples 20 ms apart on the cubic (up to ~2 rad/s^2 at 1.8 m): within 1 mm between them.
+    EXPECT_LT(worst, 1e-3) << "with_velocities " << with_velocities;
+    std::printf("trajectory (%s): largest deviation from this test's interpolation %.2e m\n",
+                with_velocities ? "cubic" : "linear", worst);
+    // After its end (101.8 s) the trajectory no longer drives the prediction: the joint states do.
+    r.onOdometry(0, baseOdom(101.9), ros::Time(101.9));
+    r.onJointState(0, joints(101.9, 1.0, 0.3, 0.0, 0.0), ros::Time(101.9));
+    r.update(ros::Time(101.9), tf);
+    EXPECT_FALSE(element(r, "fore").path);
+    EXPECT_STREQ(vadop_ros::motionSource(r.bodies()[0]), "odometry");
+  }
+}
+
+TEST(JointStates, BadTrajectoriesAreDroppedNamingTheField) {
+  BodyRegistry r = makeRegistry();
+  FakeTf tf;
+  r.onOdometry(0, baseOdom(100.0), ros::Time(100.0));
+  ASSERT_EQ(r.onJointTrajectory(0, trajectory(100.0, true), ros::Time(100.0)), InputResult::kAccepted);
+  struct Case {
+    const char* field;
+    std::function<void(trajectory_msgs::JointTrajectory&)> spoil;
+  };
+  const std::vector<Case> cases = {
+      {"joint_names[0] \"wrist\" is not a movable joint", [](auto& m) { m.joint_names[0] = "wrist"; }},
+      {"joint_names[1] \"shoulder\" repeats",
+       [](auto& m) {
+         m.joint_names.push_back("shoulder");
+         for (auto& p : m.points) p.positions.push_back(0.0), p.velocities.push_back(0.0);
+       }},
+      {"points[1].positions has 2 values", [](auto& m) { m.points[1].positions.push_back(0.0); }},
+      {"points[2].velocities has 2 values", [](auto& m) { m.points[2].velocities.push_back(0.0); }},
+      {"NaN/Inf in points[1].positions[0]", [](auto& m) { m.points[1].positions[0] = NAN; }},
+      {"points[2].time_from_start does not increase", [](auto& m) { m.points[2].time_from_start = ros::Duration(0.8); }},
+      {"points[0].time_from_start = -0.5", [](auto& m) { m.points[0].time_from_start = ros::Duration(-0.5); }},
+      {"header.stamp", [](auto& m) { m.header.stamp = ros::Time(5000.0); }},
+  };
+  for (const Case& c : cases) {
+    trajectory_msgs::JointTrajectory m = trajectory(100.0, true);
+    c.spoil(m);
+    EXPECT_EQ(r.onJointTrajectory(0, m, ros::Time(100.0)), InputResult::kInvalid) << c.field;
+    EXPECT_NE(r.bodies()[0].status.last_invalid.find(c.field), std::string::npos)
+        << c.field << " not in: " << r.bodies()[0].status.last_invalid;
+  }
+  EXPECT_EQ(r.bodies()[0].status.trajectories_dropped, cases.size());
+  r.update(ros::Time(100.4), tf);  // the first trajectory still runs
+  EXPECT_LT((centreAt(r, element(r, "fore"), 101.2) - sphereCentre(101.2, shoulderOnTrajectory(1.2, true), 0.0)).norm(),
+            1e-3);
+  // No points: cancelled.
+  trajectory_msgs::JointTrajectory cancel;
+  ASSERT_EQ(r.onJointTrajectory(0, cancel, ros::Time(100.5)), InputResult::kAccepted);
+  r.update(ros::Time(100.5), tf);
+  EXPECT_FALSE(element(r, "fore").path);
 }
 
 TEST(JointStates, Parameters) {

@@ -2,7 +2,7 @@
 // operations on a MonitorCore built from a small fixed configuration (three primitive bodies,
 // one with TwistStamped and a pose from tf; a rigid URDF body and a URDF body whose links come
 // from tf, both test/data/two_link.urdf; two static obstacles):
-//   odometry / twist / planned-path / joint-state messages with arbitrary doubles (NaN, Inf, huge, tiny) and arbitrary
+//   odometry / twist / planned-path / joint-state / joint-trajectory messages with arbitrary doubles (NaN, Inf, huge, tiny) and arbitrary
 //   stamps (sec up to 2^32 - 1) and receipt times; tf poses with arbitrary values and stamps;
 //   clock steps, jumps forward and back (a jump back resets, as the node's timer does);
 //   horizon / rate / padding through MonitorCore::reconfigure (the node's dynamic_reconfigure
@@ -88,7 +88,8 @@ bodies:
   - {name: c, twist_topic: /c, frame: c_link, shape: {type: capsule, radius: 0.2, length: 1.0}}
   - {name: robot, odom_topic: /robot, path_topic: /robot/plan, after_path: hold, robot_description: /robot_description}
   - {name: arm, odom_topic: /arm, robot_description: /robot_description, tf_prefix: arm}
-  - {name: jarm, odom_topic: /jarm, robot_description: /robot_description, joint_states_topic: /jarm/joints}
+  - {name: jarm, odom_topic: /jarm, robot_description: /robot_description, joint_states_topic: /jarm/joints,
+     joint_trajectory_topic: /jarm/trajectory}
 static_obstacles:
   - {name: wall, shape: {type: box, size: [0.2, 10, 2]}, pose: {position: [5, 0, 0]}}
   - {name: post, shape: {type: cylinder, radius: 0.1, length: 2}, pose: {position: [0, 3, 0]}}
@@ -217,7 +218,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   };
 
   for (size_t op = 0; op < kMaxOps && in.remaining_bytes() > 0; ++op) {
-    switch (in.ConsumeIntegralInRange<int>(0, 10)) {
+    switch (in.ConsumeIntegralInRange<int>(0, 11)) {
       case 0: {  // odometry
         nav_msgs::Odometry m;
         const size_t bi = odom_bodies[in.ConsumeIntegralInRange<size_t>(0, odom_bodies.size() - 1)];
@@ -331,6 +332,28 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         }
         core->registry().onJointState(static_cast<size_t>(core->registry().find("jarm")), m,
                                       in.ConsumeBool() ? now : pickTime(in, now));
+        break;
+      }
+      case 11: {  // a joint trajectory of jarm
+        trajectory_msgs::JointTrajectory m;
+        m.header.stamp = in.ConsumeBool() ? ros::Time() : pickTime(in, now);
+        if (in.ConsumeIntegralInRange<int>(0, 7) > 0) m.joint_names.push_back("arm_joint");
+        if (in.ConsumeIntegralInRange<int>(0, 7) == 0) m.joint_names.push_back(in.ConsumeBool() ? "arm_joint" : "nope");
+        const size_t points = in.ConsumeIntegralInRange<size_t>(0, 6);
+        double from_start = 0.0;
+        for (size_t k = 0; k < points; ++k) {
+          trajectory_msgs::JointTrajectoryPoint p;
+          for (size_t i = 0; i < m.joint_names.size() + (in.ConsumeIntegralInRange<int>(0, 7) == 0 ? 1 : 0); ++i) {
+            p.positions.push_back(in.ConsumeBool() ? in.ConsumeFloatingPointInRange<double>(-3.0, 3.0) : pickDouble(in));
+            if (in.ConsumeBool()) p.velocities.push_back(in.ConsumeBool() ? 0.5 : pickDouble(in));
+          }
+          from_start += in.ConsumeBool() ? in.ConsumeFloatingPointInRange<double>(0.0, 1.0) : pickDouble(in);
+          p.time_from_start = std::isfinite(from_start) && std::fabs(from_start) < 1e6 ? ros::Duration(from_start)
+                                                                                      : ros::Duration(0.5);
+          m.points.push_back(p);
+        }
+        core->registry().onJointTrajectory(static_cast<size_t>(core->registry().find("jarm")), m,
+                                           in.ConsumeBool() ? now : pickTime(in, now));
         break;
       }
     }

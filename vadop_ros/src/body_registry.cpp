@@ -215,7 +215,7 @@ BodyRegistry::BodyRegistry(const MonitorParams& params, const ParamReader& read_
     bodies_.push_back(std::move(b));
     const size_t bi = bodies_.size() - 1;
     if (!addGeometry(bi, bp.has_shape, bp.shape, bp.robot_description, bp.links_from_tf, bp.tf_prefix)) continue;
-    if (!bp.joint_states_topic.empty() && !bodies_[bi].elements.empty()) {
+    if ((!bp.joint_states_topic.empty() || !bp.joint_trajectory_topic.empty()) && !bodies_[bi].elements.empty()) {
       Body& jb = bodies_[bi];
       auto it = kinematics.find(bp.robot_description);
       if (it == kinematics.end()) {
@@ -230,7 +230,7 @@ BodyRegistry::BodyRegistry(const MonitorParams& params, const ParamReader& read_
       }
       if (!it->second) {
         jb.status.geometry_errors.push_back("robot_description \"" + bp.robot_description +
-                                            "\": no kinematics for joint_states_topic: " +
+                                            "\": no kinematics for the joint inputs: " +
                                             kinematics_error[bp.robot_description]);
         continue;  // its links stay rigid (joints at zero)
       }
@@ -628,6 +628,81 @@ InputResult BodyRegistry::onJointState(size_t bi, const sensor_msgs::JointState&
   return InputResult::kAccepted;
 }
 
+InputResult BodyRegistry::onJointTrajectory(size_t bi, const trajectory_msgs::JointTrajectory& msg,
+                                            const ros::Time& receipt) {
+  Body& b = bodies_.at(bi);
+  auto drop = [&](const std::string& why) {
+    ++b.status.trajectories_dropped;
+    rejectInput(b, "joint_trajectory: " + why + " (the previous trajectory is kept)", receipt);
+    return InputResult::kInvalid;
+  };
+  if (!b.kinematics) return drop("the body has no kinematics (see its geometry error)");
+  const ros::Time start = msg.header.stamp.isZero() ? receipt : msg.header.stamp;
+  const double skew = secondsBetween(start, receipt);
+  if (!(std::fabs(skew) <= max_stamp_skew_)) {
+    return drop("header.stamp " + stampText(start) + " is " + number(std::fabs(skew)) + " s " +
+                (skew > 0 ? "ahead of" : "behind") + " the node's clock at its receipt: beyond ~max_stamp_skew = " +
+                number(max_stamp_skew_) + " s");
+  }
+  if (msg.points.empty()) {
+    b.traj_time.clear();
+    ++b.status.trajectories_accepted;
+    return InputResult::kAccepted;
+  }
+  const size_t n = msg.joint_names.size();
+  std::vector<int> joints(n);
+  std::vector<char> seen(b.kinematics->joints().size(), 0);
+  for (size_t i = 0; i < n; ++i) {
+    const std::string field = "joint_names[" + std::to_string(i) + "] \"" + msg.joint_names[i] + "\"";
+    joints[i] = b.kinematics->jointIndex(msg.joint_names[i]);
+    if (joints[i] < 0) return drop(field + " is not a movable joint of the body's URDF");
+    if (seen[static_cast<size_t>(joints[i])]++) return drop(field + " repeats");
+  }
+  bool with_velocities = true;
+  for (const auto& p : msg.points) with_velocities = with_velocities && p.velocities.size() == n;
+  std::vector<ros::Time> times;
+  std::vector<std::vector<double>> qs, qds;
+  for (size_t k = 0; k < msg.points.size(); ++k) {
+    const auto& p = msg.points[k];
+    const std::string field = "points[" + std::to_string(k) + "]";
+    if (p.positions.size() != n) {
+      return drop(field + ".positions has " + std::to_string(p.positions.size()) + " values for " + std::to_string(n) +
+                  " joint_names");
+    }
+    if (!p.velocities.empty() && p.velocities.size() != n) {
+      return drop(field + ".velocities has " + std::to_string(p.velocities.size()) + " values for " +
+                  std::to_string(n) + " joint_names (give none or one per joint)");
+    }
+    std::string why;
+    for (size_t i = 0; i < n; ++i) {
+      if (!checkValue(p.positions[i], vadop::kMaxCoordinate, "rad or m", field + ".positions[" + std::to_string(i) + "]",
+                      why) ||
+          (!p.velocities.empty() && !checkValue(p.velocities[i], vadop::kMaxAngularSpeed, "rad/s or m/s",
+                                                field + ".velocities[" + std::to_string(i) + "]", why))) {
+        return drop(why);
+      }
+    }
+    const double from_start = p.time_from_start.toSec();
+    if (!(from_start >= 0.0 && from_start <= kRebaseAfterSeconds)) {
+      return drop(field + ".time_from_start = " + number(from_start) + " s is not in [0, " +
+                  number(kRebaseAfterSeconds) + "]");
+    }
+    const ros::Time t = addSeconds(start, from_start);
+    if (!times.empty() && !(t > times.back())) {
+      return drop(field + ".time_from_start does not increase (" + number(from_start) + " s)");
+    }
+    times.push_back(t);
+    qs.push_back(p.positions);
+    if (with_velocities) qds.push_back(p.velocities);
+  }
+  b.traj_joints = std::move(joints);
+  b.traj_time = std::move(times);
+  b.traj_q = std::move(qs);
+  b.traj_qd = std::move(qds);
+  ++b.status.trajectories_accepted;
+  return InputResult::kAccepted;
+}
+
 void BodyRegistry::updateJointBody(Body& b, const ros::Time& now, double t_now, double t_check_end,
                                    const vadop::Motion& frame, bool stale) {
   const JointKinematics& kin = *b.kinematics;
@@ -643,8 +718,40 @@ void BodyRegistry::updateJointBody(Body& b, const ros::Time& now, double t_now, 
     rate[j] = (stale || joints_stale) ? 0.0 : b.qd[j];
     moving = moving || rate[j] != 0.0;
   }
+  // A running trajectory (its last point after now) overrides the joints it names.
+  const bool on_trajectory = !stale && !b.traj_time.empty() && b.traj_time.back() > now;
+  std::vector<double> point_time;
+  if (on_trajectory) {
+    for (const ros::Time& pt : b.traj_time) point_time.push_back(seconds(pt));
+    moving = true;
+  }
   auto jointsAt = [&](double t) {
-    for (size_t j = 0; j < nj; ++j) qt[j] = kin.clamp(j, b.q[j] + rate[j] * (t - since[j]));
+    for (size_t j = 0; j < nj; ++j) qt[j] = b.q[j] + rate[j] * (t - since[j]);
+    if (on_trajectory) {
+      const size_t last = point_time.size() - 1;
+      const size_t k = static_cast<size_t>(std::upper_bound(point_time.begin(), point_time.end(), t) - point_time.begin());
+      for (size_t i = 0; i < b.traj_joints.size(); ++i) {
+        double& q = qt[static_cast<size_t>(b.traj_joints[i])];
+        if (k == 0) {
+          q = b.traj_q[0][i];
+        } else if (k > last) {
+          q = b.traj_q[last][i];
+        } else {
+          // Between points k - 1 and k: the cubic Hermite through positions and velocities, or
+          // the straight line without velocities.
+          const double h = point_time[k] - point_time[k - 1], u = (t - point_time[k - 1]) / h;
+          const double p0 = b.traj_q[k - 1][i], p1 = b.traj_q[k][i];
+          if (b.traj_qd.empty()) {
+            q = p0 + (p1 - p0) * u;
+          } else {
+            const double m0 = b.traj_qd[k - 1][i] * h, m1 = b.traj_qd[k][i] * h;
+            const double u2 = u * u, u3 = u2 * u;
+            q = (2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * m0 + (-2 * u3 + 3 * u2) * p1 + (u3 - u2) * m1;
+          }
+        }
+      }
+    }
+    for (size_t j = 0; j < nj; ++j) qt[j] = kin.clamp(j, qt[j]);
   };
   // Every element's pose relative to the body frame at joint positions qt.
   std::vector<Eigen::Isometry3d> rel(b.elements.size());
@@ -714,6 +821,7 @@ void BodyRegistry::updateJointBody(Body& b, const ros::Time& now, double t_now, 
     }
   }
   b.status.joints_moving = true;
+  b.status.on_trajectory = on_trajectory;
 }
 
 void BodyRegistry::followPlan(Body& b, const ros::Time& now, double t_now, double t_check_end,
@@ -927,6 +1035,7 @@ void BodyRegistry::updateMoving(Body& b, const ros::Time& now, double t_now, dou
   }
   b.status.on_path = false;
   b.status.joints_moving = false;
+  b.status.on_trajectory = false;
   b.frame_motion.valid = false;
   b.status.tf_error.clear();
   b.status.links_skipped = 0;
@@ -1063,6 +1172,7 @@ const char* motionSource(const Body& b) {
   if (!b.frame_motion.valid) return "none";
   if (b.frame_motion.stale) return "stale";
   if (b.status.on_path) return "path";
+  if (b.status.on_trajectory) return "joint trajectory";
   if (b.status.joints_moving) return b.params.source == VelocitySource::kOdometry ? "odometry + joint states" : "twist + joint states";
   return b.params.source == VelocitySource::kOdometry ? "odometry" : "twist";
 }
@@ -1081,6 +1191,7 @@ void BodyRegistry::reset() {
     std::fill(b.q.begin(), b.q.end(), 0.0);
     std::fill(b.qd.begin(), b.qd.end(), 0.0);
     std::fill(b.q_time.begin(), b.q_time.end(), ros::Time());
+    b.traj_time.clear();
     b.status.state = b.elements.empty() ? BodyState::kNoGeometry : BodyState::kWaiting;
     b.status.last_receipt = ros::Time();
     b.status.last_invalid_receipt = ros::Time();

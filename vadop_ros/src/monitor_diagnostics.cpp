@@ -104,9 +104,14 @@ std::string describeBody(const Body& b, const ros::Time& now, double stale_timeo
     if (s.geometry_errors.size() > 1) text += " (+" + std::to_string(s.geometry_errors.size() - 1) + " more)";
   }
   if (s.dropped_out_of_order > 0) text += "; " + std::to_string(s.dropped_out_of_order) + " out-of-order/duplicate ignored";
-  if (!b.is_static && !b.params.joint_states_topic.empty()) {
+  if (!b.is_static && (!b.params.joint_states_topic.empty() || !b.params.joint_trajectory_topic.empty())) {
     text += std::string("; predicted along: ") + motionSource(b) + " (" + std::to_string(s.joint_states_accepted) +
-            " joint state(s) accepted, " + std::to_string(s.joint_states_dropped) + " dropped)";
+            " joint state(s) accepted, " + std::to_string(s.joint_states_dropped) + " dropped";
+    if (!b.params.joint_trajectory_topic.empty()) {
+      text += "; " + std::to_string(s.trajectories_accepted) + " trajectory(ies) accepted, " +
+              std::to_string(s.trajectories_dropped) + " dropped";
+    }
+    text += ")";
   }
   if (!b.is_static && !b.params.path_topic.empty()) {
     // Which source the prediction follows (bodies without a path_topic have only their twist).

@@ -229,6 +229,9 @@ void checkBodyNames(const BodyParams& b, const std::string& path, const std::str
   if (b.links_from_tf) checkFrame(b.tf_prefix, path + ".tf_prefix" + suffix, true);
   if (!b.path_topic.empty()) checkRosName(b.path_topic, path + ".path_topic" + suffix, "topic");
   if (!b.joint_states_topic.empty()) checkRosName(b.joint_states_topic, path + ".joint_states_topic" + suffix, "topic");
+  if (!b.joint_trajectory_topic.empty()) {
+    checkRosName(b.joint_trajectory_topic, path + ".joint_trajectory_topic" + suffix, "topic");
+  }
 }
 
 GateParams parseGate(const XmlRpcValue& v, const std::string& path, double stale_timeout) {
@@ -275,7 +278,7 @@ void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::stri
     requireStruct(e, path);
     rejectUnknown(e,
                   {"name", "odom_topic", "twist_topic", "frame", "shape", "robot_description", "tf_prefix", "count", "gate",
-                   "path_topic", "after_path", "joint_states_topic"},
+                   "path_topic", "after_path", "joint_states_topic", "joint_trajectory_topic"},
                   path);
     BodyParams b;
     const XmlRpcValue* name = member(e, "name");
@@ -327,18 +330,20 @@ void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::stri
       b.path_continue = mode == "continue";
     }
 
-    if (const XmlRpcValue* j = member(e, "joint_states_topic")) {
-      b.joint_states_topic = toString(*j, path + ".joint_states_topic");
-      if (b.joint_states_topic.empty()) fail(path + ".joint_states_topic", "must not be empty (a sensor_msgs/JointState topic)");
-      if (b.has_shape) fail(path + ".joint_states_topic", "applies to robot_description bodies only");
-      if (b.links_from_tf) {
-        fail(path + ".joint_states_topic", "give one source of link poses: joint_states_topic or tf_prefix, not both");
-      }
+    for (const char* key : {"joint_states_topic", "joint_trajectory_topic"}) {
+      const XmlRpcValue* j = member(e, key);
+      if (!j) continue;
+      const std::string field = path + "." + key;
+      std::string& topic = std::string(key) == "joint_states_topic" ? b.joint_states_topic : b.joint_trajectory_topic;
+      topic = toString(*j, field);
+      if (topic.empty()) fail(field, "must not be empty");
+      if (b.has_shape) fail(field, "applies to robot_description bodies only");
+      if (b.links_from_tf) fail(field, "give one source of link poses: joints or tf_prefix, not both");
       if (!b.path_topic.empty()) {
-        fail(path + ".joint_states_topic", "cannot be combined with path_topic (a planned path moves the body rigidly)");
+        fail(field, "cannot be combined with path_topic (a planned path moves the body rigidly)");
       }
-      if (b.joint_states_topic == b.topic) {
-        fail(path + ".joint_states_topic", "must differ from the body's other topics");
+      if (topic == b.topic || b.joint_states_topic == b.joint_trajectory_topic) {
+        fail(field, "must differ from the body's other topics");
       }
     }
 
@@ -381,6 +386,7 @@ void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::stri
       copy.tf_prefix = substitute(b.tf_prefix, k);
       copy.path_topic = substitute(b.path_topic, k);
       copy.joint_states_topic = substitute(b.joint_states_topic, k);
+      copy.joint_trajectory_topic = substitute(b.joint_trajectory_topic, k);
       copy.gate.cmd_vel_in = substitute(b.gate.cmd_vel_in, k);
       copy.gate.cmd_vel_out = substitute(b.gate.cmd_vel_out, k);
       for (std::string& pattern : copy.gate.ignore) pattern = substitute(pattern, k);

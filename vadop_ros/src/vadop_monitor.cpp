@@ -19,6 +19,7 @@
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
 #include <sensor_msgs/JointState.h>
+#include <trajectory_msgs/JointTrajectory.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <tf2_eigen/tf2_eigen.h>
@@ -124,6 +125,12 @@ class MonitorNode {
             [this, i](const sensor_msgs::JointStateConstPtr& msg) { onJointState(i, *msg); }, ros::VoidConstPtr(),
             hints));
       }
+      if (!b.params.joint_trajectory_topic.empty()) {
+        subs_.push_back(nh_.subscribe<trajectory_msgs::JointTrajectory>(
+            b.params.joint_trajectory_topic, 5,
+            [this, i](const trajectory_msgs::JointTrajectoryConstPtr& msg) { onJointTrajectory(i, *msg); },
+            ros::VoidConstPtr(), hints));
+      }
       if (!b.params.path_topic.empty()) {
         subs_.push_back(nh_.subscribe<nav_msgs::Path>(
             b.params.path_topic, 2, [this, i](const nav_msgs::PathConstPtr& msg) { onPath(i, *msg); },
@@ -207,6 +214,10 @@ class MonitorNode {
   void onJointState(size_t i, const sensor_msgs::JointState& msg) {
     std::lock_guard<std::mutex> lock(core_mutex_);
     core_->registry().onJointState(i, msg, ros::Time::now());
+  }
+  void onJointTrajectory(size_t i, const trajectory_msgs::JointTrajectory& msg) {
+    std::lock_guard<std::mutex> lock(core_mutex_);
+    core_->registry().onJointTrajectory(i, msg, ros::Time::now());
   }
   void onPath(size_t i, const nav_msgs::Path& msg) {
     std::lock_guard<std::mutex> lock(core_mutex_);

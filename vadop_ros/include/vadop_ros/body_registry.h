@@ -23,7 +23,11 @@
 // kJointSampleStep over the prediction window into a timed path (between samples the constant
 // twist joining them; after the window the last one goes on). Before the first joint state the
 // joints are at zero; joints a message does not name keep their last state; joint states older
-// than stale_timeout stop moving.
+// than stale_timeout stop moving. A joint trajectory (joint_trajectory_topic, onJointTrajectory)
+// overrides the joints it names while it runs (until its last point): before its first point
+// they are at that point, between points they follow the cubic through the points' positions
+// and velocities (as ros_control's joint_trajectory_controller interpolates; linear when the
+// points have no velocities), after its last point they hold it.
 // A body with a planned path (path_topic, onPath) follows it instead while the plan reaches
 // beyond `now`: its body frame moves from its pose at `now` (as above) through the plan's poses
 // stamped after `now`, between consecutive ones with the constant twist that joins them
@@ -67,6 +71,7 @@
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
 #include <sensor_msgs/JointState.h>
+#include <trajectory_msgs/JointTrajectory.h>
 #include <ros/time.h>
 
 #include <Eigen/Geometry>
@@ -144,7 +149,10 @@ struct BodyStatus {
   // and whether the links move with their joints this cycle.
   uint64_t joint_states_accepted = 0;
   uint64_t joint_states_dropped = 0;
+  uint64_t trajectories_accepted = 0;
+  uint64_t trajectories_dropped = 0;
   bool joints_moving = false;
+  bool on_trajectory = false;  // this cycle's prediction follows a joint trajectory
 };
 
 struct Element {
@@ -232,6 +240,11 @@ struct Body {
   ros::Time joint_receipt;
   std::vector<double> q, qd;
   std::vector<ros::Time> q_time;
+  // Joint trajectory (onJointTrajectory): the joints it names (kinematics indices), the time of
+  // each point, and per point their positions and velocities (empty: linear).
+  std::vector<int> traj_joints;
+  std::vector<ros::Time> traj_time;
+  std::vector<std::vector<double>> traj_q, traj_qd;
 
   BodyStatus status;
   // The body frame's motion in the fixed frame as of the last update (of all bodies, or of
@@ -281,6 +294,13 @@ class BodyRegistry {
   // NaN/Inf or beyond the library's range, a stamp beyond max_stamp_skew. A stamp not newer
   // than the last accepted one: kOutOfOrder (as odometry).
   InputResult onJointState(size_t body, const sensor_msgs::JointState& msg, const ros::Time& receipt);
+  // A joint trajectory as MoveIt executes it: point times are header.stamp (its receipt when
+  // zero) + time_from_start. Dropped as kInvalid (throttled warning naming the body and the
+  // field; the previous trajectory kept): an unknown or repeated joint name, a point whose
+  // positions (or velocities, when given) do not match joint_names, NaN/Inf or out of range,
+  // a negative time_from_start or times that do not increase, a header stamp beyond
+  // max_stamp_skew. No points: the running trajectory is cancelled.
+  InputResult onJointTrajectory(size_t body, const trajectory_msgs::JointTrajectory& msg, const ros::Time& receipt);
   // The window over which joint motions are sampled (s; MonitorCore sets its horizon, and the
   // gates' longest window when longer). Clamped to [0, kMotionCheckWindow].
   void setSampleWindow(double seconds);

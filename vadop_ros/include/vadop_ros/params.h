@@ -78,6 +78,9 @@ struct BodyParams {
   // links' poses come from the URDF's kinematics at the joint positions, and they move with
   // the joint velocities over the horizon (body_registry.h).
   std::string joint_states_topic;  // empty: none
+  // Optional trajectory_msgs/JointTrajectory topic (robot_description bodies, not with
+  // tf_prefix): while a trajectory runs, the joints it names follow it (body_registry.h).
+  std::string joint_trajectory_topic;  // empty: none
 };
 
 struct StaticObstacleParams {
