@@ -111,6 +111,21 @@ std::string number(double v) {
   return os.str();
 }
 
+// The movable joints `names` (a message's field `field`) name, in order; "" or why not (a name
+// that is not a movable joint of the URDF, or repeats).
+std::string jointIndices(const JointKinematics& kin, const std::vector<std::string>& names, const std::string& field,
+                         std::vector<int>& index) {
+  index.assign(names.size(), -1);
+  std::vector<char> seen(kin.joints().size(), 0);
+  for (size_t i = 0; i < names.size(); ++i) {
+    const std::string item = field + "[" + std::to_string(i) + "] \"" + names[i] + "\"";
+    index[i] = kin.jointIndex(names[i]);
+    if (index[i] < 0) return item + " is not a movable joint of the body's URDF";
+    if (seen[static_cast<size_t>(index[i])]++) return item + " repeats";
+  }
+  return "";
+}
+
 }  // namespace
 
 const char* toString(BodyState s) {
@@ -415,17 +430,20 @@ void BodyRegistry::markElementBad(size_t element, const std::string& why, const 
   rejectInput(bodies_.at(e.body), "element \"" + e.id + "\": " + why, now, false);
 }
 
+std::string BodyRegistry::stampSkewError(const ros::Time& stamp, const ros::Time& receipt) const {
+  const double skew = secondsBetween(stamp, receipt);
+  if (std::fabs(skew) <= max_stamp_skew_) return "";
+  return "stamp " + stampText(stamp) + " is " + number(std::fabs(skew)) + " s " + (skew > 0 ? "ahead of" : "behind") +
+         " the node's clock (" + stampText(receipt) + ") at its receipt: beyond ~max_stamp_skew = " +
+         number(max_stamp_skew_) + " s";
+}
+
 InputResult BodyRegistry::acceptStamp(Body& b, ros::Time stamp, const ros::Time& receipt) {
   if (stamp.isZero()) stamp = receipt;
   // Far from the node's clock, ahead or behind: invalid (it would blind the body, or be
   // extrapolated over hours).
-  const double skew = secondsBetween(stamp, receipt);
-  if (!(std::fabs(skew) <= max_stamp_skew_)) {
-    rejectInput(b,
-                "stamp " + stampText(stamp) + " is " + number(std::fabs(skew)) + " s " +
-                    (skew > 0 ? "ahead of" : "behind") + " the node's clock (" + stampText(receipt) +
-                    ") at its receipt: beyond ~max_stamp_skew = " + number(max_stamp_skew_) + " s",
-                receipt);
+  if (const std::string why = stampSkewError(stamp, receipt); !why.empty()) {
+    rejectInput(b, why, receipt);
     return InputResult::kInvalid;
   }
   // Out of order / duplicate, but only while the last stamp is not ahead of this receipt: a
@@ -497,12 +515,7 @@ InputResult BodyRegistry::onPath(size_t bi, const nav_msgs::Path& msg, const ros
     return InputResult::kInvalid;
   };
   const ros::Time header_stamp = msg.header.stamp.isZero() ? receipt : msg.header.stamp;
-  const double skew = secondsBetween(header_stamp, receipt);
-  if (!(std::fabs(skew) <= max_stamp_skew_)) {
-    return drop("header.stamp " + stampText(header_stamp) + " is " + number(std::fabs(skew)) + " s " +
-                (skew > 0 ? "ahead of" : "behind") + " the node's clock at its receipt: beyond ~max_stamp_skew = " +
-                number(max_stamp_skew_) + " s");
-  }
+  if (const std::string why = stampSkewError(header_stamp, receipt); !why.empty()) return drop("header." + why);
   if (header_stamp < b.plan_stamp && b.plan_stamp <= receipt) {
     ++b.status.dropped_out_of_order;
     return InputResult::kOutOfOrder;
@@ -588,13 +601,9 @@ InputResult BodyRegistry::onJointState(size_t bi, const sensor_msgs::JointState&
     return drop("velocity has " + std::to_string(msg.velocity.size()) + " values for " + std::to_string(n) +
                 " names (give none or one per name)");
   }
-  std::vector<int> index(n);
-  std::vector<char> seen(b.kinematics->joints().size(), 0);
+  std::vector<int> index;
+  if (const std::string why = jointIndices(*b.kinematics, msg.name, "name", index); !why.empty()) return drop(why);
   for (size_t i = 0; i < n; ++i) {
-    const std::string field = "name[" + std::to_string(i) + "] \"" + msg.name[i] + "\"";
-    index[i] = b.kinematics->jointIndex(msg.name[i]);
-    if (index[i] < 0) return drop(field + " is not a movable joint of the body's URDF");
-    if (seen[static_cast<size_t>(index[i])]++) return drop(field + " repeats");
     std::string why;
     if (!checkValue(msg.position[i], vadop::kMaxCoordinate, "rad or m", "position[" + std::to_string(i) + "]", why)) {
       return drop(why);
@@ -605,12 +614,7 @@ InputResult BodyRegistry::onJointState(size_t bi, const sensor_msgs::JointState&
     }
   }
   ros::Time stamp = msg.header.stamp.isZero() ? receipt : msg.header.stamp;
-  const double skew = secondsBetween(stamp, receipt);
-  if (!(std::fabs(skew) <= max_stamp_skew_)) {
-    return drop("header.stamp " + stampText(stamp) + " is " + number(std::fabs(skew)) + " s " +
-                (skew > 0 ? "ahead of" : "behind") + " the node's clock at its receipt: beyond ~max_stamp_skew = " +
-                number(max_stamp_skew_) + " s");
-  }
+  if (const std::string why = stampSkewError(stamp, receipt); !why.empty()) return drop("header." + why);
   if (b.has_joints && stamp <= b.joint_stamp && b.joint_stamp <= receipt) {
     ++b.status.dropped_out_of_order;
     return InputResult::kOutOfOrder;
@@ -638,25 +642,16 @@ InputResult BodyRegistry::onJointTrajectory(size_t bi, const trajectory_msgs::Jo
   };
   if (!b.kinematics) return drop("the body has no kinematics (see its geometry error)");
   const ros::Time start = msg.header.stamp.isZero() ? receipt : msg.header.stamp;
-  const double skew = secondsBetween(start, receipt);
-  if (!(std::fabs(skew) <= max_stamp_skew_)) {
-    return drop("header.stamp " + stampText(start) + " is " + number(std::fabs(skew)) + " s " +
-                (skew > 0 ? "ahead of" : "behind") + " the node's clock at its receipt: beyond ~max_stamp_skew = " +
-                number(max_stamp_skew_) + " s");
-  }
+  if (const std::string why = stampSkewError(start, receipt); !why.empty()) return drop("header." + why);
   if (msg.points.empty()) {
     b.traj_time.clear();
     ++b.status.trajectories_accepted;
     return InputResult::kAccepted;
   }
   const size_t n = msg.joint_names.size();
-  std::vector<int> joints(n);
-  std::vector<char> seen(b.kinematics->joints().size(), 0);
-  for (size_t i = 0; i < n; ++i) {
-    const std::string field = "joint_names[" + std::to_string(i) + "] \"" + msg.joint_names[i] + "\"";
-    joints[i] = b.kinematics->jointIndex(msg.joint_names[i]);
-    if (joints[i] < 0) return drop(field + " is not a movable joint of the body's URDF");
-    if (seen[static_cast<size_t>(joints[i])]++) return drop(field + " repeats");
+  std::vector<int> joints;
+  if (const std::string why = jointIndices(*b.kinematics, msg.joint_names, "joint_names", joints); !why.empty()) {
+    return drop(why);
   }
   bool with_velocities = true;
   for (const auto& p : msg.points) with_velocities = with_velocities && p.velocities.size() == n;

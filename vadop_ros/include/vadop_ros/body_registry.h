@@ -354,6 +354,8 @@ class BodyRegistry {
   // A dropped message (count_message) or a left-out element: status, throttled warning.
   void rejectInput(Body& b, const std::string& why, const ros::Time& receipt, bool count_message = true);
   InputResult acceptStamp(Body& b, ros::Time stamp, const ros::Time& receipt);
+  // "" when `stamp` is within max_stamp_skew of `receipt`, else why not ("stamp ... ahead of ...").
+  std::string stampSkewError(const ros::Time& stamp, const ros::Time& receipt) const;
   // tf.lookup that never throws (tf2 itself computes ros::Durations from arbitrary stamps).
   static bool lookup(TransformSource& tf, const std::string& target, const std::string& source,
                      const ros::Time& time, Eigen::Isometry3d& pose, ros::Time& stamp, std::string& error);
