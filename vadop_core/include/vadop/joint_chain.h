@@ -1,0 +1,99 @@
+// A link at the end of a serial chain of joints on a moving base (an arm's link, a mobile
+// manipulator's gripper), and its first contact with another such link, certified as the rest
+// of the narrow phase. Each joint moves along a JointPath (constant velocity up to a limit, or
+// timed positions of a joint trajectory, linear between them); the base moves along a TimedPath.
+// It does not model joint accelerations within a piece, nor closed chains or mimic joints.
+#pragma once
+
+#include "vadop/shapes.h"
+#include "vadop/time_of_impact.h"
+#include "vadop/timed_path.h"
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <limits>
+#include <vector>
+
+namespace vadop {
+
+// A joint position over time: linear between timed positions (so each piece has a constant
+// velocity), the first position before the first time, and after the last time moving on at
+// velocity_after (0: holds). Revolute positions in rad, prismatic in m.
+class JointPath {
+ public:
+  // Holds `position` at every time.
+  JointPath() : JointPath({0.0}, {0.0}) {}
+  // Throws vadop::InvalidArgument naming the entry: no position, sizes differ, a NaN/Inf,
+  // times that do not increase.
+  JointPath(std::vector<double> times, std::vector<double> positions, double velocity_after = 0.0);
+  // From `position` at t_ref on, moving at `velocity` until it reaches lower or upper (then
+  // holds there; a position outside the limits is clamped first). Before t_ref it holds.
+  // Throws on NaN, lower > upper. Infinite limits: none.
+  static JointPath constantVelocity(double t_ref, double position, double velocity,
+                                    double lower = -std::numeric_limits<double>::infinity(),
+                                    double upper = std::numeric_limits<double>::infinity());
+
+  double positionAt(double t) const;
+  const std::vector<double>& times() const { return times_; }
+  const std::vector<double>& positions() const { return positions_; }
+  double velocityAfter() const { return velocity_after_; }
+  // The first time > t at which the velocity may jump (+inf: none).
+  double nextBreak(double t) const;
+  // Upper bounds over [t0, t1] of |velocity| and of |position|.
+  double maxSpeed(double t0, double t1) const;
+  double maxAbsPosition(double t0, double t1) const;
+
+ private:
+  double slope(size_t piece) const;  // piece k holds on [times[k-1], times[k])
+  std::vector<double> times_, positions_;
+  double velocity_after_ = 0.0;
+};
+
+enum class JointType { kFixed, kRevolute, kPrismatic };  // a URDF continuous joint is kRevolute
+
+struct ChainJoint {
+  JointType type = JointType::kFixed;
+  // The joint frame in its parent link's frame at position 0 (URDF <origin>); the child link's
+  // frame is the joint frame turned about / slid along `axis` by the position.
+  Eigen::Isometry3d origin = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // joint frame; normalised on construction
+  JointPath path;                                    // ignored for kFixed
+};
+
+class LinkChain {
+ public:
+  // The link's pose at t is base.poseAt(t) * origin_1 * J_1(q_1(t)) * ... * origin_n * J_n(q_n(t))
+  // (joints from the base to the link). Throws vadop::InvalidArgument naming the joint: a
+  // non-finite origin or a rotation that is not orthonormal, a zero or non-finite axis.
+  explicit LinkChain(TimedPath base, std::vector<ChainJoint> joints = {});
+
+  Eigen::Isometry3d poseAt(double t) const;
+  const TimedPath& base() const { return base_; }
+  const std::vector<ChainJoint>& joints() const { return joints_; }
+  // Whether some joint moves somewhere in [t0, t1].
+  bool jointsMove(double t0, double t1) const;
+  // The first time > t at which a velocity (the base's or a joint's) may jump; +inf when none.
+  double nextBreak(double t) const;
+  // A bound on the speed of every point within `radius` of the link's origin at every time of
+  // [t0, t1], when no velocity jumps inside (t0, t1) (see nextBreak): the base's twist acting
+  // on the point, plus each revolute joint's rate times the point's largest distance from the
+  // joint's axis point, plus each prismatic joint's rate.
+  double speedBound(double t0, double t1, double radius) const;
+
+ private:
+  TimedPath base_;
+  std::vector<ChainJoint> joints_;
+  std::vector<double> offset_;  // |origin_i translation|
+};
+
+// The first t in [t0, t1] at which link a (moved by ca) and link b (by cb) touch, with the
+// contract of time_of_impact.h (never after the first contact, a certified clear window, or
+// undecided when the budget runs out). While no joint moves, each stretch is the TimedPath
+// narrow phase; otherwise conservative advancement on the certified GJK lower bound with the
+// chains' speed bounds (speedBound) over each stretch of constant velocities.
+// Throws as timeOfImpact.
+Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedShape& b, const LinkChain& cb,
+                    double t0, double t1, const ToiOptions& options = {});
+
+}  // namespace vadop

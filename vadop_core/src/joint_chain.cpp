@@ -1,0 +1,267 @@
+// Conservative advancement for links of joint chains.
+//
+// Why the step is safe. On a stretch [s, e] where no velocity jumps, every point x of a link
+// within radius r of its origin moves with the sum of the base's twist and each joint's twist:
+//   v(x) = v_pivot + w_base x (x - pivot) + sum_revolute qdot_i axis_i x (x - p_i) + sum_prismatic qdot_i axis_i
+// with p_i on joint i's axis. |x - p_i| is at most r plus the lengths of the joint origins after
+// i (and the prismatic travels from i on), whatever the joint angles; |x - pivot| at most that
+// from the base plus the base's pivot lever. So |v(x)| <= mu_a (speedBound) and the gap of two
+// links shrinks no faster than mu_a + mu_b: from a certified lower bound lb > tol/2 of the gap
+// at t (distance.h's lower_bound), the gap stays > tol/2 on [t, t + (lb - tol/2) / (mu_a + mu_b)).
+// Each iteration either finds the gap <= tol at t (hit), or moves t to a time up to which the
+// gap is certified > tol/2: the contract of time_of_impact.h.
+#include "vadop/joint_chain.h"
+
+#include "vadop/error.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <utility>
+
+namespace vadop {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+Eigen::Isometry3d jointTransform(const ChainJoint& j, double q) {
+  Eigen::Isometry3d x = j.origin;
+  if (j.type == JointType::kRevolute) {
+    x.rotate(Eigen::AngleAxisd(q, j.axis));
+  } else if (j.type == JointType::kPrismatic) {
+    x.translate(q * j.axis);
+  }
+  return x;
+}
+
+// The base piece `m` carrying a link rigidly at `offset` (link frame in the base frame): the
+// link's own constant twist, turning about the base's pivot.
+Motion carried(const Motion& m, const Eigen::Isometry3d& offset) {
+  Motion out = m;
+  const Eigen::Isometry3d base = m.poseAt(m.t_ref);
+  const Eigen::Isometry3d link = base * offset;
+  out.position = link.translation();
+  out.orientation = Eigen::Quaterniond(link.rotation()).normalized();
+  out.pivot_offset = m.position + m.pivot_offset - out.position;
+  if (!m.isRotating()) out.pivot_offset.setZero();
+  return out;
+}
+
+}  // namespace
+
+JointPath::JointPath(std::vector<double> times, std::vector<double> positions, double velocity_after)
+    : times_(std::move(times)), positions_(std::move(positions)), velocity_after_(velocity_after) {
+  if (times_.empty()) throw InvalidArgument("JointPath: no position");
+  if (times_.size() != positions_.size()) {
+    throw InvalidArgument("JointPath: " + std::to_string(times_.size()) + " times but " +
+                          std::to_string(positions_.size()) + " positions");
+  }
+  for (size_t i = 0; i < times_.size(); ++i) {
+    if (!std::isfinite(times_[i])) throw InvalidArgument("JointPath: time " + std::to_string(i) + " is not finite");
+    if (!std::isfinite(positions_[i])) {
+      throw InvalidArgument("JointPath: position " + std::to_string(i) + " is not finite");
+    }
+    if (i > 0 && !(times_[i] > times_[i - 1])) {
+      throw InvalidArgument("JointPath: time " + std::to_string(i) + " (" + formatNumber(times_[i]) +
+                            ") does not increase");
+    }
+  }
+  if (!std::isfinite(velocity_after_)) throw InvalidArgument("JointPath: velocity_after is not finite");
+}
+
+JointPath JointPath::constantVelocity(double t_ref, double position, double velocity, double lower, double upper) {
+  if (!std::isfinite(t_ref) || !std::isfinite(position) || !std::isfinite(velocity)) {
+    throw InvalidArgument("JointPath: t_ref, position and velocity must be finite");
+  }
+  if (std::isnan(lower) || std::isnan(upper) || lower > upper) {
+    throw InvalidArgument("JointPath: need lower <= upper, got " + formatNumber(lower) + " > " + formatNumber(upper));
+  }
+  const double q = std::clamp(position, lower, upper);
+  const double stop = velocity > 0.0 ? upper : velocity < 0.0 ? lower : q;
+  if (!std::isfinite(stop)) return JointPath({t_ref}, {q}, velocity);
+  const double dt = (stop - q) / velocity;
+  if (velocity == 0.0 || !(dt > 0.0) || !std::isfinite(t_ref + dt) || !(t_ref + dt > t_ref)) {
+    return JointPath({t_ref}, {q}, 0.0);
+  }
+  return JointPath({t_ref, t_ref + dt}, {q, stop}, 0.0);
+}
+
+double JointPath::slope(size_t piece) const {
+  if (piece == 0) return 0.0;
+  if (piece >= times_.size()) return velocity_after_;
+  return (positions_[piece] - positions_[piece - 1]) / (times_[piece] - times_[piece - 1]);
+}
+
+double JointPath::positionAt(double t) const {
+  const size_t k = static_cast<size_t>(std::upper_bound(times_.begin(), times_.end(), t) - times_.begin());
+  if (k == 0) return positions_.front();
+  if (k == times_.size()) return positions_.back() + velocity_after_ * (t - times_.back());
+  const double u = (t - times_[k - 1]) / (times_[k] - times_[k - 1]);
+  return positions_[k - 1] + u * (positions_[k] - positions_[k - 1]);
+}
+
+double JointPath::nextBreak(double t) const {
+  const auto it = std::upper_bound(times_.begin(), times_.end(), t);
+  return it == times_.end() ? kInf : *it;
+}
+
+double JointPath::maxSpeed(double t0, double t1) const {
+  const auto k0 = static_cast<size_t>(std::upper_bound(times_.begin(), times_.end(), t0) - times_.begin());
+  const auto k1 = static_cast<size_t>(std::upper_bound(times_.begin(), times_.end(), t1) - times_.begin());
+  double v = 0.0;
+  for (size_t k = k0; k <= k1; ++k) v = std::max(v, std::abs(slope(k)));
+  return v;
+}
+
+double JointPath::maxAbsPosition(double t0, double t1) const {
+  // Piecewise linear: the extremes are at the ends or at the times in between.
+  double m = std::max(std::abs(positionAt(t0)), std::abs(positionAt(t1)));
+  for (auto it = std::upper_bound(times_.begin(), times_.end(), t0); it != times_.end() && *it < t1; ++it) {
+    m = std::max(m, std::abs(positions_[static_cast<size_t>(it - times_.begin())]));
+  }
+  return m;
+}
+
+LinkChain::LinkChain(TimedPath base, std::vector<ChainJoint> joints)
+    : base_(std::move(base)), joints_(std::move(joints)) {
+  for (size_t i = 0; i < joints_.size(); ++i) {
+    ChainJoint& j = joints_[i];
+    const std::string what = "LinkChain: joint " + std::to_string(i);
+    if (!j.origin.matrix().allFinite()) throw InvalidArgument(what + ": origin is not finite");
+    const Eigen::Matrix3d r = j.origin.linear();
+    if (!((r.transpose() * r - Eigen::Matrix3d::Identity()).norm() <= 1e-6 && r.determinant() > 0.0)) {
+      throw InvalidArgument(what + ": origin rotation is not a rotation");
+    }
+    if (j.type != JointType::kFixed) {
+      if (!j.axis.allFinite() || j.axis.norm() < 1e-9) throw InvalidArgument(what + ": axis is zero or not finite");
+      j.axis.normalize();
+    }
+    offset_.push_back(j.origin.translation().norm());
+  }
+}
+
+Eigen::Isometry3d LinkChain::poseAt(double t) const {
+  Eigen::Isometry3d x = base_.poseAt(t);
+  for (const ChainJoint& j : joints_) x = x * jointTransform(j, j.type == JointType::kFixed ? 0.0 : j.path.positionAt(t));
+  return x;
+}
+
+bool LinkChain::jointsMove(double t0, double t1) const {
+  for (const ChainJoint& j : joints_) {
+    if (j.type != JointType::kFixed && j.path.maxSpeed(t0, t1) > 0.0) return true;
+  }
+  return false;
+}
+
+double LinkChain::nextBreak(double t) const {
+  double e = base_.start(base_.pieceAt(t) + 1);
+  for (const ChainJoint& j : joints_) {
+    if (j.type != JointType::kFixed) e = std::min(e, j.path.nextBreak(t));
+  }
+  return e;
+}
+
+double LinkChain::speedBound(double t0, double t1, double radius) const {
+  // reach = the largest distance from joint i's axis point to the link's origin, built from the
+  // link back to the base.
+  double speed = 0.0, reach = 0.0;
+  for (size_t i = joints_.size(); i-- > 0;) {
+    const ChainJoint& j = joints_[i];
+    if (j.type == JointType::kPrismatic) {
+      reach += j.path.maxAbsPosition(t0, t1);
+      speed += j.path.maxSpeed(t0, t1);
+    } else if (j.type == JointType::kRevolute) {
+      speed += j.path.maxSpeed(t0, t1) * (reach + radius);
+    }
+    reach += offset_[i];
+  }
+  // The base: every piece that holds in [t0, t1].
+  double base = 0.0;
+  base_.forEachPiece(t0, t1, [&](size_t k, double, double) {
+    const Motion& m = base_.motion(k);
+    base = std::max(base, m.linear_velocity.norm() +
+                              m.angular_velocity.norm() * (m.pivot_offset.norm() + reach + radius));
+  });
+  return speed + base;
+}
+
+Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedShape& b, const LinkChain& cb,
+                    double t0, double t1, const ToiOptions& options) {
+  if (!(std::isfinite(t0) && std::isfinite(t1) && t0 <= t1)) {
+    throw InvalidArgument("timeOfImpact: need finite t0 <= t1, got t0 = " + formatNumber(t0) +
+                          ", t1 = " + formatNumber(t1));
+  }
+  if (!(std::isfinite(options.tolerance) && options.tolerance > 0.0) || options.max_iterations <= 0) {
+    throw InvalidArgument("timeOfImpact: tolerance and max_iterations must be > 0");
+  }
+  const double touch = options.tolerance, advance = 0.5 * options.tolerance;
+  const double ra = a.shape().bounding_radius, rb = b.shape().bounding_radius;
+  DistanceOptions dopt;
+  dopt.tolerance = options.tolerance / 200.0;
+  Impact out;
+  int used = 0;
+  double t = t0;
+  auto fill = [&](double at, const DistanceResult& c) {
+    out.time = at;
+    out.normal = c.normal;
+    out.point = 0.5 * (c.point_a + c.point_b);
+    out.distance = c.distance;
+  };
+  for (;;) {
+    const double e = std::min({t1, ca.nextBreak(t), cb.nextBreak(t)});
+    if (!ca.jointsMove(t, e) && !cb.jointsMove(t, e)) {
+      // Both links ride rigidly on their bases over the stretch: the constant-twist narrow phase.
+      const double mid = t < e ? 0.5 * (t + e) : t;
+      const Eigen::Isometry3d fa = ca.base().poseAt(mid).inverse() * ca.poseAt(mid);
+      const Eigen::Isometry3d fb = cb.base().poseAt(mid).inverse() * cb.poseAt(mid);
+      ToiOptions o = options;
+      o.max_iterations = options.max_iterations - used;
+      if (o.max_iterations <= 0) {
+        out.undecided = true;
+        out.iterations = used;
+        out.time = t;
+        return out;
+      }
+      const Motion& ma = ca.base().motion(ca.base().pieceAt(mid));
+      const Motion& mb = cb.base().motion(cb.base().pieceAt(mid));
+      Impact r = timeOfImpact(a, carried(ma, fa), b, carried(mb, fb), t, e, o);
+      used += r.iterations;
+      r.iterations = used;
+      r.initially_touching = r.initially_touching && t == t0;
+      if (r.hit || r.undecided || e >= t1) return r;
+      t = e;
+      continue;
+    }
+    const double mu = ca.speedBound(t, e, ra) + cb.speedBound(t, e, rb);
+    // Conservative advancement within the stretch.
+    for (;;) {
+      const DistanceResult d = distance(a, ca.poseAt(t), b, cb.poseAt(t), dopt);
+      ++used;
+      out.iterations = used;
+      if (d.distance <= touch) {
+        out.hit = true;
+        out.initially_touching = t == t0;
+        fill(t, d);
+        return out;
+      }
+      const double step = mu > 0.0 ? (d.lower_bound - advance) / mu : kInf;
+      const double next = t + step;
+      if (next > t1) {
+        fill(t1, d);
+        return out;
+      }
+      if (!(step > 0.0) || !(next > t) || used >= options.max_iterations) {
+        out.undecided = true;  // certified clear up to t only
+        fill(t, d);
+        return out;
+      }
+      if (next >= e) {
+        t = e;
+        break;
+      }
+      t = next;
+    }
+  }
+}
+
+}  // namespace vadop

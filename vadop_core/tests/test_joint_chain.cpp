@@ -1,0 +1,532 @@
+// Links of joint chains (joint_chain.h) against an independent truth: its own joint
+// interpolation and forward kinematics (rotation matrices by Rodrigues' formula, composed by
+// hand), the static distance of toi_truth.h (explicit vertices, brute-force min-norm), and a
+// left-first bisection in time certified by the Lipschitz bound of the gap (every point's
+// speed bounded with the whole chain's reach at every joint: looser than the library's, and
+// computed on its own). Analytic cases pin an arm turning into a post and a slide.
+// VADOP_TOI_CASES sets the random cases per chain length (default 150, 12 under ASan).
+#include "toi_scenes.h"
+#include "toi_truth.h"
+
+#include "vadop/error.h"
+#include "vadop/joint_chain.h"
+
+#include <gtest/gtest.h>
+
+#include <time.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace {
+
+using Eigen::AngleAxisd;
+using Eigen::Isometry3d;
+using Eigen::Matrix3d;
+using Eigen::Quaterniond;
+using Eigen::Vector3d;
+using vadop::ChainJoint;
+using vadop::JointPath;
+using vadop::JointType;
+using vadop::LinkChain;
+using vadop::TimedPath;
+
+constexpr double kTol = 1e-6;  // ToiOptions default
+constexpr double kEps = 1e-9;  // truth time resolution (s)
+
+#if defined(__SANITIZE_ADDRESS__)
+constexpr int kDefaultCases = 12;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr int kDefaultCases = 12;
+#else
+constexpr int kDefaultCases = 150;
+#endif
+#else
+constexpr int kDefaultCases = 150;
+#endif
+
+int caseCount() {
+  const char* env = std::getenv("VADOP_TOI_CASES");
+  if (env != nullptr && std::atoi(env) > 0) return std::atoi(env);
+  return kDefaultCases;
+}
+
+double cpuSeconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+// ------------------------------------------------------------------------------------------
+// The test's own description of a chain, and its own kinematics.
+
+struct TJoint {
+  JointType type = JointType::kFixed;
+  Matrix3d R = Matrix3d::Identity();  // origin
+  Vector3d p = Vector3d::Zero();
+  Vector3d axis = Vector3d::UnitZ();  // unit
+  std::vector<double> times{0.0}, q{0.0};
+  double after = 0.0;
+};
+
+struct TChain {
+  vadop::Motion base;
+  std::vector<TJoint> joints;
+};
+
+double truthQ(const TJoint& j, double t) {
+  if (t <= j.times.front()) return j.q.front();
+  if (t >= j.times.back()) return j.q.back() + j.after * (t - j.times.back());
+  for (size_t i = 1; i < j.times.size(); ++i) {
+    if (t < j.times[i]) {
+      return j.q[i - 1] + (j.q[i] - j.q[i - 1]) * (t - j.times[i - 1]) / (j.times[i] - j.times[i - 1]);
+    }
+  }
+  return j.q.back();
+}
+
+toi_truth::Pose truthPose(const TChain& c, double t) {
+  toi_truth::Pose P = toi_truth::poseAt(c.base, t);
+  for (const TJoint& j : c.joints) {
+    P.p = P.p + P.R * j.p;
+    P.R = P.R * j.R;
+    if (j.type == JointType::kRevolute) P.R = P.R * toi_truth::rodrigues(j.axis * truthQ(j, t));
+    if (j.type == JointType::kPrismatic) P.p = P.p + P.R * (j.axis * truthQ(j, t));
+  }
+  return P;
+}
+
+// Upper bounds over the whole window: |joint rate| and |prismatic position|.
+double truthRate(const TJoint& j) {
+  double v = std::abs(j.after);
+  for (size_t i = 1; i < j.times.size(); ++i) v = std::max(v, std::abs((j.q[i] - j.q[i - 1]) / (j.times[i] - j.times[i - 1])));
+  return v;
+}
+double truthTravel(const TJoint& j, double t0, double t1) {
+  double m = std::max(std::abs(truthQ(j, t0)), std::abs(truthQ(j, t1)));
+  for (double q : j.q) m = std::max(m, std::abs(q));
+  return m;
+}
+
+// Every point of the link within `lever` of its origin moves at most this fast on [t0, t1]:
+// the whole chain's reach (all offsets, all travel) at every joint and at the base.
+double truthSpeed(const TChain& c, double lever, double t0, double t1) {
+  double reach = lever;
+  for (const TJoint& j : c.joints) {
+    reach += j.p.norm();
+    if (j.type == JointType::kPrismatic) reach += truthTravel(j, t0, t1);
+  }
+  double v = c.base.linear_velocity.norm() + c.base.angular_velocity.norm() * (reach + c.base.pivot_offset.norm());
+  for (const TJoint& j : c.joints) {
+    if (j.type == JointType::kRevolute) v += truthRate(j) * reach;
+    if (j.type == JointType::kPrismatic) v += truthRate(j);
+  }
+  return v;
+}
+
+LinkChain ours(const TChain& c) {
+  std::vector<ChainJoint> joints;
+  for (const TJoint& j : c.joints) {
+    ChainJoint x;
+    x.type = j.type;
+    x.origin = Isometry3d::Identity();
+    x.origin.linear() = j.R;
+    x.origin.translation() = j.p;
+    x.axis = j.axis;
+    x.path = JointPath(j.times, j.q, j.after);
+    joints.push_back(x);
+  }
+  return LinkChain(TimedPath(c.base), joints);
+}
+
+// ------------------------------------------------------------------------------------------
+// The truth's gap and its first crossing.
+
+struct Gap {
+  double t = 0.0, lo = 0.0, hi = 0.0;
+};
+
+class ChainTruth {
+ public:
+  ChainTruth(const vadop::Shape& sa, const TChain& a, const vadop::Shape& sb, const TChain& b, double t0, double t1)
+      : A_(toi_truth::makeBody(sa)), B_(toi_truth::makeBody(sb)), a_(a), b_(b) {
+    lipschitz_ = truthSpeed(a, toi_truth::bodyLever(A_), t0, t1) + truthSpeed(b, toi_truth::bodyLever(B_), t0, t1);
+  }
+  Gap at(double t) {
+    ++evaluations_;
+    const toi_truth::Pose pa = truthPose(a_, t), pb = truthPose(b_, t);
+    Gap g{t, toi_truth::kInf, toi_truth::kInf};
+    for (const auto& A : A_.pieces) {
+      for (const auto& B : B_.pieces) {
+        const toi_truth::CoreDist c = toi_truth::coreDistance(A, pa, B, pb);
+        const double rnd = A.rounding + B.rounding;
+        g.lo = std::min(g.lo, c.lo - rnd);
+        g.hi = std::min(g.hi, c.hi - rnd);
+      }
+    }
+    return g;
+  }
+  // First time in (a.t, b.t] with gap <= theta (to eps), given gap(a.t) > theta; found=false
+  // when [a.t, b.t] is certified above theta.
+  bool first(const Gap& a, const Gap& b, double theta, double* t, int depth = 0) {
+    if (evaluations_ > kMaxEvaluations) {
+      gave_up_ = true;
+      return false;
+    }
+    if (0.5 * (a.lo + b.lo - lipschitz_ * (b.t - a.t)) > theta) return false;
+    if (b.t - a.t <= kEps || depth > 200) {
+      *t = b.t;
+      return true;
+    }
+    const Gap m = at(0.5 * (a.t + b.t));
+    if (first(a, m, theta, t, depth + 1)) return true;
+    if (m.lo <= theta) {
+      *t = m.t;
+      return true;
+    }
+    return first(m, b, theta, t, depth + 1);
+  }
+  bool gaveUp() const { return gave_up_; }
+  long evaluations() const { return evaluations_; }
+
+ private:
+  static constexpr long kMaxEvaluations = 400000;
+  toi_truth::Body A_, B_;
+  TChain a_, b_;
+  double lipschitz_ = 0.0;
+  long evaluations_ = 0;
+  bool gave_up_ = false;
+};
+
+enum class Verdict { kClear, kGraze, kContact, kUnknown };
+struct Answer {
+  Verdict verdict = Verdict::kClear;
+  double t_tol = 0.0, t_star = 0.0, closing = 0.0;
+  bool initial = false;
+};
+
+Answer classify(ChainTruth& tr, double t0, double t1) {
+  Answer out;
+  const Gap g0 = tr.at(t0), g1 = tr.at(t1);
+  if (g0.lo <= 0.0) {
+    out.verdict = Verdict::kContact;
+    out.initial = true;
+    out.t_tol = out.t_star = t0;
+    return out;
+  }
+  double t_tol = t0;
+  if (g0.lo > kTol && !tr.first(g0, g1, kTol, &t_tol)) {
+    out.verdict = tr.gaveUp() ? Verdict::kUnknown : Verdict::kClear;
+    return out;
+  }
+  out.t_tol = t_tol;
+  const Gap gt = tr.at(t_tol);
+  double t_star = t_tol;
+  if (gt.lo > 0.0 && !tr.first(gt, g1, 0.0, &t_star)) {
+    out.verdict = tr.gaveUp() ? Verdict::kUnknown : Verdict::kGraze;
+    return out;
+  }
+  out.verdict = Verdict::kContact;
+  out.t_star = t_star;
+  const double dt = std::min(1e-5, t_star - t0);
+  if (dt > 0.0) out.closing = (tr.at(t_star - dt).hi - tr.at(t_star).hi) / dt;
+  return out;
+}
+
+// ------------------------------------------------------------------------------------------
+// Random chains and scenes.
+
+TJoint randomJoint(toi_scenes::Rng& r) {
+  TJoint j;
+  const double kind = r.uni(0.0, 1.0);
+  j.type = kind < 0.7 ? JointType::kRevolute : kind < 0.9 ? JointType::kPrismatic : JointType::kFixed;
+  if (r.chance(0.5)) j.R = r.quat().toRotationMatrix();
+  j.p = r.unit() * r.uni(0.05, 0.4);
+  j.axis = r.chance(0.5) ? Vector3d::UnitZ() : r.unit();
+  const bool prismatic = j.type == JointType::kPrismatic;
+  const double qs = prismatic ? 0.2 : 1.0, vs = prismatic ? 0.3 : 1.5;
+  if (r.chance(0.6)) {  // constant rate
+    j.times = {0.0};
+    j.q = {r.uni(-qs, qs)};
+    j.after = r.uni(-vs, vs);
+  } else {  // a joint trajectory: timed positions, then it holds
+    const int n = r.integer(3, 6);
+    j.times.clear();
+    j.q.clear();
+    double t = r.uni(-0.3, 0.3), q = r.uni(-qs, qs);
+    for (int i = 0; i < n; ++i) {
+      j.times.push_back(t);
+      j.q.push_back(q);
+      const double dt = r.uni(0.1, 0.6);
+      t += dt;
+      q += r.uni(-vs, vs) * dt;
+    }
+    j.after = 0.0;
+  }
+  return j;
+}
+
+TChain randomChain(toi_scenes::Rng& r, int joints) {
+  TChain c;
+  c.base.position = r.inBox(0.5);
+  c.base.orientation = r.quat();
+  if (r.chance(0.5)) c.base.linear_velocity = r.unit() * r.uni(0.0, 0.5);
+  if (r.chance(0.4)) c.base.angular_velocity = r.unit() * r.uni(0.0, 0.6);
+  for (int i = 0; i < joints; ++i) c.joints.push_back(randomJoint(r));
+  return c;
+}
+
+vadop::Shape randomLinkShape(toi_scenes::Rng& r) {
+  static const vadop::ShapeType types[] = {vadop::ShapeType::kSphere, vadop::ShapeType::kBox,
+                                           vadop::ShapeType::kCapsule, vadop::ShapeType::kCylinder,
+                                           vadop::ShapeType::kConvex};
+  vadop::Shape s;
+  do {
+    s = toi_scenes::randomShape(types[r.integer(0, 4)], r);
+  } while (s.bounding_radius > 0.4);
+  return s;
+}
+
+struct Case {
+  vadop::Shape sa, sb;
+  TChain a, b;
+};
+
+// a: a chain of n joints; b: a rigid body or another chain, placed so that it passes near a's
+// link at a random time of the window.
+Case randomCase(toi_scenes::Rng& r, int n) {
+  Case c;
+  c.sa = randomLinkShape(r);
+  c.sb = randomLinkShape(r);
+  c.a = randomChain(r, n);
+  c.b = randomChain(r, r.chance(0.5) ? 0 : r.integer(1, n));
+  const double tc = r.uni(0.1, 1.9);
+  const Vector3d target = truthPose(c.a, tc).p + r.unit() * r.uni(0.0, 1.2 * (c.sa.bounding_radius + c.sb.bounding_radius));
+  c.b.base.position += target - truthPose(c.b, tc).p;
+  return c;
+}
+
+// ------------------------------------------------------------------------------------------
+
+TEST(JointPath, InterpolatesHoldsAndContinues) {
+  const JointPath p({1.0, 2.0, 4.0}, {0.0, 1.0, 0.0}, 0.5);
+  EXPECT_DOUBLE_EQ(p.positionAt(0.0), 0.0);
+  EXPECT_DOUBLE_EQ(p.positionAt(1.5), 0.5);
+  EXPECT_DOUBLE_EQ(p.positionAt(3.0), 0.5);
+  EXPECT_DOUBLE_EQ(p.positionAt(6.0), 1.0);
+  EXPECT_DOUBLE_EQ(p.maxSpeed(1.2, 1.8), 1.0);
+  EXPECT_DOUBLE_EQ(p.maxSpeed(2.5, 3.5), 0.5);
+  EXPECT_DOUBLE_EQ(p.maxSpeed(-1.0, 0.5), 0.0);
+  EXPECT_DOUBLE_EQ(p.maxAbsPosition(0.0, 3.0), 1.0);
+  EXPECT_DOUBLE_EQ(p.nextBreak(2.0), 4.0);
+  EXPECT_TRUE(std::isinf(p.nextBreak(4.0)));
+}
+
+TEST(JointPath, ConstantVelocityStopsAtTheLimit) {
+  const JointPath p = JointPath::constantVelocity(1.0, 0.5, 0.25, -1.0, 1.0);
+  EXPECT_DOUBLE_EQ(p.positionAt(1.0), 0.5);
+  EXPECT_DOUBLE_EQ(p.positionAt(2.0), 0.75);
+  EXPECT_DOUBLE_EQ(p.positionAt(3.0), 1.0);
+  EXPECT_DOUBLE_EQ(p.positionAt(10.0), 1.0);
+  EXPECT_DOUBLE_EQ(p.maxSpeed(3.5, 9.0), 0.0);
+  const JointPath out = JointPath::constantVelocity(0.0, 2.0, 1.0, -1.0, 1.0);  // clamped, pushing on
+  EXPECT_DOUBLE_EQ(out.positionAt(5.0), 1.0);
+  const JointPath free = JointPath::constantVelocity(0.0, 0.0, -2.0);
+  EXPECT_DOUBLE_EQ(free.positionAt(3.0), -6.0);
+}
+
+TEST(JointPath, BadInputNamesTheEntry) {
+  auto message = [](auto&& f) {
+    try {
+      f();
+    } catch (const vadop::InvalidArgument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message([] { JointPath({}, {}); }), "JointPath: no position");
+  EXPECT_EQ(message([] { JointPath({0.0, 1.0}, {0.0}); }), "JointPath: 2 times but 1 positions");
+  EXPECT_EQ(message([] { JointPath({0.0, 0.0}, {0.0, 1.0}); }), "JointPath: time 1 (0) does not increase");
+  EXPECT_EQ(message([] { JointPath({0.0}, {NAN}); }), "JointPath: position 0 is not finite");
+  EXPECT_EQ(message([] { JointPath::constantVelocity(0.0, 0.0, 1.0, 1.0, -1.0); }),
+            "JointPath: need lower <= upper, got 1 > -1");
+  ChainJoint j;
+  j.type = JointType::kRevolute;
+  j.axis = Vector3d::Zero();
+  EXPECT_EQ(message([&] { LinkChain(TimedPath(vadop::Motion()), {ChainJoint(), j}); }),
+            "LinkChain: joint 1: axis is zero or not finite");
+  ChainJoint s;
+  s.origin.linear() = 2.0 * Matrix3d::Identity();
+  EXPECT_EQ(message([&] { LinkChain(TimedPath(vadop::Motion()), {s}); }),
+            "LinkChain: joint 0: origin rotation is not a rotation");
+}
+
+TEST(LinkChain, ForwardKinematicsMatchesTheTruthsOwn) {
+  toi_scenes::Rng r(11);
+  double worst_p = 0.0, worst_r = 0.0;
+  for (int c = 0; c < 300; ++c) {
+    const TChain tc = randomChain(r, r.integer(0, 6));
+    const LinkChain chain = ours(tc);
+    for (int i = 0; i <= 20; ++i) {
+      const double t = -0.5 + 3.0 * i / 20.0;
+      const toi_truth::Pose P = truthPose(tc, t);
+      const Isometry3d x = chain.poseAt(t);
+      worst_p = std::max(worst_p, (x.translation() - P.p).norm());
+      worst_r = std::max(worst_r, (x.linear() - P.R).norm());
+    }
+  }
+  EXPECT_LT(worst_p, 1e-9);
+  EXPECT_LT(worst_r, 1e-9);
+}
+
+// Finite differences of random points' paths never exceed the bound.
+TEST(LinkChain, SpeedBoundHoldsForEveryPoint) {
+  toi_scenes::Rng r(12);
+  double worst = 0.0, mean_ratio = 0.0;
+  int n = 0;
+  for (int c = 0; c < 300; ++c) {
+    const TChain tc = randomChain(r, r.integer(1, 6));
+    const LinkChain chain = ours(tc);
+    const double radius = r.uni(0.0, 0.5);
+    for (int i = 0; i < 20; ++i) {
+      double t = r.uni(-0.2, 2.5);
+      const double e = std::min(t + 0.2, chain.nextBreak(t));
+      const double h = 1e-6;
+      if (e - t < 4 * h) continue;
+      const double bound = chain.speedBound(t, e, radius);
+      const double tm = r.uni(t + 2 * h, e - 2 * h);
+      const Vector3d y = r.unit() * radius * std::cbrt(r.uni(0.0, 1.0));
+      const Vector3d v = (truthPose(tc, tm + h).R * y + truthPose(tc, tm + h).p -
+                          truthPose(tc, tm - h).R * y - truthPose(tc, tm - h).p) / (2 * h);
+      worst = std::max(worst, v.norm() - bound);
+      if (bound > 0) mean_ratio += v.norm() / bound, ++n;
+    }
+  }
+  std::printf("[speed bound] worst excess %.3e m/s, mean |v| / bound %.2f over %d points\n", worst, mean_ratio / n, n);
+  EXPECT_LT(worst, 1e-6);
+}
+
+// A link 1 m out on a joint turning at 1 rad/s meets a post at angle 1 rad: both spheres of
+// radius 0.1, so the centres' chord is 0.2 at the angle 2 asin(0.1) before the post.
+TEST(LinkChain, ArmTurnsIntoThePostOnTime) {
+  ChainJoint shoulder;
+  shoulder.type = JointType::kRevolute;
+  shoulder.path = JointPath::constantVelocity(0.0, 0.0, 1.0);
+  ChainJoint link;  // fixed, 1 m along x
+  link.origin.translation() = Vector3d(1, 0, 0);
+  const LinkChain arm(TimedPath(vadop::Motion()), {shoulder, link});
+  const LinkChain post(TimedPath(vadop::makeMotion(Vector3d(std::cos(1.0), std::sin(1.0), 0), Quaterniond::Identity(),
+                                                   Vector3d::Zero(), Vector3d::Zero())));
+  const vadop::PreparedShape ball(vadop::makeSphere(0.1));
+  const vadop::Impact hit = vadop::timeOfImpact(ball, arm, ball, post, 0.0, 2.0);
+  ASSERT_TRUE(hit.hit);
+  const double expected = 1.0 - 2.0 * std::asin(0.1);
+  EXPECT_NEAR(hit.time, expected, 2e-6);
+  EXPECT_LE(hit.time, expected);
+  const Vector3d centre(std::cos(expected), std::sin(expected), 0);
+  EXPECT_NEAR((hit.normal - (post.poseAt(0).translation() - centre).normalized()).norm(), 0.0, 1e-3);
+  // A joint limit at 0.7 rad stops the arm short of the post.
+  ChainJoint limited = shoulder;
+  limited.path = JointPath::constantVelocity(0.0, 0.0, 1.0, -0.7, 0.7);
+  EXPECT_FALSE(vadop::timeOfImpact(ball, LinkChain(TimedPath(vadop::Motion()), {limited, link}), ball, post, 0.0, 2.0).hit);
+  // A slide: a prismatic joint at 0.5 m/s carries the ball 0.8 m to the post at x = 1.
+  ChainJoint slide;
+  slide.type = JointType::kPrismatic;
+  slide.axis = Vector3d::UnitX();
+  slide.path = JointPath::constantVelocity(0.0, 0.0, 0.5);
+  const LinkChain far(TimedPath(vadop::makeMotion(Vector3d(1, 0, 0), Quaterniond::Identity(), Vector3d::Zero(),
+                                                  Vector3d::Zero())));
+  const vadop::Impact slid = vadop::timeOfImpact(ball, LinkChain(TimedPath(vadop::Motion()), {slide}), ball, far, 0.0, 2.0);
+  ASSERT_TRUE(slid.hit);
+  EXPECT_NEAR(slid.time, 1.6, 1e-5);
+}
+
+class ChainTruthTest : public testing::TestWithParam<int> {};
+
+TEST_P(ChainTruthTest, MatchesCertifiedTruth) {
+  const int joints = GetParam();
+  const int cases = caseCount();
+  toi_scenes::Rng r(100 + joints);
+  int contact = 0, graze = 0, clear = 0, unknown = 0, miss = 0, false_contact = 0, late = 0, time_fail = 0;
+  int undecided = 0, timed = 0;
+  double max_err = 0.0, chain_s = 0.0, twist_s = 0.0;
+  long iterations = 0;
+  std::vector<std::string> failures;
+  for (int c = 0; c < cases; ++c) {
+    const Case k = randomCase(r, joints);
+    const double t0 = 0.0, t1 = 2.0;
+    ChainTruth truth(k.sa, k.a, k.sb, k.b, t0, t1);
+    const Answer v = classify(truth, t0, t1);
+    const vadop::PreparedShape pa(k.sa), pb(k.sb);
+    const LinkChain ca = ours(k.a), cb = ours(k.b);
+    double t = cpuSeconds();
+    const vadop::Impact got = vadop::timeOfImpact(pa, ca, pb, cb, t0, t1);
+    chain_s += cpuSeconds() - t;
+    iterations += got.iterations;
+    // The constant-twist call on the same shapes: each link frozen on its base's twist at t0.
+    auto frozen = [&](const LinkChain& ch, const TChain& tc) {
+      const Isometry3d x = ch.poseAt(t0);
+      return vadop::makeMotion(x.translation(), Quaterniond(x.linear()), tc.base.linear_velocity,
+                               tc.base.angular_velocity, t0);
+    };
+    t = cpuSeconds();
+    (void)vadop::timeOfImpact(pa, frozen(ca, k.a), pb, frozen(cb, k.b), t0, t1);
+    twist_s += cpuSeconds() - t;
+    const std::string tag = "case " + std::to_string(c);
+    if (got.undecided) ++undecided, failures.push_back(tag + " undecided");
+    if (got.hit && truth.at(got.time).lo > kTol + 1e-9) {
+      ++false_contact;
+      failures.push_back(tag + " hit where the gap is " + std::to_string(truth.at(got.time).lo));
+    }
+    switch (v.verdict) {
+      case Verdict::kUnknown: ++unknown; break;
+      case Verdict::kClear:
+        ++clear;
+        if (got.hit) ++false_contact, failures.push_back(tag + " false contact at " + std::to_string(got.time));
+        break;
+      case Verdict::kGraze: ++graze; break;
+      case Verdict::kContact: {
+        ++contact;
+        if (!got.hit) {
+          ++miss;
+          failures.push_back(tag + " missed contact at " + std::to_string(v.t_star));
+          break;
+        }
+        if (got.time > v.t_star + kEps) ++late, failures.push_back(tag + " late");
+        if (!v.initial && v.closing >= 0.05 && v.t_tol >= v.t_star - 1e-4) {
+          ++timed;
+          const double err = std::abs(got.time - v.t_star);
+          max_err = std::max(max_err, err);
+          if (err > 1e-4) ++time_fail, failures.push_back(tag + " time error " + std::to_string(err));
+        }
+        break;
+      }
+    }
+  }
+  std::printf("[chain of %d joints] cases %d: contact %d graze %d clear %d truth-undecided %d | missed %d false %d "
+              "late %d time>1e-4 %d undecided %d | timed %d max |dt| %.2e s | us/pair: chain %.1f (%.0f "
+              "distance calls), constant twist %.1f\n",
+              joints, cases, contact, graze, clear, unknown, miss, false_contact, late, time_fail, undecided, timed,
+              max_err, 1e6 * chain_s / cases, static_cast<double>(iterations) / cases, 1e6 * twist_s / cases);
+  for (size_t i = 0; i < failures.size() && i < 10; ++i) std::printf("  %s\n", failures[i].c_str());
+  EXPECT_EQ(miss, 0);
+  EXPECT_EQ(false_contact, 0);
+  EXPECT_EQ(late, 0);
+  EXPECT_EQ(time_fail, 0);
+  EXPECT_EQ(undecided, 0);
+  EXPECT_LE(unknown, cases / 50);
+  // Not vacuous: both verdicts are well represented, and times are checked.
+  EXPECT_GE(contact, cases / 5);
+  EXPECT_GE(clear, cases / 10);
+  EXPECT_GE(timed, cases / 10);
+}
+
+INSTANTIATE_TEST_SUITE_P(Joints, ChainTruthTest, testing::Values(2, 3, 4, 5, 6),
+                         [](const testing::TestParamInfo<int>& i) { return std::to_string(i.param); });
+
+}  // namespace
