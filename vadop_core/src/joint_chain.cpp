@@ -100,6 +100,10 @@ double JointPath::positionAt(double t) const {
   return positions_[k - 1] + u * (positions_[k] - positions_[k - 1]);
 }
 
+double JointPath::velocityAt(double t) const {
+  return slope(static_cast<size_t>(std::upper_bound(times_.begin(), times_.end(), t) - times_.begin()));
+}
+
 double JointPath::nextBreak(double t) const {
   const auto it = std::upper_bound(times_.begin(), times_.end(), t);
   return it == times_.end() ? kInf : *it;
@@ -183,6 +187,33 @@ double LinkChain::speedBound(double t0, double t1, double radius) const {
                               m.angular_velocity.norm() * (m.pivot_offset.norm() + reach + radius));
   });
   return speed + base;
+}
+
+double LinkChain::reach(double t0, double t1) const {
+  double r = 0.0;
+  for (size_t i = 0; i < joints_.size(); ++i) {
+    r += offset_[i];
+    if (joints_[i].type == JointType::kPrismatic) r += joints_[i].path.maxAbsPosition(t0, t1);
+  }
+  return r;
+}
+
+Eigen::Vector3d LinkChain::velocityOfPoint(const Eigen::Vector3d& x, double t) const {
+  Eigen::Vector3d v = base_.motion(base_.pieceAt(t)).velocityOfPoint(x, t);
+  Eigen::Isometry3d frame = base_.poseAt(t);
+  for (const ChainJoint& j : joints_) {
+    if (j.type == JointType::kFixed) {
+      frame = frame * j.origin;
+      continue;
+    }
+    const Eigen::Isometry3d at_joint = frame * j.origin;
+    const Eigen::Vector3d axis = at_joint.linear() * j.axis;
+    const double rate = j.path.velocityAt(t);
+    v += j.type == JointType::kRevolute ? Eigen::Vector3d(rate * axis.cross(x - at_joint.translation()))
+                                        : Eigen::Vector3d(rate * axis);
+    frame = frame * jointTransform(j, j.path.positionAt(t));
+  }
+  return v;
 }
 
 Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedShape& b, const LinkChain& cb,

@@ -125,7 +125,7 @@ void World::remove(const std::string& id) {
   const BodyId bid = bodyId(id, "remove");
   broad_phase_->remove(bid);  // strong guarantee; nothing below throws
   by_name_.erase(id);
-  if (records_[bid].path) path_bodies_.erase(std::lower_bound(path_bodies_.begin(), path_bodies_.end(), bid));
+  if (records_[bid].chain) path_bodies_.erase(std::lower_bound(path_bodies_.begin(), path_bodies_.end(), bid));
   records_[bid] = Record{};
 }
 
@@ -133,22 +133,32 @@ void World::setMotion(const std::string& id, const Motion& motion) {
   const BodyId bid = bodyId(id, "setMotion");
   validateMotion(motion, "setMotion body " + quoted(id) + ": motion");
   broad_phase_->setMotion(bid, motion);  // strong guarantee; nothing below throws
-  if (records_[bid].path) {
+  if (records_[bid].chain) {
     path_bodies_.erase(std::lower_bound(path_bodies_.begin(), path_bodies_.end(), bid));
-    records_[bid].path.reset();
+    records_[bid].chain.reset();
   }
 }
 
 void World::setPath(const std::string& id, const TimedPath& path) {
-  const BodyId bid = bodyId(id, "setPath");
-  auto copy = std::make_shared<const TimedPath>(path);
-  path_bodies_.reserve(path_bodies_.size() + 1);
-  broad_phase_->setMotion(bid, path.motion(0));  // strong guarantee; nothing below throws
-  if (!records_[bid].path) path_bodies_.insert(std::lower_bound(path_bodies_.begin(), path_bodies_.end(), bid), bid);
-  records_[bid].path = std::move(copy);
+  bodyId(id, "setPath");
+  setChain(id, LinkChain(path));
 }
 
-const TimedPath* World::path(const std::string& id) const { return record(id, "path").path.get(); }
+void World::setChain(const std::string& id, const LinkChain& chain) {
+  const BodyId bid = bodyId(id, "setChain");
+  auto copy = std::make_shared<const LinkChain>(chain);
+  path_bodies_.reserve(path_bodies_.size() + 1);
+  broad_phase_->setMotion(bid, chain.base().motion(0));  // strong guarantee; nothing below throws
+  if (!records_[bid].chain) path_bodies_.insert(std::lower_bound(path_bodies_.begin(), path_bodies_.end(), bid), bid);
+  records_[bid].chain = std::move(copy);
+}
+
+const TimedPath* World::path(const std::string& id) const {
+  const Record& r = record(id, "path");
+  return r.chain ? &r.chain->base() : nullptr;
+}
+
+const LinkChain* World::chain(const std::string& id) const { return record(id, "chain").chain.get(); }
 
 void World::setFilter(const std::string& id, uint32_t group, uint32_t mask) {
   Record& r = records_[bodyId(id, "setFilter")];
@@ -229,7 +239,7 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
   // body is on one: a query's hot path reads no more than the broad phase's motion).
   const bool paths = !path_bodies_.empty();
   auto checkReach = [&](BodyId id) {
-    const TimedPath* path = paths ? records_[id].path.get() : nullptr;
+    const TimedPath* path = paths && records_[id].chain ? &records_[id].chain->base() : nullptr;
     if (!path) return checkMotionReach(id, broad_phase_->motion(id), t0, t1);
     path->forEachPiece(t0, t1, [&](size_t k, double s, double e) { checkMotionReach(id, path->motion(k), s, e); });
   };
@@ -315,11 +325,16 @@ void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std
   std::vector<BodyId> found;
   for (size_t i = 0; i < path_bodies_.size(); ++i) {
     const BodyId p = path_bodies_[i];
-    const TimedPath& path = *records_[p].path;
+    const LinkChain& chain = *records_[p].chain;
+    const TimedPath& path = chain.base();
     const bool p_only = in_only(p);
+    // A link whose joints move is found within its reach of the base's origin: a ball about the
+    // base's origin moving with each piece of the base's path.
+    std::optional<Shape> ball;
+    if (!chain.joints().empty()) ball = makeSphere(broad_phase_->shape(p).bounding_radius + chain.reach(t0, t1));
     path.forEachPiece(t0, t1, [&](size_t k, double s, double e) {
       // The broad phase holds p's shape padded; p itself (at rest there) is found too: skipped.
-      broad_phase_->query(broad_phase_->shape(p), path.motion(k), s, e, found);
+      broad_phase_->query(ball ? *ball : broad_phase_->shape(p), path.motion(k), s, e, found);
       for (BodyId other : found) {
         if (!onPath(other) && (p_only || in_only(other))) out.push_back(makePair(p, other));
       }
@@ -333,13 +348,16 @@ void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std
 Impact World::narrow(BodyId a, BodyId b, double t0, double t1) const {
   const Record& ra = records_[a];
   const Record& rb = records_[b];
-  if (!ra.path && !rb.path) {
+  if (!ra.chain && !rb.chain) {
     return timeOfImpact(*ra.prepared, broad_phase_->motion(a), *rb.prepared, broad_phase_->motion(b), t0, t1, config_.toi);
   }
-  std::optional<TimedPath> twist;  // the side with one Motion, as a path of one piece
-  const TimedPath& pa = ra.path ? *ra.path : twist.emplace(broad_phase_->motion(a));
-  const TimedPath& pb = rb.path ? *rb.path : twist.emplace(broad_phase_->motion(b));
-  return timeOfImpact(*ra.prepared, pa, *rb.prepared, pb, t0, t1, config_.toi);
+  std::optional<LinkChain> twist;  // the side with one Motion, as a chain of one piece
+  const LinkChain& ca = ra.chain ? *ra.chain : twist.emplace(TimedPath(broad_phase_->motion(a)));
+  const LinkChain& cb = rb.chain ? *rb.chain : twist.emplace(TimedPath(broad_phase_->motion(b)));
+  if (ca.joints().empty() && cb.joints().empty()) {
+    return timeOfImpact(*ra.prepared, ca.base(), *rb.prepared, cb.base(), t0, t1, config_.toi);
+  }
+  return timeOfImpact(*ra.prepared, ca, *rb.prepared, cb, t0, t1, config_.toi);
 }
 
 World::Reachable World::reachable(const std::vector<std::string>& movers, const std::vector<Eigen::Vector3d>& origins,
@@ -415,7 +433,7 @@ std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::
   std::vector<BodyId> found;
   for (size_t i = 0; i < ids.size(); ++i) {
     const Record& rm = records_[ids[i]];
-    std::optional<TimedPath> mover_path;  // made for the first path body met
+    std::optional<LinkChain> mover_chain;  // made for the first path body met
     // The broad phase holds the mover's shape padded by the tolerance, as for its own queries.
     if (among) {
       found.clear();
@@ -437,14 +455,18 @@ std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::
       if (pair_filter_ && !pair_filter_(std::min(rm.key, ro.key), std::max(rm.key, ro.key))) continue;
       if (skip && skip(ro.key)) continue;
       // Only the first contact matters: later windows shrink to the best time so far.
+      const LinkChain* oc = ro.chain.get();
+      const LinkChain* mc = oc ? (mover_chain ? &*mover_chain : &mover_chain.emplace(TimedPath(motions[i]))) : nullptr;
       const Impact hit =
-          ro.path ? timeOfImpact(*rm.prepared, mover_path ? *mover_path : mover_path.emplace(motions[i]), *ro.prepared,
-                                 *ro.path, t0, t1, config_.toi)
-                  : timeOfImpact(*rm.prepared, motions[i], *ro.prepared, broad_phase_->motion(other), t0, t1, config_.toi);
+          !oc ? timeOfImpact(*rm.prepared, motions[i], *ro.prepared, broad_phase_->motion(other), t0, t1, config_.toi)
+          : oc->joints().empty()
+              ? timeOfImpact(*rm.prepared, mc->base(), *ro.prepared, oc->base(), t0, t1, config_.toi)
+              : timeOfImpact(*rm.prepared, *mc, *ro.prepared, *oc, t0, t1, config_.toi);
       if (!hit.hit && !hit.undecided) continue;
       if (hit.hit && hit.initially_touching) {
-        const Motion& mo = ro.path ? ro.path->motion(ro.path->pieceAt(t0)) : broad_phase_->motion(other);
-        const Eigen::Vector3d closing = motions[i].velocityOfPoint(hit.point, t0) - mo.velocityOfPoint(hit.point, t0);
+        const Eigen::Vector3d other_velocity =
+            oc ? oc->velocityOfPoint(hit.point, t0) : broad_phase_->motion(other).velocityOfPoint(hit.point, t0);
+        const Eigen::Vector3d closing = motions[i].velocityOfPoint(hit.point, t0) - other_velocity;
         if (closing.dot(hit.normal) <= 0.0) continue;  // separating or sliding: not blocked
       }
       if (!best || hit.time < best->impact.time) {

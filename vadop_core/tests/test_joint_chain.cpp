@@ -10,6 +10,7 @@
 
 #include "vadop/error.h"
 #include "vadop/joint_chain.h"
+#include "vadop/world.h"
 
 #include <gtest/gtest.h>
 
@@ -17,6 +18,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <algorithm>
 #include <cstdlib>
 #include <memory>
 #include <string>
@@ -387,7 +389,7 @@ TEST(LinkChain, ForwardKinematicsMatchesTheTruthsOwn) {
 // Finite differences of random points' paths never exceed the bound.
 TEST(LinkChain, SpeedBoundHoldsForEveryPoint) {
   toi_scenes::Rng r(12);
-  double worst = 0.0, mean_ratio = 0.0;
+  double worst = 0.0, mean_ratio = 0.0, worst_velocity = 0.0, worst_reach = -1.0;
   int n = 0;
   for (int c = 0; c < 300; ++c) {
     const TChain tc = randomChain(r, r.integer(1, 6));
@@ -404,11 +406,17 @@ TEST(LinkChain, SpeedBoundHoldsForEveryPoint) {
       const Vector3d v = (truthPose(tc, tm + h).R * y + truthPose(tc, tm + h).p -
                           truthPose(tc, tm - h).R * y - truthPose(tc, tm - h).p) / (2 * h);
       worst = std::max(worst, v.norm() - bound);
+      // The exact velocity and the reach agree with the truth's kinematics.
+      const Vector3d x = truthPose(tc, tm).R * y + truthPose(tc, tm).p;
+      worst_velocity = std::max(worst_velocity, (chain.velocityOfPoint(x, tm) - v).norm());
+      worst_reach = std::max(worst_reach, (truthPose(tc, tm).p - toi_truth::poseAt(tc.base, tm).p).norm() - chain.reach(t, e));
       if (bound > 0) mean_ratio += v.norm() / bound, ++n;
     }
   }
   std::printf("[speed bound] worst excess %.3e m/s, mean |v| / bound %.2f over %d points\n", worst, mean_ratio / n, n);
   EXPECT_LT(worst, 1e-6);
+  EXPECT_LT(worst_velocity, 1e-5);  // finite differences, h = 1e-6 s
+  EXPECT_LT(worst_reach, 1e-12);
 }
 
 // A link 1 m out on a joint turning at 1 rad/s meets a post at angle 1 rad: both spheres of
@@ -444,6 +452,69 @@ TEST(LinkChain, ArmTurnsIntoThePostOnTime) {
   const vadop::Impact slid = vadop::timeOfImpact(ball, LinkChain(TimedPath(vadop::Motion()), {slide}), ball, far, 0.0, 2.0);
   ASSERT_TRUE(slid.hit);
   EXPECT_NEAR(slid.time, 1.6, 1e-5);
+}
+
+// Links of chains in a World: predict (every broad phase, and with `only`) reports exactly the
+// pairs that the chain narrow phase finds when run on every pair, at the same times.
+TEST(LinkChain, WorldFindsEveryPairOfEveryLink) {
+  toi_scenes::Rng r(21);
+  for (const vadop::BroadPhaseKind kind : {vadop::BroadPhaseKind::kVadop, vadop::BroadPhaseKind::kGrid,
+                                           vadop::BroadPhaseKind::kSap, vadop::BroadPhaseKind::kBrute}) {
+    vadop::WorldConfig config;
+    config.broad_phase = kind;
+    vadop::World w(config);
+    std::vector<std::string> ids;
+    std::vector<vadop::Shape> shapes;
+    std::vector<LinkChain> chains;
+    std::vector<TChain> tchains;
+    for (int i = 0; i < 60; ++i) {
+      TChain tc = randomChain(r, i < 12 ? r.integer(1, 6) : 0);
+      tc.base.position = r.inBox(1.2);
+      if (i >= 12 && r.chance(0.5)) {  // passing near a moving link at some time
+        const double tc_time = r.uni(0.1, 1.9);
+        const Vector3d target = truthPose(tchains[static_cast<size_t>(r.integer(0, 11))], tc_time).p + r.unit() * r.uni(0.0, 0.5);
+        tc.base.position += target - truthPose(tc, tc_time).p;
+      }
+      tchains.push_back(tc);
+      const vadop::Shape s = randomLinkShape(r);
+      const std::string id = "body" + std::to_string(i);
+      const LinkChain chain = ours(tc);
+      w.add(id, s, tc.base);
+      if (i < 12 || r.chance(0.2)) w.setChain(id, chain);
+      ids.push_back(id);
+      shapes.push_back(s);
+      chains.push_back(chain);
+    }
+    const std::vector<vadop::WorldImpact> got = w.predict(0.0, 2.0);
+    std::vector<std::pair<std::string, double>> expected;
+    for (size_t i = 0; i < ids.size(); ++i) {
+      for (size_t j = i + 1; j < ids.size(); ++j) {
+        const vadop::Impact hit = vadop::timeOfImpact(vadop::PreparedShape(shapes[i]), chains[i],
+                                                      vadop::PreparedShape(shapes[j]), chains[j], 0.0, 2.0);
+        if (hit.hit) expected.emplace_back(ids[i] + "-" + ids[j], hit.time);
+      }
+    }
+    ASSERT_EQ(got.size(), expected.size()) << vadop::toString(kind);
+    std::vector<std::pair<std::string, double>> found;
+    for (const auto& x : got) found.emplace_back(x.a + "-" + x.b, x.impact.time);
+    std::sort(expected.begin(), expected.end());
+    std::sort(found.begin(), found.end());
+    for (size_t k = 0; k < found.size(); ++k) {
+      EXPECT_EQ(found[k].first, expected[k].first) << vadop::toString(kind);
+      EXPECT_NEAR(found[k].second, expected[k].second, 1e-6);
+    }
+    EXPECT_GE(got.size(), 5u);
+    // The same pairs of each moving link through the single-body queries.
+    size_t linked = 0;
+    for (size_t i = 0; i < 12; ++i) {
+      const auto one = w.predict(0.0, 2.0, {ids[i]});
+      size_t with = 0;
+      for (const auto& x : got) with += (x.a == ids[i] || x.b == ids[i]);
+      EXPECT_EQ(one.size(), with) << vadop::toString(kind) << " " << ids[i];
+      linked += with;
+    }
+    EXPECT_GE(linked, 3u);
+  }
 }
 
 class ChainTruthTest : public testing::TestWithParam<int> {};

@@ -35,6 +35,8 @@ class JointPath {
                                     double upper = std::numeric_limits<double>::infinity());
 
   double positionAt(double t) const;
+  // The velocity at t (of the piece that holds from t on).
+  double velocityAt(double t) const;
   const std::vector<double>& times() const { return times_; }
   const std::vector<double>& positions() const { return positions_; }
   double velocityAfter() const { return velocity_after_; }
@@ -80,6 +82,10 @@ class LinkChain {
   // on the point, plus each revolute joint's rate times the point's largest distance from the
   // joint's axis point, plus each prismatic joint's rate.
   double speedBound(double t0, double t1, double radius) const;
+  // A bound on the distance of the link's origin from the base's origin over [t0, t1].
+  double reach(double t0, double t1) const;
+  // The velocity at t of the material point of the link at x (fixed frame).
+  Eigen::Vector3d velocityOfPoint(const Eigen::Vector3d& x, double t) const;
 
  private:
   TimedPath base_;

@@ -21,6 +21,8 @@
 // path within the window (the broad phase itself holds them at rest), and the narrow phase
 // follows both bodies piece by piece (timed_path.h). Their cost grows with their pieces in the
 // window; pairs of two path bodies are tested directly (meant for tens of them, not thousands).
+// Links of joint chains (setChain: an arm's links moving with their joints on a moving base)
+// are path bodies whose narrow phase is joint_chain.h's.
 //
 // Names are any non-empty strings. Bad input throws vadop::InvalidArgument naming the body and
 // leaves the world unchanged (strong guarantee). Not thread-safe.
@@ -31,6 +33,7 @@
 #include "vadop/motion.h"
 #include "vadop/shapes.h"
 #include "vadop/time_of_impact.h"
+#include "vadop/joint_chain.h"
 #include "vadop/timed_path.h"
 #include "vadop/vadop.h"
 
@@ -91,8 +94,17 @@ class World {
   // The body follows `path` from the next predict on (every window, whatever its t0), until
   // setMotion. Throws when the id is unknown (nothing changed).
   void setPath(const std::string& id, const TimedPath& path);
-  // The body's path, or nullptr when it moves with one Motion.
+  // The body is a link of `chain` (its joints moving over time on the chain's base) from the
+  // next predict on, until setMotion. Its partners are found by queries of a ball about the
+  // base's origin of the link's bounding radius plus the chain's reach, along each piece of the
+  // base's path: meant for the links of a few arms, not thousands. Throws when the id is unknown
+  // (nothing changed).
+  void setChain(const std::string& id, const LinkChain& chain);
+  // The body's path (for a link of a chain, its base's path), or nullptr when it moves with one
+  // Motion.
   const TimedPath* path(const std::string& id) const;
+  // The body's chain (a body on a path: a chain without joints), or nullptr.
+  const LinkChain* chain(const std::string& id) const;
 
   // Collision filtering (see the top of this file). A body's group (its category bits) and
   // mask (the groups it is tested against): the pair (a, b) reaches the narrow phase only when
@@ -117,7 +129,7 @@ class World {
   std::vector<std::string> ids() const;
   const Shape& shape(const std::string& id) const;
   // The body's motion; for a body on a path, the first piece of its path (at rest at the first
-  // keyframe): see path().
+  // keyframe): see path(); for a link of a chain, the first piece of its base's path.
   const Motion& motion(const std::string& id) const;
   // The body's insertion-order key: later adds get larger keys (a body removed and added again
   // gets a new one). These are the keys WorldImpact and ImpactQueue use.
@@ -192,13 +204,15 @@ class World {
     std::optional<PreparedShape> prepared;
     uint32_t group = kDefaultGroup;  // setFilter
     uint32_t mask = kDefaultMask;
-    std::shared_ptr<const TimedPath> path;  // setPath; the broad phase holds its first piece
+    // setPath / setChain (a path is a chain without joints); the broad phase holds the first
+    // piece of its base's path.
+    std::shared_ptr<const LinkChain> chain;
   };
   // The pairs (sorted, unique) of the path bodies in [t0, t1]: each piece's query against the
   // other bodies, and every pair of two path bodies; with `only`, those involving one of them.
   void pathPairs(double t0, double t1, const std::vector<BodyId>* only, std::vector<Pair>& out);
   Impact narrow(BodyId a, BodyId b, double t0, double t1) const;
-  bool onPath(BodyId id) const { return records_[id].path != nullptr; }
+  bool onPath(BodyId id) const { return records_[id].chain != nullptr; }
   const Record& record(const std::string& id, const char* operation) const;
   BodyId bodyId(const std::string& id, const char* operation) const;
   std::vector<WorldImpact> run(double t0, double horizon, const std::vector<BodyId>* only);
