@@ -4,16 +4,18 @@
 // with the state kept; stale joint states stop; the parameters.
 // (The first contact of a two-joint arm against dense ground truth: test_monitor_core.cpp.)
 #include "vadop_ros/body_registry.h"
+#include "vadop_ros/joint_kinematics.h"
 #include "fake_tf.h"
 #include "yaml_xmlrpc.h"
 
 #include <gtest/gtest.h>
-#include <vadop/timed_path.h>
+#include <vadop/joint_chain.h>
 
 #include <functional>
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
 
 using vadop_ros::BodyRegistry;
@@ -92,7 +94,7 @@ const vadop_ros::Element& element(const BodyRegistry& r, const std::string& link
 }
 
 Eigen::Vector3d centreAt(const BodyRegistry& r, const vadop_ros::Element& e, double t) {
-  return e.path ? e.path->poseAt(r.seconds(ros::Time(t))).translation() : e.motion.positionAt(r.seconds(ros::Time(t)));
+  return e.chain ? e.chain->poseAt(r.seconds(ros::Time(t))).translation() : e.motion.positionAt(r.seconds(ros::Time(t)));
 }
 
 }  // namespace
@@ -100,15 +102,14 @@ Eigen::Vector3d centreAt(const BodyRegistry& r, const vadop_ros::Element& e, dou
 TEST(JointStates, LinksFollowTheJointMotionOverTheHorizon) {
   for (const double vx : {0.0, 0.7}) {
     BodyRegistry r = makeRegistry();
-    r.setSampleWindow(2.0);
     FakeTf tf;
     ASSERT_EQ(r.onOdometry(0, baseOdom(100.0, vx), ros::Time(100.0)), InputResult::kAccepted);
     ASSERT_EQ(r.onJointState(0, joints(100.0, -0.5, 0.4, 0.3, -0.2), ros::Time(100.0)), InputResult::kAccepted);
     r.update(ros::Time(100.1), tf);
     const auto& fore = element(r, "fore");
     const auto& upper = element(r, "upper");
-    ASSERT_TRUE(fore.active && fore.path);
-    ASSERT_TRUE(upper.active && upper.path);
+    ASSERT_TRUE(fore.active && fore.chain);
+    ASSERT_TRUE(upper.active && upper.chain);
     EXPECT_STREQ(vadop_ros::motionSource(r.bodies()[0]), "odometry + joint states");
     double worst = 0.0;
     for (double t = 100.1; t <= 102.1; t += 0.0037) {
@@ -116,11 +117,53 @@ TEST(JointStates, LinksFollowTheJointMotionOverTheHorizon) {
       worst = std::max(worst, (centreAt(r, fore, t) - sphereCentre(t, q1, q2, vx)).norm());
       worst = std::max(worst, (centreAt(r, upper, t) - boxCentre(t, q1, vx)).norm());
     }
-    // Between samples 20 ms apart the links follow the screw joining them: within 0.1 mm here.
-    EXPECT_LT(worst, 1e-4) << "vx " << vx;
-    // At the sample times, exactly.
-    EXPECT_LT((centreAt(r, fore, 100.5) - sphereCentre(100.5, -0.35, 0.3, vx)).norm(), 1e-9);
+    // Each link is a vadop::LinkChain: exactly the joint motion, at every time.
+    EXPECT_LT(worst, 1e-9) << "vx " << vx;
   }
+}
+
+// The chain of steps between any two links (up, undoing joints, then down) is their relative
+// pose at every joint position: a 3D tree with rotated origins, prismatic, fixed and continuous
+// joints and two branches.
+TEST(JointStates, ChainBetweenLinksIsTheirRelativePose) {
+  const char* tree = R"(<robot name="tree">
+  <link name="root"/><link name="a"/><link name="b"/><link name="c"/><link name="d"/><link name="e"/>
+  <joint name="j1" type="revolute"><parent link="root"/><child link="a"/><origin xyz="0.1 0.2 0.3" rpy="0.3 -0.2 0.9"/>
+    <axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <joint name="j2" type="prismatic"><parent link="a"/><child link="b"/><origin xyz="0.5 0 0" rpy="0 0.4 0"/>
+    <axis xyz="0.6 0 0.8"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <joint name="j3" type="fixed"><parent link="b"/><child link="c"/><origin xyz="0 0.3 0" rpy="1 0 0"/></joint>
+  <joint name="j4" type="continuous"><parent link="c"/><child link="d"/><origin xyz="0.2 0 0.1"/><axis xyz="1 1 0"/></joint>
+  <joint name="j5" type="continuous"><parent link="a"/><child link="e"/><origin xyz="0 0 0.4" rpy="0 0 -0.7"/><axis xyz="0 0 1"/></joint>
+</robot>)";
+  const vadop_ros::JointKinematics kin(tree);
+  const std::vector<std::string> links = {"root", "a", "b", "c", "d", "e"};
+  double worst = 0.0;
+  std::srand(5);
+  for (int trial = 0; trial < 20; ++trial) {
+    std::vector<double> q(kin.joints().size());
+    for (size_t j = 0; j < q.size(); ++j) q[j] = kin.clamp(j, 4.0 * std::rand() / RAND_MAX - 2.0);
+    for (const std::string& from : links) {
+      for (const std::string& to : links) {
+        std::vector<vadop_ros::JointKinematics::Step> steps;
+        ASSERT_TRUE(kin.chain(from, to, steps));
+        Eigen::Isometry3d x = Eigen::Isometry3d::Identity();
+        for (const auto& st : steps) {
+          x = x * st.origin;
+          const double qs = st.joint >= 0 ? st.sign * q[static_cast<size_t>(st.joint)] : 0.0;
+          if (st.kind == vadop_ros::JointKinematics::Step::Kind::kRevolute) x.rotate(Eigen::AngleAxisd(qs, st.axis.normalized()));
+          if (st.kind == vadop_ros::JointKinematics::Step::Kind::kPrismatic) x.translate(qs * st.axis.normalized());
+        }
+        Eigen::Isometry3d pf, pt;
+        ASSERT_TRUE(kin.linkPose(q, from, pf));
+        ASSERT_TRUE(kin.linkPose(q, to, pt));
+        worst = std::max(worst, (x.matrix() - (pf.inverse() * pt).matrix()).norm());
+      }
+    }
+  }
+  EXPECT_LT(worst, 1e-12);
+  std::vector<vadop_ros::JointKinematics::Step> steps;
+  EXPECT_FALSE(kin.chain("root", "nowhere", steps));
 }
 
 TEST(JointStates, StillJointsGiveRigidLinksAtTheirPositions) {
@@ -133,26 +176,25 @@ TEST(JointStates, StillJointsGiveRigidLinksAtTheirPositions) {
   r.update(ros::Time(100.0), tf);
   const auto& fore = element(r, "fore");
   ASSERT_TRUE(fore.active);
-  EXPECT_FALSE(fore.path);
+  EXPECT_FALSE(fore.chain);
   EXPECT_LT((centreAt(r, fore, 101.0) - sphereCentre(101.0, 0.2, -0.7)).norm(), 1e-9);
   EXPECT_STREQ(vadop_ros::motionSource(r.bodies()[0]), "odometry");
 }
 
 TEST(JointStates, JointsStopAtTheirLimitsAndWhenStale) {
   BodyRegistry r = makeRegistry();
-  r.setSampleWindow(2.0);
   FakeTf tf;
   r.onOdometry(0, baseOdom(100.0), ros::Time(100.0));
   r.onJointState(0, joints(100.0, 0.0, 1.8, 0.0, 0.5), ros::Time(100.0));
   r.update(ros::Time(100.0), tf);
   // The elbow reaches its 2 rad limit at 100.4 s and stays there.
   EXPECT_LT((centreAt(r, element(r, "fore"), 101.5) - sphereCentre(101.5, 0.0, 2.0)).norm(), 1e-6);
-  EXPECT_LT((centreAt(r, element(r, "fore"), 100.2) - sphereCentre(100.2, 0.0, 1.9)).norm(), 1e-4);
+  EXPECT_LT((centreAt(r, element(r, "fore"), 100.2) - sphereCentre(100.2, 0.0, 1.9)).norm(), 1e-9);
   // Odometry keeps coming, the joint states stop: after stale_timeout the joints hold their
   // last reported positions (as a stale body holds its last pose).
   r.onOdometry(0, baseOdom(100.8), ros::Time(100.8));
   r.update(ros::Time(100.8), tf);
-  EXPECT_FALSE(element(r, "fore").path);
+  EXPECT_FALSE(element(r, "fore").chain);
   EXPECT_LT((centreAt(r, element(r, "fore"), 102.0) - sphereCentre(102.0, 0.0, 1.8)).norm(), 1e-9);
 }
 
@@ -229,7 +271,6 @@ double shoulderOnTrajectory(double s, bool with_velocities) {
 TEST(JointStates, TrajectoryIsFollowedThenItsLastPointHeld) {
   for (const bool with_velocities : {true, false}) {
     BodyRegistry r = makeRegistry();
-    r.setSampleWindow(2.0);
     FakeTf tf;
     r.onOdometry(0, baseOdom(100.0), ros::Time(100.0));
     // The elbow from joint states (still at 0.3); the shoulder from the trajectory.
@@ -238,22 +279,22 @@ TEST(JointStates, TrajectoryIsFollowedThenItsLastPointHeld) {
     ASSERT_EQ(r.onJointTrajectory(0, trajectory(0.0, with_velocities), ros::Time(100.2)), InputResult::kAccepted);
     r.update(ros::Time(100.3), tf);
     const auto& fore = element(r, "fore");
-    ASSERT_TRUE(fore.path);
+    ASSERT_TRUE(fore.chain);
     EXPECT_STREQ(vadop_ros::motionSource(r.bodies()[0]), "joint trajectory");
     double worst = 0.0;
     for (double t = 100.3; t <= 102.3; t += 0.0041) {
       worst = std::max(worst, (centreAt(r, fore, t) - sphereCentre(t, shoulderOnTrajectory(t - 100.2, with_velocities), 0.3))
                                   .norm());
     }
-    // The samples 20 ms apart on the cubic (up to ~2 rad/s^2 at 1.8 m): within 1 mm between them.
-    EXPECT_LT(worst, 1e-3) << "with_velocities " << with_velocities;
+    // The chain follows the cubic (or the straight lines) itself.
+    EXPECT_LT(worst, 1e-9) << "with_velocities " << with_velocities;
     std::printf("trajectory (%s): largest deviation from this test's interpolation %.2e m\n",
                 with_velocities ? "cubic" : "linear", worst);
     // After its end (101.8 s) the trajectory no longer drives the prediction: the joint states do.
     r.onOdometry(0, baseOdom(101.9), ros::Time(101.9));
     r.onJointState(0, joints(101.9, 1.0, 0.3, 0.0, 0.0), ros::Time(101.9));
     r.update(ros::Time(101.9), tf);
-    EXPECT_FALSE(element(r, "fore").path);
+    EXPECT_FALSE(element(r, "fore").chain);
     EXPECT_STREQ(vadop_ros::motionSource(r.bodies()[0]), "odometry");
   }
 }
@@ -296,7 +337,7 @@ TEST(JointStates, BadTrajectoriesAreDroppedNamingTheField) {
   trajectory_msgs::JointTrajectory cancel;
   ASSERT_EQ(r.onJointTrajectory(0, cancel, ros::Time(100.5)), InputResult::kAccepted);
   r.update(ros::Time(100.5), tf);
-  EXPECT_FALSE(element(r, "fore").path);
+  EXPECT_FALSE(element(r, "fore").chain);
 }
 
 TEST(JointStates, Parameters) {

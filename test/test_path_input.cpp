@@ -8,7 +8,7 @@
 #include "yaml_xmlrpc.h"
 
 #include <gtest/gtest.h>
-#include <vadop/timed_path.h>
+#include <vadop/joint_chain.h>
 
 #include <cmath>
 #include <limits>
@@ -98,13 +98,13 @@ TEST(PathInput, ElementsFollowThePlanFromTheirPoseNow) {
   r.update(ros::Time(100.0), tf);
   const vadop_ros::Element& e = r.elements()[0];
   ASSERT_TRUE(e.active);
-  ASSERT_TRUE(e.path);
+  ASSERT_TRUE(e.chain);
   EXPECT_TRUE(r.bodies()[0].status.on_path);
   EXPECT_STREQ(vadop_ros::motionSource(r.bodies()[0]), "path");
   // On the arc at every time of the plan (the pieces between samples of a constant-twist arc
   // are exact), and beyond its end the last piece's twist goes on: still the arc.
   for (double t = 100.0; t <= 104.0; t += 0.037) {
-    EXPECT_LT(poseError(e.path->poseAt(r.seconds(ros::Time(t))), arcPose(t)), 1e-9) << "t = " << t;
+    EXPECT_LT(poseError(e.chain->poseAt(r.seconds(ros::Time(t))), arcPose(t)), 1e-9) << "t = " << t;
   }
   // The element's own motion stays the twist (what the gates and the fallback use).
   EXPECT_NEAR(e.motion.positionAt(r.seconds(ros::Time(101.0))).y(), 0.0, 1e-12);
@@ -119,9 +119,9 @@ TEST(PathInput, HoldStopsAtTheLastPose) {
   ASSERT_EQ(r.onPath(0, arcPath(100.0, 100.0, 101.5), ros::Time(100.0), tf), InputResult::kAccepted);
   r.update(ros::Time(100.2), tf);
   const auto& e = r.elements()[0];
-  ASSERT_TRUE(e.path);
-  EXPECT_LT(poseError(e.path->poseAt(r.seconds(ros::Time(101.0))), arcPose(101.0)), 1e-9);
-  EXPECT_LT(poseError(e.path->poseAt(r.seconds(ros::Time(103.0))), arcPose(101.5)), 1e-9);
+  ASSERT_TRUE(e.chain);
+  EXPECT_LT(poseError(e.chain->poseAt(r.seconds(ros::Time(101.0))), arcPose(101.0)), 1e-9);
+  EXPECT_LT(poseError(e.chain->poseAt(r.seconds(ros::Time(103.0))), arcPose(101.5)), 1e-9);
 }
 
 TEST(PathInput, StartsFromTheCurrentPoseNotFromOldPlanPoses) {
@@ -135,11 +135,11 @@ TEST(PathInput, StartsFromTheCurrentPoseNotFromOldPlanPoses) {
   r.onPath(0, arcPath(100.0, 100.0, 103.0), ros::Time(100.5), tf);
   r.update(ros::Time(100.5), tf);
   const auto& e = r.elements()[0];
-  ASSERT_TRUE(e.path);
+  ASSERT_TRUE(e.chain);
   const double now = r.seconds(ros::Time(100.5));
-  EXPECT_NEAR(e.path->poseAt(now).translation().y(), arcPose(100.5).translation().y() + 0.1, 1e-9);
-  EXPECT_LT(poseError(e.path->poseAt(r.seconds(ros::Time(100.6))), arcPose(100.6)), 1e-9);
-  EXPECT_EQ(e.path->keyframes().size(), 26u);  // now, then 100.6 .. 103.0
+  EXPECT_NEAR(e.chain->poseAt(now).translation().y(), arcPose(100.5).translation().y() + 0.1, 1e-9);
+  EXPECT_LT(poseError(e.chain->poseAt(r.seconds(ros::Time(100.6))), arcPose(100.6)), 1e-9);
+  EXPECT_EQ(e.chain->base().keyframes().size(), 26u);  // now, then 100.6 .. 103.0
 }
 
 TEST(PathInput, RigidLinksKeepTheirPlaceOnTheBody) {
@@ -165,10 +165,10 @@ bodies:
   ASSERT_GE(r.bodies()[0].elements.size(), 2u);
   for (const size_t ei : r.bodies()[0].elements) {
     const auto& e = r.elements()[ei];
-    ASSERT_TRUE(e.active && e.path) << e.id;
+    ASSERT_TRUE(e.active && e.chain) << e.id;
     const Eigen::Isometry3d in_body = arcPose(100.0).inverse() * e.motion.poseAt(now);
     for (double t = 100.0; t <= 102.0; t += 0.25) {
-      EXPECT_LT(poseError(e.path->poseAt(r.seconds(ros::Time(t))), arcPose(t) * in_body), 1e-9) << e.id << " " << t;
+      EXPECT_LT(poseError(e.chain->poseAt(r.seconds(ros::Time(t))), arcPose(t) * in_body), 1e-9) << e.id << " " << t;
     }
   }
 }
@@ -185,8 +185,8 @@ TEST(PathInput, PathInAnotherFrameIsTransformed) {
   ASSERT_EQ(r.onPath(0, p, ros::Time(100.0), tf), InputResult::kAccepted);
   r.update(ros::Time(100.0), tf);
   const auto& e = r.elements()[0];
-  ASSERT_TRUE(e.path);
-  EXPECT_LT(poseError(e.path->poseAt(r.seconds(ros::Time(101.0))), odom_map * arcPose(101.0)), 1e-9);
+  ASSERT_TRUE(e.chain);
+  EXPECT_LT(poseError(e.chain->poseAt(r.seconds(ros::Time(101.0))), odom_map * arcPose(101.0)), 1e-9);
 }
 
 TEST(PathInput, EndedEmptyOrStalePlansFallBackToTheTwist) {
@@ -196,21 +196,21 @@ TEST(PathInput, EndedEmptyOrStalePlansFallBackToTheTwist) {
   r.onPath(0, arcPath(100.0, 100.0, 101.0), ros::Time(100.0), tf);
   r.onOdometry(0, arcOdom(101.2), ros::Time(101.2));
   r.update(ros::Time(101.2), tf);  // the plan's last pose is past
-  EXPECT_FALSE(r.elements()[0].path);
+  EXPECT_FALSE(r.elements()[0].chain);
   EXPECT_STREQ(vadop_ros::motionSource(r.bodies()[0]), "odometry");
 
   r.onPath(0, arcPath(101.2, 101.2, 103.0), ros::Time(101.2), tf);
   r.update(ros::Time(101.3), tf);
-  EXPECT_TRUE(r.elements()[0].path);
+  EXPECT_TRUE(r.elements()[0].chain);
   nav_msgs::Path empty;
   empty.header.stamp = ros::Time(101.3);
   ASSERT_EQ(r.onPath(0, empty, ros::Time(101.3), tf), InputResult::kAccepted);  // the planner has none
   r.update(ros::Time(101.3), tf);
-  EXPECT_FALSE(r.elements()[0].path);
+  EXPECT_FALSE(r.elements()[0].chain);
 
   r.onPath(0, arcPath(101.4, 101.4, 105.0), ros::Time(101.4), tf);
   r.update(ros::Time(102.0), tf);  // odometry 0.8 s old: stale, stands still
-  EXPECT_FALSE(r.elements()[0].path);
+  EXPECT_FALSE(r.elements()[0].chain);
   EXPECT_STREQ(vadop_ros::motionSource(r.bodies()[0]), "stale");
 }
 
@@ -246,8 +246,8 @@ TEST(PathInput, BadPathsAreDroppedNamingTheFieldAndThePlanIsKept) {
   }
   // The first plan is still followed.
   r.update(ros::Time(100.2), tf);
-  ASSERT_TRUE(r.elements()[0].path);
-  EXPECT_LT(poseError(r.elements()[0].path->poseAt(r.seconds(ros::Time(102.0))), arcPose(102.0)), 1e-9);
+  ASSERT_TRUE(r.elements()[0].chain);
+  EXPECT_LT(poseError(r.elements()[0].chain->poseAt(r.seconds(ros::Time(102.0))), arcPose(102.0)), 1e-9);
   EXPECT_EQ(r.bodies()[0].status.paths_accepted, 1u);
   // An older path than the accepted one is out of order.
   EXPECT_EQ(r.onPath(0, arcPath(99.0, 100.0, 102.0), ros::Time(100.2), tf), InputResult::kOutOfOrder);
@@ -265,7 +265,7 @@ TEST(PathInput, PlanThatCannotBeFollowedFallsBackToTheTwist) {
   ASSERT_EQ(r.onPath(0, p, ros::Time(100.0), tf), InputResult::kAccepted);
   r.update(ros::Time(100.0), tf);
   EXPECT_TRUE(r.elements()[0].active);
-  EXPECT_FALSE(r.elements()[0].path);
+  EXPECT_FALSE(r.elements()[0].chain);
   EXPECT_NE(r.bodies()[0].status.last_invalid.find("path: not followed"), std::string::npos)
       << r.bodies()[0].status.last_invalid;
 }

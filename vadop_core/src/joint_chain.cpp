@@ -49,17 +49,28 @@ Motion carried(const Motion& m, const Eigen::Isometry3d& offset) {
 
 }  // namespace
 
-JointPath::JointPath(std::vector<double> times, std::vector<double> positions, double velocity_after)
-    : times_(std::move(times)), positions_(std::move(positions)), velocity_after_(velocity_after) {
+JointPath::JointPath(std::vector<double> times, std::vector<double> positions, double velocity_after,
+                     std::vector<double> velocities)
+    : times_(std::move(times)),
+      positions_(std::move(positions)),
+      velocities_(std::move(velocities)),
+      velocity_after_(velocity_after) {
   if (times_.empty()) throw InvalidArgument("JointPath: no position");
   if (times_.size() != positions_.size()) {
     throw InvalidArgument("JointPath: " + std::to_string(times_.size()) + " times but " +
                           std::to_string(positions_.size()) + " positions");
   }
+  if (!velocities_.empty() && velocities_.size() != times_.size()) {
+    throw InvalidArgument("JointPath: " + std::to_string(times_.size()) + " times but " +
+                          std::to_string(velocities_.size()) + " velocities (give none or one per time)");
+  }
   for (size_t i = 0; i < times_.size(); ++i) {
     if (!std::isfinite(times_[i])) throw InvalidArgument("JointPath: time " + std::to_string(i) + " is not finite");
     if (!std::isfinite(positions_[i])) {
       throw InvalidArgument("JointPath: position " + std::to_string(i) + " is not finite");
+    }
+    if (!velocities_.empty() && !std::isfinite(velocities_[i])) {
+      throw InvalidArgument("JointPath: velocity " + std::to_string(i) + " is not finite");
     }
     if (i > 0 && !(times_[i] > times_[i - 1])) {
       throw InvalidArgument("JointPath: time " + std::to_string(i) + " (" + formatNumber(times_[i]) +
@@ -86,22 +97,81 @@ JointPath JointPath::constantVelocity(double t_ref, double position, double velo
   return JointPath({t_ref, t_ref + dt}, {q, stop}, 0.0);
 }
 
-double JointPath::slope(size_t piece) const {
-  if (piece == 0) return 0.0;
-  if (piece >= times_.size()) return velocity_after_;
-  return (positions_[piece] - positions_[piece - 1]) / (times_[piece] - times_[piece - 1]);
+size_t JointPath::pieceAt(double t) const {
+  return static_cast<size_t>(std::upper_bound(times_.begin(), times_.end(), t) - times_.begin());
+}
+
+// Piece k in 1 .. n-1, in u = (t - times[k-1]) / h in [0, 1]: the Hermite cubic
+// q(u) = c0 + c1 u + c2 u^2 + c3 u^3 (c2 = c3 = 0 without velocities).
+JointPath::Cubic JointPath::cubic(size_t k) const {
+  Cubic c;
+  c.h = times_[k] - times_[k - 1];
+  const double p0 = positions_[k - 1], p1 = positions_[k];
+  c.c[0] = p0;
+  if (velocities_.empty()) {
+    c.c[1] = p1 - p0;
+    return c;
+  }
+  const double m0 = velocities_[k - 1] * c.h, m1 = velocities_[k] * c.h;
+  c.c[1] = m0;
+  c.c[2] = -3.0 * p0 - 2.0 * m0 + 3.0 * p1 - m1;
+  c.c[3] = 2.0 * p0 + m0 - 2.0 * p1 + m1;
+  return c;
+}
+
+double JointPath::Cubic::at(double u) const { return c[0] + u * (c[1] + u * (c[2] + u * c[3])); }
+double JointPath::Cubic::rate(double u) const { return (c[1] + u * (2.0 * c[2] + u * 3.0 * c[3])) / h; }
+
+// The u in (0, 1) where the cubic's derivative (degree d = 1: of the derivative itself) is zero.
+static void stationary(const double* c, int count, double roots[2], int& n) {
+  // a u^2 + b u + e = 0 with (a, b, e) = (3 c3, 2 c2, c1) (count 2: the derivative's derivative,
+  // 6 c3 u + 2 c2 = 0).
+  n = 0;
+  if (count == 1) {
+    if (c[3] != 0.0) {
+      const double u = -c[2] / (3.0 * c[3]);
+      if (u > 0.0 && u < 1.0) roots[n++] = u;
+    }
+    return;
+  }
+  const double a = 3.0 * c[3], b = 2.0 * c[2], e = c[1];
+  if (a == 0.0) {
+    if (b != 0.0 && -e / b > 0.0 && -e / b < 1.0) roots[n++] = -e / b;
+    return;
+  }
+  const double disc = b * b - 4.0 * a * e;
+  if (disc < 0.0) return;
+  for (const double u : {(-b - std::sqrt(disc)) / (2.0 * a), (-b + std::sqrt(disc)) / (2.0 * a)}) {
+    if (u > 0.0 && u < 1.0) roots[n++] = u;
+  }
+}
+
+double JointPath::maxRate(size_t k) const {
+  if (k == 0) return 0.0;
+  if (k >= times_.size()) return std::abs(velocity_after_);
+  const Cubic c = cubic(k);
+  double v = std::max(std::abs(c.rate(0.0)), std::abs(c.rate(1.0)));
+  double roots[2];
+  int n = 0;
+  stationary(c.c, 1, roots, n);
+  for (int i = 0; i < n; ++i) v = std::max(v, std::abs(c.rate(roots[i])));
+  return v;
 }
 
 double JointPath::positionAt(double t) const {
-  const size_t k = static_cast<size_t>(std::upper_bound(times_.begin(), times_.end(), t) - times_.begin());
+  const size_t k = pieceAt(t);
   if (k == 0) return positions_.front();
   if (k == times_.size()) return positions_.back() + velocity_after_ * (t - times_.back());
-  const double u = (t - times_[k - 1]) / (times_[k] - times_[k - 1]);
-  return positions_[k - 1] + u * (positions_[k] - positions_[k - 1]);
+  const Cubic c = cubic(k);
+  return c.at((t - times_[k - 1]) / c.h);
 }
 
 double JointPath::velocityAt(double t) const {
-  return slope(static_cast<size_t>(std::upper_bound(times_.begin(), times_.end(), t) - times_.begin()));
+  const size_t k = pieceAt(t);
+  if (k == 0) return 0.0;
+  if (k == times_.size()) return velocity_after_;
+  const Cubic c = cubic(k);
+  return c.rate((t - times_[k - 1]) / c.h);
 }
 
 double JointPath::nextBreak(double t) const {
@@ -110,18 +180,23 @@ double JointPath::nextBreak(double t) const {
 }
 
 double JointPath::maxSpeed(double t0, double t1) const {
-  const auto k0 = static_cast<size_t>(std::upper_bound(times_.begin(), times_.end(), t0) - times_.begin());
-  const auto k1 = static_cast<size_t>(std::upper_bound(times_.begin(), times_.end(), t1) - times_.begin());
   double v = 0.0;
-  for (size_t k = k0; k <= k1; ++k) v = std::max(v, std::abs(slope(k)));
+  for (size_t k = pieceAt(t0), k1 = pieceAt(t1); k <= k1; ++k) v = std::max(v, maxRate(k));
   return v;
 }
 
 double JointPath::maxAbsPosition(double t0, double t1) const {
-  // Piecewise linear: the extremes are at the ends or at the times in between.
+  // The extremes are at the ends, at the times in between, or where a cubic piece turns
+  // (over each piece that holds in [t0, t1], a superset).
   double m = std::max(std::abs(positionAt(t0)), std::abs(positionAt(t1)));
-  for (auto it = std::upper_bound(times_.begin(), times_.end(), t0); it != times_.end() && *it < t1; ++it) {
-    m = std::max(m, std::abs(positions_[static_cast<size_t>(it - times_.begin())]));
+  for (size_t k = pieceAt(t0), k1 = pieceAt(t1); k <= k1; ++k) {
+    if (k == 0 || k >= times_.size()) continue;
+    const Cubic c = cubic(k);
+    if (times_[k] < t1) m = std::max(m, std::abs(positions_[k]));
+    double roots[2];
+    int n = 0;
+    stationary(c.c, 2, roots, n);
+    for (int i = 0; i < n; ++i) m = std::max(m, std::abs(c.at(roots[i])));
   }
   return m;
 }
@@ -214,6 +289,16 @@ Eigen::Vector3d LinkChain::velocityOfPoint(const Eigen::Vector3d& x, double t) c
     frame = frame * jointTransform(j, j.path.positionAt(t));
   }
   return v;
+}
+
+Eigen::Vector3d LinkChain::angularVelocity(double t) const {
+  Eigen::Vector3d w = base_.motion(base_.pieceAt(t)).angular_velocity;
+  Eigen::Isometry3d frame = base_.poseAt(t);
+  for (const ChainJoint& j : joints_) {
+    if (j.type == JointType::kRevolute) w += j.path.velocityAt(t) * ((frame * j.origin).linear() * j.axis);
+    frame = frame * jointTransform(j, j.type == JointType::kFixed ? 0.0 : j.path.positionAt(t));
+  }
+  return w;
 }
 
 Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedShape& b, const LinkChain& cb,

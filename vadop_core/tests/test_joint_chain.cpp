@@ -73,6 +73,7 @@ struct TJoint {
   Vector3d p = Vector3d::Zero();
   Vector3d axis = Vector3d::UnitZ();  // unit
   std::vector<double> times{0.0}, q{0.0};
+  std::vector<double> qd;  // empty: straight lines between the times; else the Hermite cubic
   double after = 0.0;
 };
 
@@ -86,7 +87,12 @@ double truthQ(const TJoint& j, double t) {
   if (t >= j.times.back()) return j.q.back() + j.after * (t - j.times.back());
   for (size_t i = 1; i < j.times.size(); ++i) {
     if (t < j.times[i]) {
-      return j.q[i - 1] + (j.q[i] - j.q[i - 1]) * (t - j.times[i - 1]) / (j.times[i] - j.times[i - 1]);
+      const double h = j.times[i] - j.times[i - 1], u = (t - j.times[i - 1]) / h;
+      if (j.qd.empty()) return j.q[i - 1] + (j.q[i] - j.q[i - 1]) * u;
+      // The Hermite basis, as in the textbooks.
+      const double h00 = 2 * u * u * u - 3 * u * u + 1, h10 = u * u * u - 2 * u * u + u;
+      const double h01 = -2 * u * u * u + 3 * u * u, h11 = u * u * u - u * u;
+      return h00 * j.q[i - 1] + h10 * h * j.qd[i - 1] + h01 * j.q[i] + h11 * h * j.qd[i];
     }
   }
   return j.q.back();
@@ -104,14 +110,26 @@ toi_truth::Pose truthPose(const TChain& c, double t) {
 }
 
 // Upper bounds over the whole window: |joint rate| and |prismatic position|.
+// With velocities, from the basis' derivatives (|h00'|, |h01'| <= 1.5, |h10'|, |h11'| <= 1)
+// and values (h00, h01 in [0, 1], |h10|, |h11| <= 4/27).
 double truthRate(const TJoint& j) {
   double v = std::abs(j.after);
-  for (size_t i = 1; i < j.times.size(); ++i) v = std::max(v, std::abs((j.q[i] - j.q[i - 1]) / (j.times[i] - j.times[i - 1])));
+  for (size_t i = 1; i < j.times.size(); ++i) {
+    const double h = j.times[i] - j.times[i - 1];
+    const double dq = std::abs(j.q[i] - j.q[i - 1]);
+    v = std::max(v, j.qd.empty() ? dq / h : 1.5 * dq / h + std::abs(j.qd[i - 1]) + std::abs(j.qd[i]));
+  }
   return v;
 }
 double truthTravel(const TJoint& j, double t0, double t1) {
   double m = std::max(std::abs(truthQ(j, t0)), std::abs(truthQ(j, t1)));
   for (double q : j.q) m = std::max(m, std::abs(q));
+  if (!j.qd.empty()) {
+    for (size_t i = 1; i < j.times.size(); ++i) {
+      const double h = j.times[i] - j.times[i - 1];
+      m = std::max(m, std::abs(j.q[i - 1]) + std::abs(j.q[i]) + 4.0 / 27.0 * h * (std::abs(j.qd[i - 1]) + std::abs(j.qd[i])));
+    }
+  }
   return m;
 }
 
@@ -140,7 +158,7 @@ LinkChain ours(const TChain& c) {
     x.origin.linear() = j.R;
     x.origin.translation() = j.p;
     x.axis = j.axis;
-    x.path = JointPath(j.times, j.q, j.after);
+    x.path = JointPath(j.times, j.q, j.after, j.qd);
     joints.push_back(x);
   }
   return LinkChain(TimedPath(c.base), joints);
@@ -268,6 +286,9 @@ TJoint randomJoint(toi_scenes::Rng& r) {
       t += dt;
       q += r.uni(-vs, vs) * dt;
     }
+    if (r.chance(0.5)) {  // with velocities: the cubic through them
+      for (int i = 0; i < n; ++i) j.qd.push_back(i == 0 || i == n - 1 ? 0.0 : r.uni(-vs, vs));
+    }
     j.after = 0.0;
   }
   return j;
@@ -327,6 +348,19 @@ TEST(JointPath, InterpolatesHoldsAndContinues) {
   EXPECT_DOUBLE_EQ(p.maxAbsPosition(0.0, 3.0), 1.0);
   EXPECT_DOUBLE_EQ(p.nextBreak(2.0), 4.0);
   EXPECT_TRUE(std::isinf(p.nextBreak(4.0)));
+}
+
+TEST(JointPath, CubicThroughPositionsAndVelocities) {
+  const JointPath p({0.0, 1.0}, {0.0, 1.0}, 0.0, {0.0, 0.0});
+  EXPECT_DOUBLE_EQ(p.positionAt(0.5), 0.5);
+  EXPECT_DOUBLE_EQ(p.velocityAt(0.5), 1.5);  // the cubic's steepest point
+  EXPECT_DOUBLE_EQ(p.maxSpeed(0.0, 1.0), 1.5);
+  EXPECT_DOUBLE_EQ(p.velocityAt(1.0), 0.0);  // holds after
+  // Out and back between two equal positions: 2u^3 - 3u^2 + u peaks at sqrt(3) / 18.
+  const JointPath bump({0.0, 1.0}, {0.0, 0.0}, 0.0, {1.0, 1.0});
+  EXPECT_NEAR(bump.maxAbsPosition(0.0, 1.0), std::sqrt(3.0) / 18.0, 1e-15);
+  EXPECT_DOUBLE_EQ(bump.velocityAt(0.0), 1.0);
+  EXPECT_THROW(JointPath({0.0, 1.0}, {0.0, 1.0}, 0.0, {0.0}), vadop::InvalidArgument);
 }
 
 TEST(JointPath, ConstantVelocityStopsAtTheLimit) {
@@ -409,6 +443,8 @@ TEST(LinkChain, SpeedBoundHoldsForEveryPoint) {
       // The exact velocity and the reach agree with the truth's kinematics.
       const Vector3d x = truthPose(tc, tm).R * y + truthPose(tc, tm).p;
       worst_velocity = std::max(worst_velocity, (chain.velocityOfPoint(x, tm) - v).norm());
+      const Matrix3d dR = (truthPose(tc, tm + h).R - truthPose(tc, tm - h).R) / (2 * h) * truthPose(tc, tm).R.transpose();
+      worst_velocity = std::max(worst_velocity, (chain.angularVelocity(tm) - Vector3d(dR(2, 1), dR(0, 2), dR(1, 0))).norm());
       worst_reach = std::max(worst_reach, (truthPose(tc, tm).p - toi_truth::poseAt(tc.base, tm).p).norm() - chain.reach(t, e));
       if (bound > 0) mean_ratio += v.norm() / bound, ++n;
     }

@@ -2,6 +2,7 @@
 
 #include <vadop/error.h>
 #include <vadop/limits.h>
+#include <vadop/joint_chain.h>
 #include <vadop/timed_path.h>
 
 #include <ros/console.h>
@@ -581,10 +582,6 @@ InputResult BodyRegistry::onPath(size_t bi, const nav_msgs::Path& msg, const ros
   return InputResult::kAccepted;
 }
 
-void BodyRegistry::setSampleWindow(double window) {
-  sample_window_ = std::isfinite(window) ? std::min(std::max(window, 0.0), kMotionCheckWindow) : 2.0;
-}
-
 InputResult BodyRegistry::onJointState(size_t bi, const sensor_msgs::JointState& msg, const ros::Time& receipt) {
   Body& b = bodies_.at(bi);
   auto drop = [&](const std::string& why) {
@@ -720,33 +717,9 @@ void BodyRegistry::updateJointBody(Body& b, const ros::Time& now, double t_now, 
     for (const ros::Time& pt : b.traj_time) point_time.push_back(seconds(pt));
     moving = true;
   }
-  auto jointsAt = [&](double t) {
-    for (size_t j = 0; j < nj; ++j) qt[j] = b.q[j] + rate[j] * (t - since[j]);
-    if (on_trajectory) {
-      const size_t last = point_time.size() - 1;
-      const size_t k = static_cast<size_t>(std::upper_bound(point_time.begin(), point_time.end(), t) - point_time.begin());
-      for (size_t i = 0; i < b.traj_joints.size(); ++i) {
-        double& q = qt[static_cast<size_t>(b.traj_joints[i])];
-        if (k == 0) {
-          q = b.traj_q[0][i];
-        } else if (k > last) {
-          q = b.traj_q[last][i];
-        } else {
-          // Between points k - 1 and k: the cubic Hermite through positions and velocities, or
-          // the straight line without velocities.
-          const double h = point_time[k] - point_time[k - 1], u = (t - point_time[k - 1]) / h;
-          const double p0 = b.traj_q[k - 1][i], p1 = b.traj_q[k][i];
-          if (b.traj_qd.empty()) {
-            q = p0 + (p1 - p0) * u;
-          } else {
-            const double m0 = b.traj_qd[k - 1][i] * h, m1 = b.traj_qd[k][i] * h;
-            const double u2 = u * u, u3 = u2 * u;
-            q = (2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * m0 + (-2 * u3 + 3 * u2) * p1 + (u3 - u2) * m1;
-          }
-        }
-      }
-    }
-    for (size_t j = 0; j < nj; ++j) qt[j] = kin.clamp(j, qt[j]);
+  // Still joints (none moves, no trajectory): their positions now, clamped at the limits.
+  auto jointsNow = [&]() {
+    for (size_t j = 0; j < nj; ++j) qt[j] = kin.clamp(j, b.q[j]);
   };
   // Every element's pose relative to the body frame at joint positions qt.
   std::vector<Eigen::Isometry3d> rel(b.elements.size());
@@ -761,19 +734,19 @@ void BodyRegistry::updateJointBody(Body& b, const ros::Time& now, double t_now, 
       rel[k] = ref_inv * link * e.offset;
     }
   };
-  auto accept = [&](Element& e, const vadop::Motion& m, std::shared_ptr<const vadop::TimedPath> path) {
+  auto accept = [&](Element& e, const vadop::Motion& m, std::shared_ptr<const vadop::LinkChain> chain) {
     const std::string why = motionRangeError(m, t_now, t_check_end);
     if (!why.empty()) {
       rejectInput(b, "link \"" + e.link + "\": motion out of range: " + why, now, false);
       return;
     }
     e.motion = m;
-    e.path = std::move(path);
+    e.chain = std::move(chain);
     e.active = true;
   };
   if (!moving) {
     // Rigid at the current joint positions: the body frame's constant twist, exact.
-    jointsAt(t_now);
+    jointsNow();
     relativePoses();
     const Eigen::Isometry3d fb = frame.poseAt(frame.t_ref);
     for (size_t k = 0; k < b.elements.size(); ++k) {
@@ -785,32 +758,59 @@ void BodyRegistry::updateJointBody(Body& b, const ros::Time& now, double t_now, 
     }
     return;
   }
-  // Sampled along the joint motion over the window, then the last piece goes on.
-  const int steps = std::max(1, static_cast<int>(std::ceil(sample_window_ / kJointSampleStep - 1e-9)));
-  std::vector<std::vector<vadop::Keyframe>> frames(b.elements.size());
-  for (auto& f : frames) f.reserve(static_cast<size_t>(steps) + 1);
-  for (int s = 0; s <= steps; ++s) {
-    const double t = t_now + s * kJointSampleStep;
-    jointsAt(t);
-    relativePoses();
-    const Eigen::Isometry3d fb = frame.poseAt(t);
-    for (size_t k = 0; k < b.elements.size(); ++k) {
-      const Eigen::Isometry3d pe = fb * rel[k];
-      frames[k].push_back({t, pe.translation(), Eigen::Quaterniond(pe.linear())});
+  // Every joint along a vadop::JointPath: its velocity from its stamp (clamped at its limits),
+  // or the running trajectory through its points (the cubic through positions and velocities,
+  // straight lines without velocities; positions clamped at the limits).
+  std::vector<vadop::JointPath> joint_paths;
+  joint_paths.reserve(nj);
+  for (size_t j = 0; j < nj; ++j) {
+    joint_paths.push_back(vadop::JointPath::constantVelocity(since[j], b.q[j], rate[j], kin.lower(j), kin.upper(j)));
+  }
+  if (on_trajectory) {
+    for (size_t i = 0; i < b.traj_joints.size(); ++i) {
+      const size_t j = static_cast<size_t>(b.traj_joints[i]);
+      std::vector<double> positions, velocities;
+      for (size_t k = 0; k < point_time.size(); ++k) {
+        positions.push_back(kin.clamp(j, b.traj_q[k][i]));
+        if (!b.traj_qd.empty()) velocities.push_back(b.traj_qd[k][i]);
+      }
+      joint_paths[j] = vadop::JointPath(point_time, std::move(positions), 0.0, std::move(velocities));
     }
   }
   for (size_t k = 0; k < b.elements.size(); ++k) {
     Element& e = elements_[b.elements[k]];
     try {
-      auto path = std::make_shared<const vadop::TimedPath>(std::move(frames[k]), vadop::AfterPath::kContinue);
-      for (size_t piece = 0; piece < path->pieces(); ++piece) {
-        const double from = std::max(t_now, path->start(piece)), to = std::min(t_check_end, path->start(piece + 1));
-        if (!(from <= to)) continue;
-        const std::string why = motionRangeError(path->motion(piece), from, to);
-        if (!why.empty()) throw vadop::InvalidArgument("piece " + std::to_string(piece) + ": " + why);
+      std::vector<JointKinematics::Step> steps;
+      if (!kin.chain(b.reference_link, e.link, steps)) steps.clear();  // not in the tree: rigid
+      std::vector<vadop::ChainJoint> joints;
+      joints.reserve(steps.size() + 1);
+      for (const JointKinematics::Step& st : steps) {
+        vadop::ChainJoint c;
+        c.origin = st.origin;
+        c.axis = st.axis;
+        c.type = st.kind == JointKinematics::Step::Kind::kRevolute    ? vadop::JointType::kRevolute
+                 : st.kind == JointKinematics::Step::Kind::kPrismatic ? vadop::JointType::kPrismatic
+                                                                      : vadop::JointType::kFixed;
+        if (st.joint >= 0) {
+          const vadop::JointPath& jp = joint_paths[static_cast<size_t>(st.joint)];
+          if (st.sign > 0.0) {
+            c.path = jp;
+          } else {
+            std::vector<double> negated = jp.positions();
+            for (double& q : negated) q = -q;
+            c.path = vadop::JointPath(jp.times(), std::move(negated), -jp.velocityAfter());
+          }
+        }
+        joints.push_back(std::move(c));
       }
-      const vadop::Motion first = path->motion(path->pieceAt(t_now));
-      accept(e, first, std::move(path));
+      vadop::ChainJoint shape_offset;  // the collision geometry in its link
+      shape_offset.origin = e.offset;
+      joints.push_back(shape_offset);
+      auto chain = std::make_shared<const vadop::LinkChain>(vadop::TimedPath(frame), std::move(joints));
+      const Eigen::Isometry3d pe = chain->poseAt(t_now);
+      const vadop::Motion now_motion =
+          twistMotion(pe, chain->velocityOfPoint(pe.translation(), t_now), chain->angularVelocity(t_now), t_now);
+      accept(e, now_motion, std::move(chain));
     } catch (const vadop::InvalidArgument& ex) {
       rejectInput(b, "link \"" + e.link + "\": joint motion out of range: " + ex.what(), now, false);
     }
@@ -836,7 +836,7 @@ void BodyRegistry::followPlan(Body& b, const ros::Time& now, double t_now, doubl
   }
   if (frames.size() < 2) return;
   const vadop::AfterPath after = b.params.path_continue ? vadop::AfterPath::kContinue : vadop::AfterPath::kHold;
-  std::vector<std::shared_ptr<const vadop::TimedPath>> paths;
+  std::vector<std::shared_ptr<const vadop::LinkChain>> paths;
   paths.reserve(b.elements.size());
   try {
     for (const size_t ei : b.elements) {
@@ -856,15 +856,15 @@ void BodyRegistry::followPlan(Body& b, const ros::Time& now, double t_now, doubl
         f.position = pe.translation();
         f.orientation = Eigen::Quaterniond(pe.linear());
       }
-      auto path = std::make_shared<const vadop::TimedPath>(std::move(k), after);
+      const vadop::TimedPath path(std::move(k), after);
       // Each piece within the library's range over the window in which it holds.
-      for (size_t piece = 0; piece < path->pieces(); ++piece) {
-        const double from = std::max(t_now, path->start(piece)), to = std::min(t_check_end, path->start(piece + 1));
+      for (size_t piece = 0; piece < path.pieces(); ++piece) {
+        const double from = std::max(t_now, path.start(piece)), to = std::min(t_check_end, path.start(piece + 1));
         if (!(from <= to)) continue;
-        const std::string why = motionRangeError(path->motion(piece), from, to);
+        const std::string why = motionRangeError(path.motion(piece), from, to);
         if (!why.empty()) throw vadop::InvalidArgument("piece " + std::to_string(piece) + ": " + why);
       }
-      paths.push_back(std::move(path));
+      paths.push_back(std::make_shared<const vadop::LinkChain>(path));
     }
   } catch (const vadop::InvalidArgument& ex) {
     // The plan cannot be followed (e.g. two poses 1 ms apart and metres away): the twist is.
@@ -878,7 +878,7 @@ void BodyRegistry::followPlan(Body& b, const ros::Time& now, double t_now, doubl
     }
     return;
   }
-  for (size_t k = 0; k < b.elements.size(); ++k) elements_[b.elements[k]].path = std::move(paths[k]);
+  for (size_t k = 0; k < b.elements.size(); ++k) elements_[b.elements[k]].chain = std::move(paths[k]);
   b.status.on_path = true;
 }
 
@@ -1026,7 +1026,7 @@ bool BodyRegistry::updateBody(size_t body, const ros::Time& now, TransformSource
 void BodyRegistry::updateMoving(Body& b, const ros::Time& now, double t_now, double t_check_end, TransformSource& tf) {
   for (const size_t ei : b.elements) {
     elements_[ei].active = false;
-    elements_[ei].path.reset();
+    elements_[ei].chain.reset();
   }
   b.status.on_path = false;
   b.status.joints_moving = false;
@@ -1195,7 +1195,7 @@ void BodyRegistry::reset() {
     for (const size_t ei : b.elements) {
       Element& e = elements_[ei];
       e.active = false;
-      e.path.reset();
+      e.chain.reset();
       if (!e.tf_frame.empty()) {
         e.has_rel = false;
         e.rel_v.setZero();

@@ -88,7 +88,7 @@ void MonitorCore::syncGateWorld() {
     // The shape as in the cycle's world (padded): used when the element enters.
     if (!gate_predictor_.set(i, elements[i].id, predictor_.shape(i), predictor_.motion(i), error,
                              is_static ? kStaticGroup : kMovingGroup, is_static ? ~kStaticGroup : ~0u,
-                             predictor_.path(i))) {
+                             predictor_.chain(i))) {
       gate_predictor_.unset(i);  // the cycle's world took it: cannot happen but for memory
     }
   }
@@ -299,8 +299,8 @@ void MonitorCore::syncWorld(const ros::Time& now) {
     const uint32_t mask = is_static ? ~kStaticGroup : ~0u;
     const bool ok = (!predictor_.contains(i) && params_.padding > 0.0)
                         ? predictor_.set(i, e.id, vadop::inflate(e.shape, params_.padding), e.motion, error, group,
-                                         mask, e.path)
-                        : predictor_.set(i, e.id, e.shape, e.motion, error, group, mask, e.path);
+                                         mask, e.chain)
+                        : predictor_.set(i, e.id, e.shape, e.motion, error, group, mask, e.chain);
     if (!ok) {
       predictor_.unset(i);
       registry_.markElementBad(i, "refused by the world: " + error, now);  // throttled per body
@@ -355,12 +355,6 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
   const auto start = std::chrono::steady_clock::now();
   stats_ = CycleStats();
   stats_.stamp = now;
-  // Joint motions are sampled over the longest window any prediction looks at.
-  double window = params_.horizon;
-  for (const BodyParams& b : params_.bodies) {
-    if (b.has_gate) window = std::max(window, b.gate.time_before_collision);
-  }
-  registry_.setSampleWindow(window);
   registry_.update(now, tf);
   syncWorld(now);
 
@@ -483,9 +477,9 @@ visualization_msgs::MarkerArray MonitorCore::markers() const {
     m.is_static = bodies[e.body].is_static;
     m.shape = predictor_.shape(i);  // padded, as given to the world
     m.motion = predictor_.motion(i);
-    if (predictor_.path(i)) {
+    if (predictor_.chain(i)) {
       m.path_pose = [this, i](double t) { return predictor_.poseAt(i, t); };
-      m.path_times = predictor_.pathTimes(i);
+      m.path_times = predictor_.pathTimes(i, t0_, t0_ + params_.horizon);
     }
     m.mesh_uri = e.mesh_uri;
     m.mesh_scale = e.mesh_scale;

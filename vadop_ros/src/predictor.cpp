@@ -1,7 +1,7 @@
 #include "vadop_ros/predictor.h"
 
 #include <vadop/error.h>
-#include <vadop/timed_path.h>
+#include <vadop/joint_chain.h>
 #include <vadop/world.h>
 
 #include <optional>
@@ -39,7 +39,7 @@ struct Predictor::Impl {
     std::string id;
     uint64_t key = 0;
     vadop::Motion motion;
-    std::shared_ptr<const vadop::TimedPath> path;  // null: motion alone
+    std::shared_ptr<const vadop::LinkChain> chain;  // null: motion alone
   };
   vadop::World world;
   std::vector<Slot> slots;
@@ -53,7 +53,7 @@ Predictor::~Predictor() = default;
 
 bool Predictor::set(size_t i, const std::string& id, const vadop::Shape& shape, const vadop::Motion& motion,
                     std::string& error, uint32_t group, uint32_t mask,
-                    const std::shared_ptr<const vadop::TimedPath>& path) {
+                    const std::shared_ptr<const vadop::LinkChain>& chain) {
   if (i >= impl_->slots.size()) impl_->slots.resize(i + 1);
   Impl::Slot& s = impl_->slots[i];
   try {
@@ -64,16 +64,16 @@ bool Predictor::set(size_t i, const std::string& id, const vadop::Shape& shape, 
       s.id = id;
       s.key = impl_->world.key(id);
       s.motion = motion;
-      s.path = nullptr;
+      s.chain = nullptr;
       impl_->by_key[s.key] = i;
-    } else if (!sameMotion(s.motion, motion) || (s.path && !path)) {
-      impl_->world.setMotion(s.id, motion);  // ends a path
+    } else if (!sameMotion(s.motion, motion) || (s.chain && !chain)) {
+      impl_->world.setMotion(s.id, motion);  // ends a chain
       s.motion = motion;
-      s.path = nullptr;
+      s.chain = nullptr;
     }
-    if (path && path != s.path) {
-      impl_->world.setPath(s.id, *path);
-      s.path = path;
+    if (chain && chain != s.chain) {
+      impl_->world.setChain(s.id, *chain);
+      s.chain = chain;
     }
     return true;
   } catch (const vadop::InvalidArgument& e) {
@@ -109,16 +109,21 @@ void Predictor::clear() {
 
 bool Predictor::contains(size_t i) const { return i < impl_->slots.size() && impl_->slots[i].in; }
 const vadop::Motion& Predictor::motion(size_t i) const { return impl_->slots.at(i).motion; }
-const std::shared_ptr<const vadop::TimedPath>& Predictor::path(size_t i) const { return impl_->slots.at(i).path; }
+const std::shared_ptr<const vadop::LinkChain>& Predictor::chain(size_t i) const { return impl_->slots.at(i).chain; }
 Eigen::Isometry3d Predictor::poseAt(size_t i, double t) const {
   const Impl::Slot& s = impl_->slots.at(i);
-  return s.path ? s.path->poseAt(t) : s.motion.poseAt(t);
+  return s.chain ? s.chain->poseAt(t) : s.motion.poseAt(t);
 }
-std::vector<double> Predictor::pathTimes(size_t i) const {
+std::vector<double> Predictor::pathTimes(size_t i, double t0, double t1) const {
   std::vector<double> times;
   const Impl::Slot& s = impl_->slots.at(i);
-  if (s.path) {
-    for (const vadop::Keyframe& k : s.path->keyframes()) times.push_back(k.time);
+  if (!s.chain) return times;
+  if (s.chain->jointsMove(t0, t1)) {
+    for (int k = 1; k < 10; ++k) times.push_back(t0 + (t1 - t0) * k / 10.0);
+    return times;
+  }
+  for (const vadop::Keyframe& k : s.chain->base().keyframes()) {
+    if (k.time > t0 && k.time < t1) times.push_back(k.time);
   }
   return times;
 }
@@ -197,9 +202,10 @@ std::vector<RawImpact> Predictor::predict(double t0, double horizon) {
     r.initially_touching = w.impact.initially_touching;
     const Impl::Slot& sa = impl_->slots[r.a];
     const Impl::Slot& sb = impl_->slots[r.b];
-    const vadop::Motion& ma = sa.path ? sa.path->motion(sa.path->pieceAt(r.time)) : sa.motion;
-    const vadop::Motion& mb = sb.path ? sb.path->motion(sb.path->pieceAt(r.time)) : sb.motion;
-    r.closing_speed = (pointVelocity(ma, r.point, r.time) - pointVelocity(mb, r.point, r.time)).dot(r.normal);
+    auto velocity = [&](const Impl::Slot& x) {
+      return x.chain ? x.chain->velocityOfPoint(r.point, r.time) : pointVelocity(x.motion, r.point, r.time);
+    };
+    r.closing_speed = (velocity(sa) - velocity(sb)).dot(r.normal);
     out.push_back(r);
   }
   return out;

@@ -17,16 +17,19 @@
 
 namespace vadop {
 
-// A joint position over time: linear between timed positions (so each piece has a constant
-// velocity), the first position before the first time, and after the last time moving on at
-// velocity_after (0: holds). Revolute positions in rad, prismatic in m.
+// A joint position over time through timed positions: between two of them the straight line,
+// or with velocities the cubic Hermite through both positions and velocities (as ros_control's
+// joint_trajectory_controller interpolates); the first position before the first time, and
+// after the last time moving on at velocity_after (0: holds). Revolute positions in rad,
+// prismatic in m.
 class JointPath {
  public:
   // Holds `position` at every time.
   JointPath() : JointPath({0.0}, {0.0}) {}
   // Throws vadop::InvalidArgument naming the entry: no position, sizes differ, a NaN/Inf,
-  // times that do not increase.
-  JointPath(std::vector<double> times, std::vector<double> positions, double velocity_after = 0.0);
+  // times that do not increase. `velocities`: none (straight lines) or one per time.
+  JointPath(std::vector<double> times, std::vector<double> positions, double velocity_after = 0.0,
+            std::vector<double> velocities = {});
   // From `position` at t_ref on, moving at `velocity` until it reaches lower or upper (then
   // holds there; a position outside the limits is clamped first). Before t_ref it holds.
   // Throws on NaN, lower > upper. Infinite limits: none.
@@ -39,6 +42,7 @@ class JointPath {
   double velocityAt(double t) const;
   const std::vector<double>& times() const { return times_; }
   const std::vector<double>& positions() const { return positions_; }
+  const std::vector<double>& velocities() const { return velocities_; }
   double velocityAfter() const { return velocity_after_; }
   // The first time > t at which the velocity may jump (+inf: none).
   double nextBreak(double t) const;
@@ -47,8 +51,16 @@ class JointPath {
   double maxAbsPosition(double t0, double t1) const;
 
  private:
-  double slope(size_t piece) const;  // piece k holds on [times[k-1], times[k])
-  std::vector<double> times_, positions_;
+  struct Cubic {
+    double h = 1.0;            // the piece's duration
+    double c[4] = {0, 0, 0, 0};  // q(u) = c0 + c1 u + c2 u^2 + c3 u^3, u in [0, 1]
+    double at(double u) const;
+    double rate(double u) const;  // dq/dt
+  };
+  size_t pieceAt(double t) const;  // piece k holds on [times[k-1], times[k]); 0 before, n after
+  Cubic cubic(size_t k) const;     // k in 1 .. n-1
+  double maxRate(size_t k) const;  // max |dq/dt| over piece k
+  std::vector<double> times_, positions_, velocities_;
   double velocity_after_ = 0.0;
 };
 
@@ -86,6 +98,8 @@ class LinkChain {
   double reach(double t0, double t1) const;
   // The velocity at t of the material point of the link at x (fixed frame).
   Eigen::Vector3d velocityOfPoint(const Eigen::Vector3d& x, double t) const;
+  // The link's angular velocity at t (fixed frame).
+  Eigen::Vector3d angularVelocity(double t) const;
 
  private:
   TimedPath base_;

@@ -19,15 +19,15 @@
 // A URDF body with joint states (joint_states_topic, onJointState): its links' poses relative
 // to the body frame come from the URDF's kinematics (JointKinematics) at the joint positions
 // instead of tf, and over the horizon each joint moves at its reported velocity (clamped at its
-// limits) while the body frame moves with its twist: every link's motion is sampled every
-// kJointSampleStep over the prediction window into a timed path (between samples the constant
-// twist joining them; after the window the last one goes on). Before the first joint state the
+// limits) while the body frame moves with its twist: every link is a vadop::LinkChain (the
+// joints between the body's reference link and it, on the body frame's twist), whose time of
+// impact the library certifies along the joint motion itself. Before the first joint state the
 // joints are at zero; joints a message does not name keep their last state; joint states older
 // than stale_timeout stop moving. A joint trajectory (joint_trajectory_topic, onJointTrajectory)
 // overrides the joints it names while it runs (until its last point): before its first point
 // they are at that point, between points they follow the cubic through the points' positions
-// and velocities (as ros_control's joint_trajectory_controller interpolates; linear when the
-// points have no velocities), after its last point they hold it.
+// and velocities (as ros_control's joint_trajectory_controller interpolates; straight lines
+// when the points have no velocities; vadop::JointPath), after its last point they hold it.
 // A body with a planned path (path_topic, onPath) follows it instead while the plan reaches
 // beyond `now`: its body frame moves from its pose at `now` (as above) through the plan's poses
 // stamped after `now`, between consecutive ones with the constant twist that joins them
@@ -85,7 +85,7 @@
 #include <vector>
 
 namespace vadop {
-class TimedPath;  // vadop/timed_path.h (not included: see predictor.h)
+class LinkChain;  // vadop/joint_chain.h (not included: see predictor.h)
 }
 
 namespace vadop_ros {
@@ -175,9 +175,10 @@ struct Element {
   // frame; t_ref in the registry's seconds, see seconds()).
   bool active = false;
   vadop::Motion motion;
-  // The element's motion along its body's planned path this cycle (null: `motion` alone). Its
-  // pose at the cycle time equals motion's.
-  std::shared_ptr<const vadop::TimedPath> path;
+  // The element's motion beyond one twist this cycle (null: `motion` alone): its body's planned
+  // path (a chain without joints), or its link moved by the joints on the body frame. Its pose
+  // at the cycle time equals motion's.
+  std::shared_ptr<const vadop::LinkChain> chain;
 
   // Own motion estimate from tf (link pose in the body frame at two distinct stamps).
   bool has_rel = false;
@@ -301,10 +302,6 @@ class BodyRegistry {
   // a negative time_from_start or times that do not increase, a header stamp beyond
   // max_stamp_skew. No points: the running trajectory is cancelled.
   InputResult onJointTrajectory(size_t body, const trajectory_msgs::JointTrajectory& msg, const ros::Time& receipt);
-  // The window over which joint motions are sampled (s; MonitorCore sets its horizon, and the
-  // gates' longest window when longer). Clamped to [0, kMotionCheckWindow].
-  void setSampleWindow(double seconds);
-  static constexpr double kJointSampleStep = 0.02;  // s
 
   // Computes every element's motion at `now` (sets Element::active and motion, body states).
   void update(const ros::Time& now, TransformSource& tf);
@@ -369,7 +366,6 @@ class BodyRegistry {
   // The elements of a joint-states body (see the header), its frame moving with `frame`.
   void updateJointBody(Body& b, const ros::Time& now, double t_now, double t_check_end, const vadop::Motion& frame,
                        bool stale);
-  double sample_window_ = 2.0;
 
   std::string fixed_frame_;
   double stale_timeout_ = 0.5;

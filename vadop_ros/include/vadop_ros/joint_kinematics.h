@@ -30,9 +30,27 @@ class JointKinematics {
   // The position of joint j clamped to its limits (revolute and prismatic).
   double clamp(size_t j, double q) const;
 
+  double lower(size_t j) const { return lower_[j]; }  // -inf when unlimited
+  double upper(size_t j) const { return upper_[j]; }  // +inf when unlimited
+
   // Pose of `link` in the root link's frame at joint positions q (joints().size() values,
   // clamped here). False for an unknown link.
   bool linkPose(const std::vector<double>& q, const std::string& link, Eigen::Isometry3d& pose) const;
+
+  // One step of a serial chain: the transform origin * J(sign * q_joint), J a turn about or a
+  // slide along `axis` (fixed steps: origin alone).
+  struct Step {
+    enum class Kind { kFixed, kRevolute, kPrismatic };
+    Kind kind = Kind::kFixed;
+    int joint = -1;  // index into joints(); -1 for a fixed step
+    double sign = 1.0;
+    Eigen::Isometry3d origin = Eigen::Isometry3d::Identity();
+    Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+  };
+  // The steps taking `from`'s frame to `to`'s (up the tree from `from` to the common ancestor,
+  // undone joint by joint, then down to `to`): their product at q is
+  // linkPose(from)^-1 * linkPose(to). False for an unknown link.
+  bool chain(const std::string& from, const std::string& to, std::vector<Step>& steps) const;
 
  private:
   struct Impl;

@@ -23,7 +23,7 @@
 #include <vector>
 
 namespace vadop {
-class TimedPath;  // vadop/timed_path.h
+class LinkChain;  // vadop/joint_chain.h
 }
 
 namespace vadop_ros {
@@ -62,22 +62,24 @@ class Predictor {
   // Element i: present (with this shape and motion) or absent this cycle. `shape` is used when
   // the element enters the world, with the collision group and mask (vadop::World::setFilter:
   // the pair (a, b) reaches the narrow phase only when (a.group & b.mask) && (b.group & a.mask)).
-  // With `path` (vadop::World::setPath) the element follows it; `motion` is its motion at the
-  // cycle time (markers, the gates' movers) and takes over when a later set has no path.
+  // With `chain` (vadop::World::setChain: a planned path, or a link moved by its joints) the
+  // element follows it; `motion` is its motion at the cycle time (markers, the gates' movers)
+  // and takes over when a later set has no chain.
   // Returns false (and sets error) when the world rejected it.
   bool set(size_t i, const std::string& id, const vadop::Shape& shape, const vadop::Motion& motion,
            std::string& error, uint32_t group = 1u, uint32_t mask = 0xffffffffu,
-           const std::shared_ptr<const vadop::TimedPath>& path = nullptr);
+           const std::shared_ptr<const vadop::LinkChain>& chain = nullptr);
   void unset(size_t i);
   // Every element leaves the world (padding changed: they come back with new shapes).
   void clear();
   bool contains(size_t i) const;
   const vadop::Motion& motion(size_t i) const;  // as given to the world
-  const std::shared_ptr<const vadop::TimedPath>& path(size_t i) const;  // null: none
-  // Pose of element i at time t (along its path, else its motion), and its path's keyframe
-  // times (empty without one): for the markers.
+  const std::shared_ptr<const vadop::LinkChain>& chain(size_t i) const;  // null: none
+  // Pose of element i at time t (along its chain, else its motion), and the times inside
+  // (t0, t1) worth drawing it at (its path's keyframes; ten even steps when joints move; empty
+  // without a chain): for the markers.
   Eigen::Isometry3d poseAt(size_t i, double t) const;
-  std::vector<double> pathTimes(size_t i) const;
+  std::vector<double> pathTimes(size_t i, double t0, double t1) const;
   const vadop::Shape& shape(size_t i) const;    // as given to the world (padded)
 
   // Pairs of elements (a added to the world first) never given to the narrow phase: called on
