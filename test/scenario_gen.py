@@ -42,6 +42,21 @@ A scenario file (test/scenarios/*.yaml) holds the vadop_monitor parameters at it
     crowd:                   # optional: generated straight-line agents
       name: "agent_{i}"  count: 200  area: [xmin, xmax, ymin, ymax]  speed: [lo, hi]
       static_fraction: 0.1  min_gap: 0.5  rate: 10  z: 0.25
+    tracker:                 # optional (or a list of them): a tracker's vadop/TrackedObjectArray
+      topic: /people/tracks  # the node's `tracks` source with this topic gives prefix,
+      frame: odom            # default_shape and timeout (frame: odom only)
+      rate: 15               # arrays per second, first at `phase` (default 0), to the bag's end
+      objects:               # each a body "<prefix>/<id>" (link empty) while alive
+        - {id: "1", life: [on, off], p: [x, y], v: [vx, vy]}   # alive over [on, off) (off null:
+                             # to the end), at p at time `at` (default: on), constant velocity v
+        - {id: "2", lives: [{life: [..], p: [..], v: [..]}, {life: [..], ...}]}   # id reused
+        - {id: "k", shape: {type: cylinder, radius: 0.25, length: 1.2}, ...}  # explicit
+                             # primitive in the message (else type 0: default_shape); z: the
+                             # centre (default: standing on z = 0)
+        - {id: "n1", nan: true, ...}      # every copy has pose.position.x NaN: never a body
+        - {id: "3", nan_at: [5.0], ...}   # the copy in the array nearest 5.0 s is NaN
+        - {id: "4", decoys: [{t: 6.0, dx: 1.0}], ...}   # the array nearest 6.0 s holds the id
+                             # twice: first a copy displaced by (dx, dy), then the true one
     expect: {...}            # read by scenario_check.py only
 
 The bag (bag time = 1000 s + scenario time; ROS time 0 would mean "no clock") holds
@@ -59,6 +74,11 @@ segments inside (t, t + lookahead): between consecutive poses the twist is then 
 segment accelerates, and the node's screw interpolation between them is exact. Each pose's
 header.stamp is the bag time at which the body is there (its header.frame_id is `frame` too).
 
+A tracker's arrays (header.frame_id `frame`, stamped at their bag time) hold every object
+alive at that stamp: id, shape (type 0, or the explicit primitive: CYLINDER dimensions
+[height, radius]), pose (the shape's centre, yaw along the velocity) and twist (linear velocity
+in the array's frame, no rotation), in the order of `objects`.
+
 The ground truth is computed from the continuous motion the bag samples (before noise), with
 ground_truth.py only (independent of vadop_core): for every pair of collision elements that the
 monitor would check (different bodies; moving-moving or moving-static), the first time their
@@ -75,6 +95,18 @@ truth's "bodies" entry of such a body has "path": {"topic", "rate", "first"}.
 
 The truth covers [0, until] (the bag's duration plus the horizon: a cycle near the end of the
 bag predicts up to a horizon beyond it, and the bodies go on moving as scripted).
+
+Tracked objects in the truth: each life of a (non-NaN) object is a body "<prefix>/<id>" that
+exists over [on, off) only (contacts within the lives of both; a second life of an id is
+another element of the same body, so a pair may have one entry per life, with "exists_since":
+the later of the two lives' starts). clean_since is the life's start, msg_delay the longest
+wait for a good copy (from the start, and between good copies across NaN ones). NaN copies
+change nothing else: the motion is a straight line at constant velocity. Truth keys with
+trackers: "tracks" ({body: {topic, prefix, timeout, rate, lives: [[on, off or null]], ...}}),
+"ghost_window" ({prefix: s}) and "ghost_contacts": for each life ending in the bag, the object
+going on straight or standing still over the ghost window after its end (timeout + 2 node
+cycles + horizon: what a monitor still holding it may predict) and touching another body; a
+well-designed scenario has none (scenario_check.py reports them as design errors).
 
 CLI:  scenario_gen.py SCENARIO.yaml --bag OUT.bag --truth OUT.json [--padding P] [--until T]
 """
@@ -503,6 +535,249 @@ def _crowd(spec, rng, duration):
     return scripts
 
 
+class _ConstTwist:
+    """Body-frame twist of a straight-line track life (heading along its velocity)."""
+
+    def __init__(self, speed):
+        self.v = np.array([float(speed), 0.0, 0.0])
+
+    def at(self, t):
+        return self.v
+
+
+class TrackLife:
+    """One life of a tracked object (scenario `tracker:`): a body named "<prefix>/<id>" that
+    exists over [on, off) only, on a straight line at constant velocity (exact for the truth).
+    Ghosts (is_ghost) are the same object after `off` as a monitor still holding it might model
+    it (going on straight, or standing at its last pose): used only to check the scenario's design."""
+    is_static = False
+    is_track = True
+    links_from_tf = False
+    joint_states_topic = None
+
+    def __init__(self, name, oid, on, off, p_on, v, z, yaw, spec, tracker, ghost=None):
+        self.name = name
+        self.id = oid
+        self.on = float(on)
+        self.off = math.inf if off is None else float(off)
+        self.v = np.array([float(v[0]), float(v[1])])
+        self.p0 = np.asarray(p_on, dtype=float) - self.v * self.on  # position at t = 0 (extrapolated)
+        self.z = float(z)
+        speed = float(np.hypot(*self.v))
+        self.yaw = math.atan2(self.v[1], self.v[0]) if speed > 0.0 else float(yaw)
+        self.twist = _ConstTwist(speed)
+        self.tracker = tracker
+        self.rate = tracker.rate
+        self.phase = self.on
+        self.spec = spec
+        self.ghost = ghost          # None, "straight" or "standing"
+        self.is_ghost = ghost is not None
+        self.msg_delay = 1.0 / tracker.rate  # updated by the tracker once the stamps are known
+        self.elements = [Element(self, "", spec, (np.eye(3), np.zeros(3)))]
+
+    def position(self, t):
+        return self.p0 + self.v * t
+
+    def exists(self, t):
+        return self.on <= t < self.off
+
+    def exists_in(self, a, b):
+        """True if [a, b] meets [on, off)."""
+        return self.on <= b and a < self.off
+
+    def pose(self, t):
+        x, y = self.position(t)
+        return (gt.rot_z(self.yaw), np.array([x, y, self.z]))
+
+    def pose2d(self, t):
+        x, y = self.position(t)
+        return x, y, self.yaw
+
+    def poses_vec(self, ts):
+        ts = np.asarray(ts, dtype=float)
+        return self.p0[0] + self.v[0] * ts, self.p0[1] + self.v[1] * ts, np.full_like(ts, self.yaw)
+
+    def exact_since(self, t):
+        """Constant velocity over the whole life."""
+        return self.on, False
+
+    def ghost_of(self, kind, window):
+        """The object after `off` over [off, off + window]: going on straight or standing still."""
+        p = self.position(self.off)
+        v = self.v if kind == "straight" else (0.0, 0.0)
+        return TrackLife(self.name, self.id, self.off, self.off + window, p, v, self.z, self.yaw, self.spec,
+                         self.tracker, ghost=kind)
+
+
+SOLID_TYPES = {"box": 1, "sphere": 2, "cylinder": 3}
+
+
+def _shape_z(spec):
+    """Height of the centre of a shape standing on the floor (z = 0)."""
+    if spec["type"] == "box":
+        return 0.5 * float(spec["size"][2])
+    if spec["type"] == "sphere":
+        return float(spec["radius"])
+    return 0.5 * float(spec["length"]) + (float(spec["radius"]) if spec["type"] == "capsule" else 0.0)
+
+
+class Tracker:
+    """A scenario `tracker:` (see the module docstring): vadop/TrackedObjectArray messages of the
+    objects alive at each stamp, and the objects' lives (TrackLife) for the truth."""
+
+    def __init__(self, spec, params, duration, where):
+        self.topic = str(spec["topic"])
+        sources = [s for s in (params.get("tracks") or []) if str(s.get("topic")) == self.topic]
+        source = sources[0] if sources else {}
+        self.prefix = str(spec.get("prefix", source.get("prefix", self.topic.rstrip("/").split("/")[-1])))
+        if "prefix" in source and str(source["prefix"]) != self.prefix:
+            raise ValueError("%s: tracker %s: prefix %r, the node's source says %r"
+                             % (where, self.topic, self.prefix, source["prefix"]))
+        self.default_shape = source.get("default_shape", spec.get("default_shape"))
+        if not self.default_shape:
+            raise ValueError("%s: tracker %s: no default_shape (neither the node's tracks source nor the tracker)"
+                             % (where, self.topic))
+        self.timeout = float(source.get("timeout", spec.get("timeout", 0.5)))
+        self.in_node = bool(source)
+        self.frame = str(spec.get("frame", "odom"))
+        if self.frame != "odom":
+            raise ValueError("%s: tracker %s: only frame odom is supported (the bag has no other tf)" % (where, self.topic))
+        self.rate = float(spec.get("rate", 15.0))
+        self.phase = float(spec.get("phase", 0.0))
+        self.duration = duration
+        self.objects = []  # dicts: id, shape (spec or None = type 0), lives [(TrackLife)], nan, nan_at, decoys
+        self.lives = []    # every real life (TrackLife), in object order
+        seen = set()
+        for o in spec.get("objects", []) or []:
+            oid = str(o["id"])
+            if oid in seen:
+                raise ValueError("%s: tracker %s: object id %r twice (a second life goes in `lives`)"
+                                 % (where, self.topic, oid))
+            seen.add(oid)
+            shape = o.get("shape")
+            spec_shape = shape or self.default_shape
+            z = float(o.get("z", _shape_z(spec_shape)))
+            lives_spec = o.get("lives") or [o]
+            lives = []
+            for ls in lives_spec:
+                on, off = ls["life"]
+                on = float(on)
+                off = None if off is None else float(off)
+                v = [float(x) for x in ls.get("v", [0.0, 0.0])]
+                at = float(ls.get("at", on))
+                p_at = np.asarray(ls["p"], dtype=float)
+                p_on = p_at + np.asarray(v) * (on - at)
+                life = TrackLife("%s/%s" % (self.prefix, oid), oid, on, off, p_on, v, z, float(ls.get("yaw", 0.0)),
+                                 spec_shape, self)
+                if lives and life.on < lives[-1].off + self.timeout + 0.5:
+                    raise ValueError("%s: tracker %s: %s: a life must start more than timeout + 0.5 s after the "
+                                     "previous one ends" % (where, self.topic, oid))
+                lives.append(life)
+            obj = {"id": oid, "shape": shape, "lives": lives, "nan": bool(o.get("nan", False)),
+                   "nan_at": [float(t) for t in o.get("nan_at", []) or []],
+                   "decoys": [dict(d) for d in o.get("decoys", []) or []]}
+            self.objects.append(obj)
+            if not obj["nan"]:
+                self.lives.extend(lives)
+        # Message stamps, which copies are NaN, and each life's message delay.
+        self.stamps = []
+        k = 0
+        while True:
+            t = round(self.phase + k / self.rate, 9)
+            if t > duration + 1e-9:
+                break
+            self.stamps.append(t)
+            k += 1
+        for obj in self.objects:
+            obj["nan_stamps"] = set()
+            obj["decoy_stamps"] = {}
+            for life in obj["lives"]:
+                alive = [t for t in self.stamps if life.exists(t)]
+                if not alive:
+                    raise ValueError("%s: tracker %s: %s: a life without any message" % (where, self.topic, oid))
+                for t in obj["nan_at"]:
+                    if life.on <= t < life.off:
+                        obj["nan_stamps"].add(min(alive, key=lambda s: abs(s - t)))
+                for d in obj["decoys"]:
+                    if life.on <= float(d["t"]) < life.off:
+                        obj["decoy_stamps"][min(alive, key=lambda s: abs(s - float(d["t"])))] = d
+                good = [t for t in alive if t not in obj["nan_stamps"]]
+                if not good:
+                    continue
+                # The node knows the life from its first good copy and keeps it across NaN copies.
+                gaps = [b - a for a, b in zip(good[:-1], good[1:])]
+                life.msg_delay = max([1.0 / self.rate, good[0] - life.on] + gaps)
+                life.first_good = good[0]
+                life.nan_copies = len(alive) - len(good)
+
+    def summary(self):
+        """The truth's "trackers" entry for this source."""
+        return {"topic": self.topic, "prefix": self.prefix, "timeout": self.timeout, "rate": self.rate,
+                "in_node": self.in_node, "objects": sum(1 for o in self.objects if not o["nan"]),
+                "lives": len(self.lives), "nan_objects": sum(1 for o in self.objects if o["nan"]),
+                "nan_copies": sum(len(o["nan_stamps"]) for o in self.objects if not o["nan"]),
+                "decoys": sum(len(o["decoy_stamps"]) for o in self.objects), "arrays": len(self.stamps)}
+
+    def alive(self, obj, t):
+        """The life of obj at stamp t, or None."""
+        return next((life for life in obj["lives"] if life.exists(t)), None)
+
+    def info(self):
+        """The truth's "tracks" entry: per tracked body, its lives and its source."""
+        out = {}
+        for obj in self.objects:
+            if obj["nan"]:
+                continue
+            lives = obj["lives"]
+            out[lives[0].name] = {
+                "topic": self.topic, "prefix": self.prefix, "timeout": self.timeout, "rate": self.rate,
+                "lives": [[life.on, None if life.off == math.inf else life.off] for life in lives],
+                "first_good": [getattr(life, "first_good", None) for life in lives],
+                "nan_copies": sum(getattr(life, "nan_copies", 0) for life in lives)}
+        return out
+
+    def message(self, t):
+        """vadop/TrackedObjectArray at stamp t."""
+        import rospy
+        from shape_msgs.msg import SolidPrimitive
+        from vadop.msg import TrackedObject, TrackedObjectArray
+        m = TrackedObjectArray()
+        m.header.stamp = rospy.Time.from_sec(T0 + t)
+        m.header.frame_id = self.frame
+        for obj in self.objects:
+            life = self.alive(obj, t)
+            if life is None:
+                continue
+            copies = []
+            decoy = obj["decoy_stamps"].get(t)
+            if decoy is not None:  # a wrong copy first: the same id twice in one array, the last kept
+                copies.append(np.array([float(decoy.get("dx", 0.0)), float(decoy.get("dy", 0.0))]))
+            copies.append(np.zeros(2))
+            for off in copies:
+                o = TrackedObject()
+                o.id = obj["id"]
+                sh = obj["shape"]
+                if sh is None:
+                    o.shape = SolidPrimitive()  # type 0: the source's default_shape
+                else:
+                    o.shape.type = SOLID_TYPES[sh["type"]]
+                    if sh["type"] == "box":
+                        o.shape.dimensions = [float(v) for v in sh["size"]]
+                    elif sh["type"] == "sphere":
+                        o.shape.dimensions = [float(sh["radius"])]
+                    else:
+                        o.shape.dimensions = [float(sh["length"]), float(sh["radius"])]  # [height, radius]
+                x, y = life.position(t) + off
+                o.pose.position.x, o.pose.position.y, o.pose.position.z = float(x), float(y), life.z
+                o.pose.orientation.z = math.sin(0.5 * life.yaw)
+                o.pose.orientation.w = math.cos(0.5 * life.yaw)
+                o.twist.linear.x, o.twist.linear.y = float(life.v[0]), float(life.v[1])
+                if obj["nan"] or t in obj["nan_stamps"]:
+                    o.pose.position.x = float("nan")
+                m.objects.append(o)
+        return m
+
+
 class Scenario:
     def __init__(self, path):
         self.path = os.path.abspath(path)
@@ -545,6 +820,17 @@ class Scenario:
                         s.elements.append(Element(s, link, spec, gt.compose(u.link_in_root(link, {}), origin)))
             self.statics.append(s)
         self.noise_rng = np.random.default_rng(self.seed + 1)
+        trackers = sc.get("tracker") or []
+        if isinstance(trackers, dict):
+            trackers = [trackers]
+        self.trackers = [Tracker(t, self.params, self.duration, self.name) for t in trackers]
+        names = {b.name for b in self.bodies} | {s.name for s in self.statics}
+        for tr in self.trackers:
+            for life in tr.lives:
+                if life.name in names and life is tr.lives[0]:
+                    raise ValueError("scenario %s: tracked object %s has a configured body's name" % (self.name, life.name))
+        # Tracked lives are bodies of the truth (each life its own element, existing over its life).
+        self.track_lives = [life for tr in self.trackers for life in tr.lives]
 
     # ------------------------------------------------------------------ element poses
     def element_pose(self, el, t):
@@ -596,6 +882,28 @@ class Scenario:
             out.extend(b.elements)
         for s in self.statics:
             out.extend(s.elements)
+        for life in self.track_lives:
+            out.extend(life.elements)
+        return out
+
+    def ghost_window(self, tracker):
+        """How long after a life's end a monitor may still report the object: while it holds it
+        (the source's timeout, plus two cycles) its cycles look a horizon ahead."""
+        rate = float(self.params.get("rate", 30.0))
+        horizon = float(self.params.get("horizon", 2.0))
+        return tracker.timeout + 2.0 / rate + horizon
+
+    def ghost_elements(self):
+        """For every life that ends in the bag: the object going on straight and standing still
+        over ghost_window after its end (the truth has no such body: a contact of a ghost is one a
+        monitor may legitimately report, which the scenario must avoid)."""
+        out = []
+        for tr in self.trackers:
+            w = self.ghost_window(tr)
+            for life in tr.lives:
+                if life.off < self.duration:
+                    for kind in ("straight", "standing"):
+                        out.extend(life.ghost_of(kind, w).elements)
         return out
 
     def truth(self, padding, until=None, log=None):
@@ -603,6 +911,8 @@ class Scenario:
         start = time.time()
         until = self.duration if until is None else min(float(until), self.duration + TRUTH_EXTRA - 0.01)
         els = self.all_elements()
+        n_real = len(els)
+        els = els + self.ghost_elements()
         n = len(els)
         grid = np.arange(0.0, until + 1e-9, BROAD_DT)
         if grid[-1] < until:
@@ -615,17 +925,27 @@ class Scenario:
         moving = np.array([not e.body.is_static for e in els])
         body_of = [e.body.name for e in els]
         shapes = [e.shape.padded(padding) for e in els]
+        # Existence (tracked lives): [on, off) per element; interval k of the grid must meet both.
+        on = np.array([getattr(e.body, "on", -math.inf) for e in els])
+        off = np.array([getattr(e.body, "off", math.inf) for e in els])
+        exists = (on[:, None] <= grid[None, 1:]) & (grid[None, :-1] < off[:, None])  # n x (g - 1)
+        ghost = np.array([getattr(e.body, "is_ghost", False) for e in els])
         pairs = []
+        ghost_pairs = []
         checked = 0
         for i in range(n):
+            if i >= n_real:
+                break  # ghosts only against real elements
             js = np.arange(i + 1, n)
-            keep = np.array([(moving[i] or moving[j]) and body_of[i] != body_of[j] for j in js], dtype=bool)
+            keep = np.array([(moving[i] or moving[j]) and body_of[i] != body_of[j] and not (ghost[i] and ghost[j])
+                             for j in js], dtype=bool)
             js = js[keep]
             if len(js) == 0:
                 continue
             sep = np.linalg.norm(origins[js] - origins[i][None], axis=2) - (bounds[js] + bounds[i])[:, None]
             reach = ((vo[js] + vo[i]) * BROAD_DT)[:, None]
             flag = sep[:, :-1] <= reach + 1e-9  # interval k = [grid[k], grid[k+1]] may hold a contact
+            flag &= exists[js] & exists[i][None]
             for jj in np.nonzero(flag.any(axis=1))[0]:
                 j = js[jj]
                 checked += 1
@@ -646,25 +966,51 @@ class Scenario:
                         run_start = k
                     prev = k
                 runs.append((run_start, prev))
+                # contacts only while both exist (tracked lives): [max(on), min(off))
+                lo, hi = max(on[i], on[j]), min(off[i], off[j])
                 for (k0, k1) in runs:
-                    hit = gt.first_contact(dist, grid[k0], grid[k1 + 1], vmax, gap=CONTACT_GAP)
+                    a_, b_ = max(grid[k0], lo), min(grid[k1 + 1], hi)
+                    if a_ > b_:
+                        continue
+                    hit = gt.first_contact(dist, a_, b_, vmax, gap=CONTACT_GAP)
+                    if hit is not None and hit >= hi:
+                        hit = None  # the life ended first
                     if hit is not None:
                         break
                 if hit is None:
                     continue
                 a, b = (ea, eb)
+                if ghost[i] or ghost[j]:
+                    g, o = (ea, eb) if ghost[i] else (eb, ea)
+                    ghost_pairs.append({"body": g.body.name, "model": g.body.ghost, "life_end": g.body.on,
+                                        "other": o.body.name, "other_link": o.link, "t": float(hit)})
+                    continue
                 pairs.append(self._pair_record(a, b, hit))
         pairs.sort(key=lambda p: p["t"])
+        ghost_pairs.sort(key=lambda p: p["t"])
         if log:
             log("truth %s (padding %.3f): %d elements, %d pairs checked exactly, %d impacts, %.1f s"
-                % (self.name, padding, n, checked, len(pairs), time.time() - start))
-        return {"scenario": self.name, "t0": T0, "duration": self.duration, "until": until, "padding": padding,
-                "pairs": pairs, "bodies": self.body_info()}
+                % (self.name, padding, n_real, checked, len(pairs), time.time() - start))
+            for g in ghost_pairs:
+                log("truth %s: scenario design: %s, gone at %.3f s, %s would touch %s at %.3f s"
+                    % (self.name, g["body"], g["life_end"], "going on straight" if g["model"] == "straight"
+                       else "standing still", g["other"], g["t"]))
+        out = {"scenario": self.name, "t0": T0, "duration": self.duration, "until": until, "padding": padding,
+               "pairs": pairs, "bodies": self.body_info()}
+        if self.trackers:
+            out["tracks"] = {}
+            for tr in self.trackers:
+                out["tracks"].update(tr.info())
+            out["ghost_window"] = {tr.prefix: self.ghost_window(tr) for tr in self.trackers}
+            out["trackers"] = [tr.summary() for tr in self.trackers]
+            out["ghost_contacts"] = ghost_pairs
+        return out
 
     def _pair_record(self, a, b, t):
         since = -1e9
         rotating = False
         extra = 0.0
+        exists_since = None
         for el in (a, b):
             if el.body.is_static:
                 continue
@@ -672,13 +1018,22 @@ class Scenario:
             first = el.body.phase
             since = max(since, s, first)
             rotating = rotating or rot
+            if getattr(el.body, "is_track", False):
+                # known from its first good copy, kept across NaN copies (see Tracker)
+                extra = max(extra, el.body.msg_delay)
+                exists_since = el.body.on if exists_since is None else max(exists_since, el.body.on)
+                continue
             extra = max(extra, 1.0 / el.body.rate)
             if el.body.links_from_tf:
                 extra = max(extra, 2.0 / el.body.tf_rate)
             if el.body.joint_states_topic:
                 extra = max(extra, 2.0 / el.body.joint_rate)
-        return {"a": a.body.name, "la": a.link, "b": b.body.name, "lb": b.link, "t": float(t),
-                "clean_since": float(since), "msg_delay": float(extra), "rotating": bool(rotating)}
+        rec = {"a": a.body.name, "la": a.link, "b": b.body.name, "lb": b.link, "t": float(t),
+               "clean_since": float(since), "msg_delay": float(extra), "rotating": bool(rotating)}
+        if exists_since is not None:
+            # a tracked life: the pair exists from then on (an earlier life of the same id is another pair)
+            rec["exists_since"] = float(exists_since)
+        return rec
 
     def body_info(self):
         info = {}
@@ -766,6 +1121,10 @@ class Scenario:
                         tr = b.urdf.joint_transform(child, qs.get(jn, 0.0))
                         tf_groups.setdefault(int(round(t * 1e6)), []).append(
                             self._tf(tr, t, prefix + parent, prefix + child))
+        for tr in self.trackers:
+            for t in tr.stamps:
+                records.append((t, order, tr.topic, tr.message(t)))
+                order += 1
         for us, transforms in tf_groups.items():
             records.append((us * 1e-6, -1, "/tf", TFMessage(transforms=transforms)))
         records.sort(key=lambda r: (r[0], r[1]))

@@ -67,6 +67,8 @@ TEST(Params, ExampleConfigParses) {
   EXPECT_NEAR(p.static_obstacles[0].pose.translation().x(), 2.0, 1e-12);
   ASSERT_EQ(p.ignore_pairs.size(), 2u);
   EXPECT_EQ(p.ignore_pairs[1].first, "*/gripper*");
+  ASSERT_EQ(p.tracks.size(), 1u);
+  EXPECT_EQ(p.tracks[0].prefix, "people");
 }
 
 TEST(Params, ShapesAsInTheSceneFormat) {

@@ -93,6 +93,10 @@ bodies:
 static_obstacles:
   - {name: wall, shape: {type: box, size: [0.2, 10, 2]}, pose: {position: [5, 0, 0]}}
   - {name: post, shape: {type: cylinder, radius: 0.1, length: 2}, pose: {position: [0, 3, 0]}}
+tracks:
+  - {topic: /people, default_shape: {type: cylinder, radius: 0.3, length: 1.8}, timeout: 0.5}
+  - {topic: /carts, timeout: 2.0}
+ignore_pairs: [["people/7", "*"]]
 )";
 
 // The default loader, its results (and errors: a package:// URI runs rospack) kept across
@@ -167,8 +171,12 @@ void checkCycle(const MonitorCore& core, const vadop::ImpactArray& out, const ro
   if (out.header.stamp != now) broken("header stamp");
   std::map<std::string, bool> bodies;  // name -> static
   for (const auto& b : core.registry().bodies()) bodies[b.name] = b.is_static;
+  for (const auto& t : core.tracks().slots()) {
+    if (t.alive) bodies[t.name] = false;  // in the world this cycle (expired ones left before it)
+  }
   for (const vadop::Impact& i : out.impacts) {
     const std::string pair = i.body_a + "/" + i.link_a + " <-> " + i.body_b + "/" + i.link_b;
+    if (i.body_a == "people/7" || i.body_b == "people/7") broken("~ignore_pairs [people/7, *] not applied: " + pair);
     if (!bodies.count(i.body_a) || !bodies.count(i.body_b)) broken("impact names an unknown body: " + pair);
     if (bodies[i.body_a] && bodies[i.body_b]) broken("static-static impact: " + pair);
     if (!(std::isfinite(i.time_to_impact) && i.time_to_impact >= 0.0 && i.time_to_impact <= s.horizon)) {
@@ -218,7 +226,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   };
 
   for (size_t op = 0; op < kMaxOps && in.remaining_bytes() > 0; ++op) {
-    switch (in.ConsumeIntegralInRange<int>(0, 11)) {
+    switch (in.ConsumeIntegralInRange<int>(0, 12)) {
       case 0: {  // odometry
         nav_msgs::Odometry m;
         const size_t bi = odom_bodies[in.ConsumeIntegralInRange<size_t>(0, odom_bodies.size() - 1)];
@@ -354,6 +362,30 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         }
         core->registry().onJointTrajectory(static_cast<size_t>(core->registry().find("jarm")), m,
                                            in.ConsumeBool() ? now : pickTime(in, now));
+        break;
+      }
+      case 12: {  // a tracker's array (ids from a small set: objects appear, move, repeat, vanish)
+        vadop::TrackedObjectArray m;
+        m.header.stamp = in.ConsumeBool() ? ros::Time() : pickTime(in, now);
+        m.header.frame_id = in.ConsumeBool() ? "odom" : kFrames[in.ConsumeIntegralInRange<int>(0, 5)];
+        const size_t n = in.ConsumeIntegralInRange<size_t>(0, 8);
+        for (size_t k = 0; k < n; ++k) {
+          vadop::TrackedObject o;
+          o.id = in.ConsumeBool() ? std::to_string(in.ConsumeIntegralInRange<int>(0, 9)) : in.ConsumeRandomLengthString(4);
+          o.shape.type = static_cast<uint8_t>(in.ConsumeIntegralInRange<int>(0, 5));
+          const size_t dims = in.ConsumeIntegralInRange<size_t>(0, 4);
+          for (size_t d = 0; d < dims; ++d) o.shape.dimensions.push_back(in.ConsumeBool() ? 0.5 : pickDouble(in));
+          o.pose.position.x = in.ConsumeBool() ? in.ConsumeFloatingPointInRange<double>(-5.0, 5.0) : pickDouble(in);
+          o.pose.position.y = in.ConsumeBool() ? in.ConsumeFloatingPointInRange<double>(-5.0, 5.0) : pickDouble(in);
+          o.pose.position.z = in.ConsumeBool() ? 0.0 : pickDouble(in);
+          o.pose.orientation.w = in.ConsumeBool() ? 1.0 : pickDouble(in);
+          o.pose.orientation.z = in.ConsumeBool() ? 0.0 : pickDouble(in);
+          o.twist.linear.x = in.ConsumeBool() ? in.ConsumeFloatingPointInRange<double>(-2.0, 2.0) : pickDouble(in);
+          o.twist.linear.y = in.ConsumeBool() ? 0.0 : pickDouble(in);
+          o.twist.angular.z = in.ConsumeBool() ? 0.0 : pickDouble(in);
+          m.objects.push_back(o);
+        }
+        core->tracks().onArray(in.ConsumeBool() ? 0 : 1, m, in.ConsumeBool() ? now : pickTime(in, now), tf);
         break;
       }
     }

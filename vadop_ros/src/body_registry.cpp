@@ -1,5 +1,7 @@
 #include "vadop_ros/body_registry.h"
 
+#include "message_checks.h"
+
 #include <vadop/error.h>
 #include <vadop/limits.h>
 #include <vadop/joint_chain.h>
@@ -43,49 +45,6 @@ vadop::Motion twistMotion(const Eigen::Isometry3d& pose, const Eigen::Vector3d& 
 }
 
 namespace {
-
-// Checks one value against the library's range for its kind (vadop/limits.h); returns false
-// (and sets `why`) on NaN/Inf or beyond `limit`.
-bool checkValue(double v, double limit, const char* unit, const std::string& field, std::string& why) {
-  if (!std::isfinite(v)) {
-    why = "NaN/Inf in " + field;
-    return false;
-  }
-  if (std::fabs(v) > limit) {
-    std::ostringstream os;
-    os << field << " = " << v << " is out of range (|value| > " << limit << " " << unit << ")";
-    why = os.str();
-    return false;
-  }
-  return true;
-}
-
-bool checkVector(const geometry_msgs::Vector3& v, double limit, const char* unit, const std::string& field,
-                 std::string& why) {
-  return checkValue(v.x, limit, unit, field + ".x", why) && checkValue(v.y, limit, unit, field + ".y", why) &&
-         checkValue(v.z, limit, unit, field + ".z", why);
-}
-
-bool checkPoint(const geometry_msgs::Point& v, const std::string& field, std::string& why) {
-  return checkValue(v.x, vadop::kMaxCoordinate, "m", field + ".x", why) &&
-         checkValue(v.y, vadop::kMaxCoordinate, "m", field + ".y", why) &&
-         checkValue(v.z, vadop::kMaxCoordinate, "m", field + ".z", why);
-}
-
-bool checkQuaternion(const geometry_msgs::Quaternion& q, const std::string& field, std::string& why) {
-  if (!(std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z) && std::isfinite(q.w))) {
-    why = "NaN/Inf in " + field;
-    return false;
-  }
-  // Scaled before squaring: a quaternion of 1e200 components is a valid orientation.
-  const double m = std::max({std::fabs(q.x), std::fabs(q.y), std::fabs(q.z), std::fabs(q.w)});
-  if (!(m > 0.0) || !(std::sqrt((q.x / m) * (q.x / m) + (q.y / m) * (q.y / m) + (q.z / m) * (q.z / m) +
-                                (q.w / m) * (q.w / m)) * m > 1e-9)) {
-    why = "zero-norm quaternion in " + field;
-    return false;
-  }
-  return true;
-}
 
 Eigen::Vector3d toEigen(const geometry_msgs::Vector3& v) { return {v.x, v.y, v.z}; }
 
@@ -431,12 +390,16 @@ void BodyRegistry::markElementBad(size_t element, const std::string& why, const 
   rejectInput(bodies_.at(e.body), "element \"" + e.id + "\": " + why, now, false);
 }
 
-std::string BodyRegistry::stampSkewError(const ros::Time& stamp, const ros::Time& receipt) const {
+std::string stampSkewError(const ros::Time& stamp, const ros::Time& receipt, double max_skew) {
   const double skew = secondsBetween(stamp, receipt);
-  if (std::fabs(skew) <= max_stamp_skew_) return "";
+  if (std::fabs(skew) <= max_skew) return "";
   return "stamp " + stampText(stamp) + " is " + number(std::fabs(skew)) + " s " + (skew > 0 ? "ahead of" : "behind") +
          " the node's clock (" + stampText(receipt) + ") at its receipt: beyond ~max_stamp_skew = " +
-         number(max_stamp_skew_) + " s";
+         number(max_skew) + " s";
+}
+
+std::string BodyRegistry::stampSkewError(const ros::Time& stamp, const ros::Time& receipt) const {
+  return vadop_ros::stampSkewError(stamp, receipt, max_stamp_skew_);
 }
 
 InputResult BodyRegistry::acceptStamp(Body& b, ros::Time stamp, const ros::Time& receipt) {

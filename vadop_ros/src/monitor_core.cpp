@@ -58,6 +58,7 @@ MonitorCore::MonitorCore(const MonitorParams& params, const ParamReader& read_pa
     : params_(params),
       registry_(params, read_param, load_mesh),
       filter_(params.ignore_pairs),
+      tracks_(params.tracks, params.fixed_frame, params.max_stamp_skew),
       predictor_(makePredictor(params)),
       gate_predictor_(makePredictor(params, true)) {
   soonest_.assign(registry_.bodies().size(), std::numeric_limits<double>::infinity());
@@ -76,17 +77,25 @@ MonitorCore::MonitorCore(const MonitorParams& params, const ParamReader& read_pa
   gate_predictor_.setIgnored([this](size_t a, size_t b) { return pairIgnored(a, b); });
 }
 
+ElementKey MonitorCore::elementKey(size_t element) const {
+  if (isTrack(element)) return {tracks_.slots().at(element - trackBase()).name, ""};
+  const Element& e = registry_.elements().at(element);
+  return {registry_.bodies()[e.body].name, e.link};
+}
+
 void MonitorCore::syncGateWorld() {
   const auto& elements = registry_.elements();
   std::string error;
-  for (size_t i = 0; i < elements.size(); ++i) {
+  const size_t total = trackBase() + track_in_world_.size();
+  for (size_t i = 0; i < total; ++i) {
     if (!predictor_.contains(i)) {
       gate_predictor_.unset(i);
       continue;
     }
-    const bool is_static = registry_.bodies()[elements[i].body].is_static;
+    const bool is_static = !isTrack(i) && registry_.bodies()[elements[i].body].is_static;
+    const std::string& id = isTrack(i) ? track_in_world_[i - trackBase()] : elements[i].id;
     // The shape as in the cycle's world (padded): used when the element enters.
-    if (!gate_predictor_.set(i, elements[i].id, predictor_.shape(i), predictor_.motion(i), error,
+    if (!gate_predictor_.set(i, id, predictor_.shape(i), predictor_.motion(i), error,
                              is_static ? kStaticGroup : kMovingGroup, is_static ? ~kStaticGroup : ~0u,
                              predictor_.chain(i))) {
       gate_predictor_.unset(i);  // the cycle's world took it: cannot happen but for memory
@@ -276,8 +285,64 @@ void MonitorCore::reset() {
       refused_[i] = 0;
     }
   }
+  std::vector<size_t> left;
+  tracks_.clear(left);
+  for (const size_t slot : left) unsetTrack(slot);
   impacts_.impacts.clear();
   std::fill(soonest_.begin(), soonest_.end(), std::numeric_limits<double>::infinity());
+  std::fill(track_soonest_.begin(), track_soonest_.end(), std::numeric_limits<double>::infinity());
+}
+
+void MonitorCore::unsetTrack(size_t slot) {
+  predictor_.unset(trackBase() + slot);
+  gate_predictor_.unset(trackBase() + slot);
+  if (slot < track_in_world_.size()) track_in_world_[slot].clear();
+}
+
+void MonitorCore::syncTracks(const ros::Time& now) {
+  std::vector<size_t> left;
+  tracks_.expire(now, left);
+  for (const size_t slot : left) unsetTrack(slot);
+  const auto& slots = tracks_.slots();
+  if (track_in_world_.size() < slots.size()) {
+    track_in_world_.resize(slots.size());
+    track_matches_.resize(slots.size());
+    track_soonest_.resize(slots.size(), std::numeric_limits<double>::infinity());
+  }
+  const double t_now = registry_.seconds(now);
+  const size_t base = trackBase();
+  std::string error;
+  size_t in_world = 0;
+  for (size_t s = 0; s < slots.size(); ++s) {
+    const TrackedObject& t = slots[s];
+    if (!t.alive) continue;
+    // A slot's new object: the old one (if any) leaves first.
+    if (!track_in_world_[s].empty() && track_in_world_[s] != t.name) unsetTrack(s);
+    std::string why;
+    vadop::Motion m;
+    try {
+      m = twistMotion(t.pose, t.v, t.w, registry_.seconds(t.stamp));
+      why = BodyRegistry::motionRangeError(m, t_now, t_now + BodyRegistry::kMotionCheckWindow);
+    } catch (const vadop::InvalidArgument& e) {
+      why = e.what();
+    }
+    if (why.empty()) {
+      const bool fresh = !predictor_.contains(base + s);
+      const vadop::Shape shape = fresh && params_.padding > 0.0 ? vadop::inflate(t.shape, params_.padding) : t.shape;
+      if (!predictor_.set(base + s, t.name, shape, m, error, kMovingGroup, ~0u)) why = "refused by the world: " + error;
+    }
+    if (!why.empty()) {
+      tracks_.drop(s, "motion out of range: " + why, now);
+      unsetTrack(s);
+      continue;
+    }
+    if (track_in_world_[s] != t.name) {
+      track_in_world_[s] = t.name;
+      if (!filter_.empty()) track_matches_[s] = filter_.matches({t.name, ""});
+    }
+    ++in_world;
+  }
+  stats_.tracked_objects = in_world;
 }
 
 void MonitorCore::syncWorld(const ros::Time& now) {
@@ -307,10 +372,18 @@ void MonitorCore::syncWorld(const ros::Time& now) {
     }
   }
   stats_.moving_elements = moving;
+  syncTracks(now);
   stats_.elements_in_world = predictor_.size();
 }
 
 bool MonitorCore::pairIgnored(size_t ea, size_t eb) const {
+  if (isTrack(ea) || isTrack(eb)) {
+    // A tracked object is a body of its own, never static: only ~ignore_pairs applies.
+    if (filter_.empty()) return false;
+    const auto& ma = isTrack(ea) ? track_matches_[ea - trackBase()] : element_matches_[ea];
+    const auto& mb = isTrack(eb) ? track_matches_[eb - trackBase()] : element_matches_[eb];
+    return PairFilter::ignored(ma, mb);
+  }
   const auto& elements = registry_.elements();
   const auto& bodies = registry_.bodies();
   const Element& a = elements[ea];
@@ -346,6 +419,17 @@ bool MonitorCore::leaveOutOffenders(const std::string& error, const ros::Time& n
     registry_.markElementBad(i, why, now);
     names += (names.empty() ? "" : ", ") + e.id;
   }
+  for (size_t s = 0; s < track_in_world_.size(); ++s) {
+    const size_t i = trackBase() + s;
+    if (!predictor_.contains(i)) continue;
+    const std::string name = track_in_world_[s];
+    std::string why = BodyRegistry::motionRangeError(predictor_.motion(i), t0_, t0_ + params_.horizon);
+    if (why.empty() && error.find("\"" + name + "\"") == std::string::npos) continue;
+    if (why.empty()) why = "the prediction failed on it: " + error;
+    tracks_.drop(s, why, now);
+    unsetTrack(s);
+    names += (names.empty() ? "" : ", ") + name;
+  }
   if (names.empty()) return false;
   stats_.recovered = "left out " + names + " after: " + error;
   return true;
@@ -362,6 +446,7 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
   impacts_.header.frame_id = params_.fixed_frame;
   impacts_.impacts.clear();
   std::fill(soonest_.begin(), soonest_.end(), std::numeric_limits<double>::infinity());
+  std::fill(track_soonest_.begin(), track_soonest_.end(), std::numeric_limits<double>::infinity());
   t0_ = registry_.seconds(now);
 
   // One element the world refuses must not cost everybody the cycle: find it (out of range
@@ -404,20 +489,22 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
   stats_.raw_impacts = raw.size();
 
   const auto& elements = registry_.elements();
-  const auto& bodies = registry_.bodies();
   impacts_.impacts.reserve(raw.size());
+  // The soonest time to impact of an element's body (a tracked object's own).
+  auto soonest = [&](size_t element) -> double& {
+    return isTrack(element) ? track_soonest_[element - trackBase()] : soonest_[elements[element].body];
+  };
   for (const RawImpact& hit : raw) {
     if (pairIgnored(hit.a, hit.b)) {
       ++stats_.ignored_tested;
       continue;
     }
-    const Element& ea = elements[hit.a];
-    const Element& eb = elements[hit.b];
+    const ElementKey ka = elementKey(hit.a), kb = elementKey(hit.b);
     vadop::Impact msg;
-    msg.body_a = bodies[ea.body].name;
-    msg.link_a = ea.link;
-    msg.body_b = bodies[eb.body].name;
-    msg.link_b = eb.link;
+    msg.body_a = ka.body;
+    msg.link_a = ka.link;
+    msg.body_b = kb.body;
+    msg.link_b = kb.link;
     // In [0, horizon]: t0 + horizon - t0 may differ from the horizon by a rounding.
     msg.time_to_impact = std::min(params_.horizon, std::max(0.0, hit.time - t0_));
     msg.time_of_impact = addSeconds(now, msg.time_to_impact);  // saturates: now may be near 2^32 s
@@ -429,8 +516,8 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
     msg.normal.z = hit.normal.z();
     msg.closing_speed = hit.closing_speed;
     msg.in_contact = hit.initially_touching;
-    soonest_[ea.body] = std::min(soonest_[ea.body], msg.time_to_impact);
-    soonest_[eb.body] = std::min(soonest_[eb.body], msg.time_to_impact);
+    soonest(hit.a) = std::min(soonest(hit.a), msg.time_to_impact);
+    soonest(hit.b) = std::min(soonest(hit.b), msg.time_to_impact);
     impacts_.impacts.push_back(std::move(msg));
   }
   // The world sorts by time; the clamp to 0 keeps that order.
@@ -441,12 +528,13 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
       continue;
     }
     if (stats_.undecided++ > 0) continue;
-    auto label = [&](const Element& e) {
-      return e.link.empty() ? bodies[e.body].name : bodies[e.body].name + "/" + e.link;
+    auto label = [&](size_t element) {
+      const ElementKey k = elementKey(element);
+      return k.link.empty() ? k.body : k.body + "/" + k.link;
     };
     char after[64];
     std::snprintf(after, sizeof after, " after %.3f s", std::max(0.0, u.time - t0_));
-    stats_.undecided_first = label(elements[u.a]) + " <-> " + label(elements[u.b]) + after;
+    stats_.undecided_first = label(u.a) + " <-> " + label(u.b) + after;
   }
   if (stats_.undecided > 0 && throttleOk(last_undecided_log_)) {
     ROS_WARN_NAMED("vadop_monitor", "%zu pair(s) not decided within the narrow phase's budget, the first %s: "
@@ -484,6 +572,16 @@ visualization_msgs::MarkerArray MonitorCore::markers() const {
     m.mesh_uri = e.mesh_uri;
     m.mesh_scale = e.mesh_scale;
     m.soonest = soonest_[e.body];
+    in.elements.push_back(std::move(m));
+  }
+  for (size_t s = 0; s < track_in_world_.size(); ++s) {
+    const size_t i = trackBase() + s;
+    if (!predictor_.contains(i)) continue;
+    MarkerElement m;
+    m.body = track_in_world_[s];
+    m.shape = predictor_.shape(i);
+    m.motion = predictor_.motion(i);
+    m.soonest = track_soonest_[s];
     in.elements.push_back(std::move(m));
   }
   return buildMarkers(in);

@@ -427,10 +427,46 @@ void parseObstacles(const XmlRpcValue& list, MonitorParams& out, std::set<std::s
   }
 }
 
+void parseTracks(const XmlRpcValue& list, MonitorParams& out) {
+  requireArray(list, "~tracks");
+  std::set<std::string> prefixes;
+  for (int i = 0; i < list.size(); ++i) {
+    const XmlRpcValue& e = list[i];
+    const std::string path = "~tracks[" + std::to_string(i) + "]";
+    requireStruct(e, path);
+    rejectUnknown(e, {"topic", "prefix", "default_shape", "timeout"}, path);
+    TrackParams t;
+    const XmlRpcValue* topic = member(e, "topic");
+    if (!topic) fail(path + ".topic", "is required (a vadop/TrackedObjectArray topic)");
+    t.topic = toString(*topic, path + ".topic");
+    checkRosName(t.topic, path + ".topic", "topic");
+    if (const XmlRpcValue* p = member(e, "prefix")) {
+      t.prefix = toString(*p, path + ".prefix");
+    } else {
+      std::string name = t.topic;
+      while (!name.empty() && name.back() == '/') name.pop_back();
+      t.prefix = name.substr(name.find_last_of('/') + 1);
+    }
+    if (t.prefix.empty()) fail(path + ".prefix", "must not be empty");
+    if (t.prefix.find_first_of(" \t\n") != std::string::npos) {
+      fail(path + ".prefix", "must not contain spaces, got \"" + t.prefix + "\"");
+    }
+    if (!prefixes.insert(t.prefix).second) {
+      fail(path + ".prefix", "\"" + t.prefix + "\" is the prefix of another source (objects would share names)");
+    }
+    if (const XmlRpcValue* d = member(e, "default_shape")) {
+      t.has_default_shape = true;
+      t.default_shape = parseShape(*d, path + ".default_shape");
+    }
+    t.timeout = ranged(member(e, "timeout"), t.timeout, 0.0, 3600.0, true, path + ".timeout");
+    out.tracks.push_back(std::move(t));
+  }
+}
+
 const std::set<std::string>& topLevelKeys() {
   static const std::set<std::string> keys = {
       "fixed_frame", "rate", "horizon", "padding", "stale_timeout", "max_stamp_skew", "axes", "phi_deg",
-      "self_collision", "ignore_pairs", "bodies", "static_obstacles", "log_impacts",
+      "self_collision", "ignore_pairs", "bodies", "static_obstacles", "tracks", "log_impacts",
       "publish_markers",
       // set by diagnostic_updater and dynamic_reconfigure themselves
       "diagnostic_period"};
@@ -521,6 +557,7 @@ MonitorParams parseParams(const XmlRpcValue& root) {
   std::set<std::string> names;
   if (const XmlRpcValue* v = member(root, "bodies")) parseBodies(*v, p, names);
   if (const XmlRpcValue* v = member(root, "static_obstacles")) parseObstacles(*v, p, names);
+  if (const XmlRpcValue* v = member(root, "tracks")) parseTracks(*v, p);
   return p;
 }
 

@@ -11,6 +11,7 @@
 #include <vadop/GateStateArray.h>
 #include <vadop/ImpactArray.h>
 #include <vadop/MonitorConfig.h>
+#include <vadop/TrackedObjectArray.h>
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
@@ -138,6 +139,14 @@ class MonitorNode {
       }
     }
 
+    // Tracked objects: one subscription per source.
+    for (size_t s = 0; s < params.tracks.size(); ++s) {
+      subs_.push_back(nh_.subscribe<vadop::TrackedObjectArray>(
+          params.tracks[s].topic, 5,
+          [this, s](const vadop::TrackedObjectArrayConstPtr& msg) { onTracks(s, *msg); }, ros::VoidConstPtr(),
+          ros::TransportHints().tcpNoDelay()));
+    }
+
     // Velocity gates: each command is checked as it arrives (not at the cycle rate).
     for (size_t i = 0; i < bodies.size(); ++i) {
       if (bodies[i].is_static || !bodies[i].params.has_gate) continue;
@@ -173,6 +182,11 @@ class MonitorNode {
     updater_.add("bodies", [this](diagnostic_updater::DiagnosticStatusWrapper& s) {
       reportBodies(s, core_->registry(), ros::Time::now());
     });
+    if (!params.tracks.empty()) {
+      updater_.add("tracks", [this](diagnostic_updater::DiagnosticStatusWrapper& s) {
+        reportTracks(s, core_->tracks(), ros::Time::now());
+      });
+    }
 
     rate_ = params.rate;
     window_.setRate(rate_);
@@ -194,10 +208,10 @@ class MonitorNode {
       ROS_INFO("vadop_monitor: subscribed to %zu topics in %.1f s; start-up took %.1f s", moving,
                secondsSince(subscribe_start), secondsSince(start));
     }
-    ROS_INFO("vadop_monitor: %zu moving bodies, %zu static obstacles, %zu collision elements; fixed frame \"%s\", "
-             "%.1f Hz, horizon %.2f s, padding %.3f m",
-             moving, bodies.size() - moving, core_->registry().elements().size(), params.fixed_frame.c_str(), rate_,
-             params.horizon, params.padding);
+    ROS_INFO("vadop_monitor: %zu moving bodies, %zu static obstacles, %zu collision elements, %zu tracked-object "
+             "source(s); fixed frame \"%s\", %.1f Hz, horizon %.2f s, padding %.3f m",
+             moving, bodies.size() - moving, core_->registry().elements().size(), params.tracks.size(),
+             params.fixed_frame.c_str(), rate_, params.horizon, params.padding);
   }
 
  private:
@@ -218,6 +232,10 @@ class MonitorNode {
   void onJointTrajectory(size_t i, const trajectory_msgs::JointTrajectory& msg) {
     std::lock_guard<std::mutex> lock(core_mutex_);
     core_->registry().onJointTrajectory(i, msg, ros::Time::now());
+  }
+  void onTracks(size_t source, const vadop::TrackedObjectArray& msg) {
+    std::lock_guard<std::mutex> lock(core_mutex_);
+    core_->tracks().onArray(source, msg, ros::Time::now(), tf_source_);
   }
   void onPath(size_t i, const nav_msgs::Path& msg) {
     std::lock_guard<std::mutex> lock(core_mutex_);

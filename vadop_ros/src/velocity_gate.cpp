@@ -36,8 +36,6 @@ VelocityGate::VelocityGate(size_t body, const BodyRegistry& registry)
     bool ignored = false;
     for (const std::string& pattern : params_.ignore) ignored = ignored || patternMatches(pattern, key);
     ignored_.push_back(ignored ? 1 : 0);
-    element_body_.push_back(bodies[e.body].name);
-    element_link_.push_back(e.link);
   }
   state_.body = bodies[body].name;
   state_.reason = vadop::GateState::REASON_STALE;
@@ -75,8 +73,18 @@ geometry_msgs::Twist VelocityGate::onCommand(MonitorCore& core, const geometry_m
   }
   const Eigen::Vector3d v(command.linear.x, command.linear.y, command.linear.z);
   const Eigen::Vector3d w(command.angular.x, command.angular.y, command.angular.z);
+  // The registry's elements matched once (construction); tracked objects come and go: matched
+  // by name when met.
   check_ = core.checkCommand(body_, v, w, now, tf, params_.time_before_collision, params_.state_timeout,
-                             [this](size_t e) { return e < ignored_.size() && ignored_[e]; });
+                             [this, &core](size_t e) {
+                               if (e < ignored_.size()) return ignored_[e] != 0;
+                               if (params_.ignore.empty()) return false;
+                               const ElementKey key = core.elementKey(e);
+                               for (const std::string& pattern : params_.ignore) {
+                                 if (patternMatches(pattern, key)) return true;
+                               }
+                               return false;
+                             });
   if (check_.status != CommandCheck::Status::kChecked) {
     ++counts_.unchecked;
     publishZero(vadop::GateState::REASON_STALE, check_.why, command);
@@ -95,9 +103,10 @@ geometry_msgs::Twist VelocityGate::onCommand(MonitorCore& core, const geometry_m
     ++counts_.stopped;
     state_.reason = vadop::GateState::REASON_STOP;
   }
-  if (check_.limited && check_.other < element_body_.size()) {
-    state_.limiting_body = element_body_[check_.other];
-    state_.limiting_link = element_link_[check_.other];
+  if (check_.limited) {
+    const ElementKey other = core.elementKey(check_.other);
+    state_.limiting_body = other.body;
+    state_.limiting_link = other.link;
     state_.time_to_contact = check_.time_to_contact;
   } else {
     state_.limiting_body.clear();

@@ -24,11 +24,18 @@
 // median, p99 and max, with the scales tried per command and the share of commands slowed or
 // stopped.
 //
+// --tracks: the N moving things are tracked objects instead, all in one vadop/TrackedObjectArray
+// per cycle (source "people", timeout 0.5 s; spheres, boxes and cylinders by index), fed to
+// Tracks::onArray (its cost is `feed`); --churn C: each object leaves with probability C per
+// second (its id is no longer reported: it expires 0.5 s later) and a new id takes its place.
+//
 // Prints one line per N and, for N = 1000, whether the mean cycle uses under a third of the
 // period at the given rate.
 #include "vadop_ros/monitor_core.h"
 #include "vadop_ros/velocity_gate.h"
 #include "wandering_fleet.h"
+
+#include <shape_msgs/SolidPrimitive.h>
 
 #include <time.h>
 
@@ -66,6 +73,8 @@ struct Result {
   double feed_mean = 0, predict_mean = 0, markers_mean = 0;
   double candidates = 0, impacts = 0, ignored_tested = 0;
   size_t elements = 0;
+  size_t tracked = 0;     // --tracks: objects in the world at the end
+  uint64_t expired = 0;   // --tracks: objects that left over the run
   // Gates: latency of onCommand (ms), scales tried per command, commands slowed / stopped.
   std::vector<double> gate_ms;
   double gate_evaluations = 0, gate_slowed = 0, gate_stopped = 0, gate_unchecked = 0;
@@ -137,7 +146,7 @@ std::string chainUrdf(int links) {
 }
 
 Result run(size_t n, int cycles, int warmup, double rate, double horizon, double area, double turn, bool markers,
-           unsigned seed, int links, size_t gates) {
+           unsigned seed, int links, size_t gates, bool tracks, double churn) {
   std::mt19937 rng(seed);
 
   vadop_ros::MonitorParams p;
@@ -145,7 +154,13 @@ Result run(size_t n, int cycles, int warmup, double rate, double horizon, double
   p.rate = rate;
   p.horizon = horizon;
   p.stale_timeout = 0.5;
-  for (size_t i = 0; i < n; ++i) {
+  if (tracks) {
+    vadop_ros::TrackParams t;
+    t.topic = "/people/tracks";
+    t.prefix = "people";
+    p.tracks.push_back(t);
+  }
+  for (size_t i = 0; i < (tracks ? 0 : n); ++i) {
     vadop_ros::BodyParams b;
     b.name = "body_" + std::to_string(i);
     b.topic = "/" + b.name + "/odom";
@@ -188,12 +203,41 @@ Result run(size_t n, int cycles, int warmup, double rate, double horizon, double
   double candidates = 0, impacts = 0, ignored_tested = 0;
   nav_msgs::Odometry msg;
   msg.header.frame_id = "odom";
+  // Tracked objects: the tracker's array (built outside the timed part) and each object's id.
+  vadop::TrackedObjectArray objects;
+  objects.header.frame_id = "odom";
+  std::vector<uint64_t> id(n);
+  uint64_t next_id = 0;
+  for (uint64_t& x : id) x = next_id++;
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
   for (int c = 0; c < warmup + cycles; ++c) {
     now += ros::Duration(dt);
     sim.step(dt, rng);
+    if (tracks) {
+      objects.header.stamp = now;
+      objects.objects.resize(n);
+      for (size_t i = 0; i < n; ++i) {
+        if (unit(rng) < churn * dt) id[i] = next_id++;
+        const vadop_ros::WanderingFleet::Body& b = sim[i];
+        vadop::TrackedObject& o = objects.objects[i];
+        o.id = std::to_string(id[i]);
+        o.shape.type = static_cast<uint8_t>(1 + i % 3);  // BOX, SPHERE, CYLINDER
+        o.shape.dimensions = o.shape.type == shape_msgs::SolidPrimitive::BOX      ? std::vector<double>{0.6, 0.4, 0.5}
+                             : o.shape.type == shape_msgs::SolidPrimitive::SPHERE ? std::vector<double>{0.3}
+                                                                                  : std::vector<double>{1.8, 0.3};
+        o.pose.position.x = b.x;
+        o.pose.position.y = b.y;
+        o.pose.orientation.z = std::sin(b.yaw / 2);
+        o.pose.orientation.w = std::cos(b.yaw / 2);
+        o.twist.linear.x = b.v * std::cos(b.yaw);
+        o.twist.linear.y = b.v * std::sin(b.yaw);
+        o.twist.angular.z = b.w;
+      }
+    }
     const double cpu0 = threadCpuMs();
     const auto t0 = std::chrono::steady_clock::now();
-    for (size_t i = 0; i < n; ++i) {
+    if (tracks) core.tracks().onArray(0, objects, now, tf);
+    for (size_t i = 0; i < (tracks ? 0 : n); ++i) {
       const vadop_ros::WanderingFleet::Body& s = sim[i];
       msg.header.stamp = now;
       msg.child_frame_id = p.bodies[i].name;
@@ -261,6 +305,10 @@ Result run(size_t n, int cycles, int warmup, double rate, double horizon, double
   r.ignored_tested = ignored_tested / cycles;
   r.impacts = impacts / cycles;
   r.elements = core.lastStats().elements_in_world;
+  if (tracks) {
+    r.tracked = core.lastStats().tracked_objects;
+    r.expired = core.tracks().status(0).objects_expired;
+  }
   return r;
 }
 
@@ -282,6 +330,8 @@ int main(int argc, char** argv) {
   unsigned seed = 1;
   int links = 1;
   size_t gates = 0;
+  bool tracks = false;
+  double churn = 0.2;
   std::vector<size_t> startup_sizes;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -305,10 +355,13 @@ int main(int argc, char** argv) {
       else if (a == "--links") links = std::stoi(next());
       else if (a == "--gates") gates = std::stoul(next());
       else if (a == "--startup") startup_sizes = parseList(next());
+      else if (a == "--tracks") tracks = true;
+      else if (a == "--churn") churn = std::stod(next());
       else {
         std::fprintf(stderr,
                      "usage: %s [--bodies 100,1000,5000] [--cycles 150] [--warmup 15] [--rate 30] [--horizon 2] "
-                     "[--area 6] [--turn 0.5] [--markers] [--seed 1] [--links K] [--gates G] | --startup 5000,50000\n",
+                     "[--area 6] [--turn 0.5] [--markers] [--seed 1] [--links K] [--gates G] [--tracks [--churn C]] | "
+                     "--startup 5000,50000\n",
                      argv[0]);
         return a == "--help" || a == "-h" ? 0 : 2;
       }
@@ -337,10 +390,15 @@ int main(int argc, char** argv) {
               "impacts");
   int verdict = -1;
   for (const size_t n : sizes) {
-    const Result r = run(n, cycles, warmup, rate, horizon, area, turn, markers, seed, links, gates);
+    const Result r = run(n, cycles, warmup, rate, horizon, area, turn, markers, seed, links, gates, tracks, churn);
     std::printf("%7zu %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %8.3f %10.3f %10.3f %8.1f%% %11.1f %9.1f\n", r.n,
                 r.cpu_mean, r.cpu_p95, r.mean, r.median, r.p95, r.max, r.feed_mean, r.predict_mean, r.markers_mean,
                 100.0 * r.cpu_mean / period_ms, r.candidates, r.impacts);
+    if (tracks) {
+      std::printf("  (tracked objects in one array per cycle: %zu in the world at the end, %llu expired over the run; "
+                  "feed = Tracks::onArray)\n",
+                  r.tracked, static_cast<unsigned long long>(r.expired));
+    }
     if (links >= 2) {
       std::printf("  (%zu elements in the world; narrow-phase calls per cycle on pairs then ignored: %.1f)\n",
                   r.elements, r.ignored_tested);

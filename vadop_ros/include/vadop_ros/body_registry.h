@@ -102,6 +102,9 @@ inline double secondsBetween(const ros::Time& a, const ros::Time& b) {
 }
 // t + s seconds, saturated to [0, 2^32 - 1 s] (ros::Time's range); t when s is NaN.
 ros::Time addSeconds(const ros::Time& t, double s);
+// "" when `stamp` is within max_skew seconds of `receipt` (the node's clock), else why not
+// (a message so far off would blind a body, or be extrapolated over hours).
+std::string stampSkewError(const ros::Time& stamp, const ros::Time& receipt, double max_skew);
 
 // tf as the registry sees it: a tf2_ros::Buffer in the node, a table in tests.
 class TransformSource {

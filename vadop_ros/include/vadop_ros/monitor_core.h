@@ -1,4 +1,5 @@
-// One prediction cycle of vadop_monitor, without ROS transport: the body registry feeds the
+// One prediction cycle of vadop_monitor, without ROS transport: the body registry and the
+// tracked objects (~tracks) feed the
 // vadop::World (through Predictor, kept incrementally: elements are added when they first have
 // a motion, setMotion'ed when their motion changes, removed while they are skipped; never
 // rebuilt), the World predicts with the VADOP broad phase and the continuous narrow phase, and
@@ -12,6 +13,7 @@
 #include "vadop_ros/pair_filter.h"
 #include "vadop_ros/params.h"
 #include "vadop_ros/predictor.h"
+#include "vadop_ros/tracks.h"
 
 // The message; this header must not pull in vadop/world.h (see predictor.h).
 #include <vadop/ImpactArray.h>
@@ -35,7 +37,8 @@ struct CycleStats {
   double cycle_seconds = 0.0;    // wall time of the whole cycle (registry + world + message)
   double predict_seconds = 0.0;  // of which World::predict
   size_t elements_in_world = 0;
-  size_t moving_elements = 0;
+  size_t moving_elements = 0;    // of the bodies (registry)
+  size_t tracked_objects = 0;    // of ~tracks, in the world
   size_t candidates = 0;         // narrow-phase calls (World::lastCandidateCount)
   size_t raw_impacts = 0;        // before filtering
   // Narrow-phase calls on pairs the filters (pairIgnored) then rejected: the raw impacts and
@@ -98,6 +101,13 @@ class MonitorCore {
 
   BodyRegistry& registry() { return registry_; }
   const BodyRegistry& registry() const { return registry_; }
+  // The tracked objects (~tracks): the node feeds each source's arrays (Tracks::onArray).
+  Tracks& tracks() { return tracks_; }
+  const Tracks& tracks() const { return tracks_; }
+  // Elements: the registry's (0 .. registry().elements().size() - 1), then one per slot of
+  // tracks() (element registry().elements().size() + slot). What one is, as the filters and
+  // the impacts name it: a tracked object is the body "<prefix>/<id>" without a link.
+  ElementKey elementKey(size_t element) const;
   const MonitorParams& params() const { return params_; }
 
   // Runs one cycle at `now` and returns the impacts (header stamped `now`, in the fixed frame).
@@ -106,7 +116,7 @@ class MonitorCore {
   const CycleStats& lastStats() const { return stats_; }
 
   // Soonest time to impact of each body (index into registry().bodies()) in the last cycle;
-  // +inf when none.
+  // +inf when none (tracked objects: not here).
   const std::vector<double>& soonest() const { return soonest_; }
 
   // Markers of the last cycle (swept volumes, impacts); see markers.h.
@@ -179,11 +189,23 @@ class MonitorCore {
   // World::predict threw `error`: leaves out of the world every element whose motion is out of
   // range over the window or that the message names; false when none could be found.
   bool leaveOutOffenders(const std::string& error, const ros::Time& now);
+  // The tracked objects into the world: the expired ones out, the others in with their motion.
+  void syncTracks(const ros::Time& now);
+  // A tracked object's slot leaves both worlds.
+  void unsetTrack(size_t slot);
+  size_t trackBase() const { return registry_.elements().size(); }
+  bool isTrack(size_t element) const { return element >= trackBase(); }
 
   MonitorParams params_;
   BodyRegistry registry_;
   PairFilter filter_;
   std::vector<PairFilter::Matches> element_matches_;  // ~ignore_pairs per element (elements())
+  Tracks tracks_;
+  // Per tracked slot: its object's name in the worlds ("" when out), its ~ignore_pairs matches,
+  // its soonest time to impact in the last cycle.
+  std::vector<std::string> track_in_world_;
+  std::vector<PairFilter::Matches> track_matches_;
+  std::vector<double> track_soonest_;
   Predictor predictor_;
   // The gates' world: every element of predictor_ with the same shape and motion as at the
   // end of the last cycle (syncGateWorld), and the gated commands adopted since.

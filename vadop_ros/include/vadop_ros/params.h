@@ -91,6 +91,16 @@ struct StaticObstacleParams {
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  // in the fixed frame
 };
 
+// A source of tracked objects (~tracks[i]): a vadop/TrackedObjectArray topic whose objects are
+// moving bodies named "<prefix>/<id>" while they keep appearing (tracks.h).
+struct TrackParams {
+  std::string topic;
+  std::string prefix;  // default: the topic's last name ("/people/tracks" -> "tracks"); no spaces
+  bool has_default_shape = false;
+  vadop::Shape default_shape;  // unpadded: objects whose shape type is 0
+  double timeout = 0.5;        // s, (0, 3600]: absent from the arrays this long -> leaves the world
+};
+
 // The range of ~rate (Hz), the same as cfg/Monitor.cfg's: below 0.1 Hz the timer's period
 // (1 / rate) soon leaves what ros::Duration holds and the node would not cycle.
 constexpr double kMinRate = 0.1;
@@ -118,6 +128,7 @@ struct MonitorParams {
   std::vector<std::pair<std::string, std::string>> ignore_pairs;
   std::vector<BodyParams> bodies;
   std::vector<StaticObstacleParams> static_obstacles;
+  std::vector<TrackParams> tracks;
   bool log_impacts = false;     // log every cycle's impacts as readable lines (ROS_INFO)
   bool publish_markers = true;  // ~markers (built only while someone subscribes)
 };

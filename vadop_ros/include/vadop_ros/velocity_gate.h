@@ -48,8 +48,7 @@ class VelocityGate {
 
   size_t body_;
   GateParams params_;
-  std::vector<char> ignored_;  // by element: matched by params_.ignore
-  std::vector<std::string> element_body_, element_link_;
+  std::vector<char> ignored_;  // by registry element: matched by params_.ignore
   vadop::GateState state_;
   CommandCheck check_;
   Counts counts_;

@@ -1,0 +1,63 @@
+// Checks of message fields against the library's range (vadop/limits.h), shared by the
+// registry's message handlers and the tracked-object sources: each returns false and sets
+// `why` (naming the field) on NaN/Inf, a value out of range or a zero quaternion.
+// Internal to vadop_ros (not installed).
+#pragma once
+
+#include <geometry_msgs/Point.h>
+#include <geometry_msgs/Quaternion.h>
+#include <geometry_msgs/Vector3.h>
+
+#include <vadop/limits.h>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <string>
+
+namespace vadop_ros {
+
+// Checks one value against the library's range for its kind (vadop/limits.h); returns false
+// (and sets `why`) on NaN/Inf or beyond `limit`.
+inline bool checkValue(double v, double limit, const char* unit, const std::string& field, std::string& why) {
+  if (!std::isfinite(v)) {
+    why = "NaN/Inf in " + field;
+    return false;
+  }
+  if (std::fabs(v) > limit) {
+    std::ostringstream os;
+    os << field << " = " << v << " is out of range (|value| > " << limit << " " << unit << ")";
+    why = os.str();
+    return false;
+  }
+  return true;
+}
+
+inline bool checkVector(const geometry_msgs::Vector3& v, double limit, const char* unit, const std::string& field,
+                 std::string& why) {
+  return checkValue(v.x, limit, unit, field + ".x", why) && checkValue(v.y, limit, unit, field + ".y", why) &&
+         checkValue(v.z, limit, unit, field + ".z", why);
+}
+
+inline bool checkPoint(const geometry_msgs::Point& v, const std::string& field, std::string& why) {
+  return checkValue(v.x, vadop::kMaxCoordinate, "m", field + ".x", why) &&
+         checkValue(v.y, vadop::kMaxCoordinate, "m", field + ".y", why) &&
+         checkValue(v.z, vadop::kMaxCoordinate, "m", field + ".z", why);
+}
+
+inline bool checkQuaternion(const geometry_msgs::Quaternion& q, const std::string& field, std::string& why) {
+  if (!(std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z) && std::isfinite(q.w))) {
+    why = "NaN/Inf in " + field;
+    return false;
+  }
+  // Scaled before squaring: a quaternion of 1e200 components is a valid orientation.
+  const double m = std::max({std::fabs(q.x), std::fabs(q.y), std::fabs(q.z), std::fabs(q.w)});
+  if (!(m > 0.0) || !(std::sqrt((q.x / m) * (q.x / m) + (q.y / m) * (q.y / m) + (q.z / m) * (q.z / m) +
+                                (q.w / m) * (q.w / m)) * m > 1e-9)) {
+    why = "zero-norm quaternion in " + field;
+    return false;
+  }
+  return true;
+}
+
+}  // namespace vadop_ros

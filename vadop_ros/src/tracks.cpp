@@ -1,0 +1,234 @@
+#include "vadop_ros/tracks.h"
+
+#include "message_checks.h"
+
+#include <vadop/error.h>
+#include <vadop/limits.h>
+
+#include <ros/console.h>
+
+#include <shape_msgs/SolidPrimitive.h>
+
+#include <cmath>
+#include <unordered_set>
+#include <utility>
+
+namespace vadop_ros {
+namespace {
+
+constexpr double kWarnPeriod = 5.0;  // s, per source
+
+Eigen::Vector3d toEigen(const geometry_msgs::Vector3& v) { return {v.x, v.y, v.z}; }
+
+}  // namespace
+
+Tracks::Tracks(std::vector<TrackParams> params, std::string fixed_frame, double max_stamp_skew)
+    : params_(std::move(params)),
+      fixed_frame_(std::move(fixed_frame)),
+      max_stamp_skew_(max_stamp_skew),
+      status_(params_.size()),
+      last_stamp_(params_.size()) {}
+
+void Tracks::problem(size_t source, const std::string& why, const ros::Time& receipt) {
+  TrackSourceStatus& st = status_[source];
+  st.last_problem = why;
+  st.last_problem_receipt = receipt;
+  const double wall = ros::WallTime::now().toSec();
+  if (wall - st.last_warn >= kWarnPeriod) {
+    st.last_warn = wall;
+    ROS_WARN_NAMED("vadop_monitor", "tracks %s (prefix \"%s\"): %s (warnings for this source throttled to one per %.0f s)",
+                   params_[source].topic.c_str(), params_[source].prefix.c_str(), why.c_str(), kWarnPeriod);
+  }
+}
+
+bool Tracks::shapeOf(size_t source, const shape_msgs::SolidPrimitive& p, const std::string& field, vadop::Shape& out,
+                     std::string& why) const {
+  using shape_msgs::SolidPrimitive;
+  const auto& d = p.dimensions;
+  // The dimensions a primitive needs (SolidPrimitive's index constants), each finite, > 0, in range.
+  auto dims = [&](size_t n, const char* names) {
+    if (d.size() != n) {
+      why = field + ".dimensions has " + std::to_string(d.size()) + " values, a " + names;
+      return false;
+    }
+    for (size_t i = 0; i < n; ++i) {
+      const std::string f = field + ".dimensions[" + std::to_string(i) + "]";
+      if (!checkValue(d[i], vadop::kMaxSize, "m", f, why)) return false;
+      if (!(d[i] > 0.0)) {
+        why = f + " = " + std::to_string(d[i]) + " is not > 0";
+        return false;
+      }
+    }
+    return true;
+  };
+  try {
+    switch (p.type) {
+      case 0:
+        if (!params_[source].has_default_shape) {
+          why = field + ".type is 0 (the source's default) and the source has no default_shape";
+          return false;
+        }
+        out = params_[source].default_shape;
+        return true;
+      case SolidPrimitive::BOX:
+        if (!dims(3, "BOX needs 3 (x, y, z)")) return false;
+        out = vadop::makeBox(Eigen::Vector3d(d[SolidPrimitive::BOX_X], d[SolidPrimitive::BOX_Y], d[SolidPrimitive::BOX_Z]));
+        return true;
+      case SolidPrimitive::SPHERE:
+        if (!dims(1, "SPHERE needs 1 (radius)")) return false;
+        out = vadop::makeSphere(d[SolidPrimitive::SPHERE_RADIUS]);
+        return true;
+      case SolidPrimitive::CYLINDER:
+        if (!dims(2, "CYLINDER needs 2 (height, radius)")) return false;
+        out = vadop::makeCylinder(d[SolidPrimitive::CYLINDER_RADIUS], d[SolidPrimitive::CYLINDER_HEIGHT]);
+        return true;
+      default:
+        why = field + ".type = " + std::to_string(p.type) + " is not supported (BOX, SPHERE, CYLINDER, or 0)";
+        return false;
+    }
+  } catch (const vadop::InvalidArgument& e) {
+    why = field + ": " + e.what();
+    return false;
+  }
+}
+
+InputResult Tracks::onArray(size_t source, const vadop::TrackedObjectArray& msg, const ros::Time& receipt,
+                            TransformSource& tf) {
+  TrackSourceStatus& st = status_.at(source);
+  const TrackParams& tp = params_[source];
+  auto dropArray = [&](const std::string& why) {
+    ++st.arrays_dropped;
+    problem(source, "array dropped: " + why, receipt);
+    return InputResult::kInvalid;
+  };
+  const ros::Time stamp = msg.header.stamp.isZero() ? receipt : msg.header.stamp;
+  if (const std::string why = stampSkewError(stamp, receipt, max_stamp_skew_); !why.empty()) return dropArray(why);
+  // Older than the last accepted one (while that one is not ahead of the clock): out of order.
+  if (!last_stamp_[source].isZero() && stamp < last_stamp_[source] && last_stamp_[source] <= receipt) {
+    ++st.arrays_out_of_order;
+    return InputResult::kOutOfOrder;
+  }
+  std::string frame = msg.header.frame_id;
+  while (!frame.empty() && frame.front() == '/') frame.erase(0, 1);
+  if (frame.empty()) return dropArray("header.frame_id is empty");
+  Eigen::Isometry3d to_fixed = Eigen::Isometry3d::Identity();
+  if (frame != fixed_frame_) {
+    ros::Time tf_stamp;
+    std::string error;
+    bool found = false;
+    try {
+      found = tf.lookup(fixed_frame_, frame, stamp, to_fixed, tf_stamp, error);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+    if (!found) return dropArray("header.frame_id \"" + frame + "\": no transform to \"" + fixed_frame_ + "\" at its stamp: " + error);
+  }
+  last_stamp_[source] = stamp;
+  ++st.arrays_accepted;
+
+  // The last occurrence of each id is the one kept.
+  std::unordered_map<std::string, size_t> last_of;
+  for (size_t i = 0; i < msg.objects.size(); ++i) last_of[msg.objects[i].id] = i;
+  for (size_t i = 0; i < msg.objects.size(); ++i) {
+    const vadop::TrackedObject& o = msg.objects[i];
+    const std::string field = "objects[" + std::to_string(i) + "]";
+    auto dropObject = [&](const std::string& why) {
+      ++st.objects_dropped;
+      problem(source, "object " + field + " (id \"" + o.id + "\") dropped: " + why, receipt);
+    };
+    if (o.id.empty()) {
+      dropObject("empty id");
+      continue;
+    }
+    if (last_of[o.id] != i) {
+      dropObject("id repeated later in the array (objects[" + std::to_string(last_of[o.id]) + "] is kept)");
+      continue;
+    }
+    std::string why;
+    vadop::Shape shape;
+    if (!shapeOf(source, o.shape, field + ".shape", shape, why) ||
+        !checkPoint(o.pose.position, field + ".pose.position", why) ||
+        !checkQuaternion(o.pose.orientation, field + ".pose.orientation", why) ||
+        !checkVector(o.twist.linear, vadop::kMaxLinearSpeed, "m/s", field + ".twist.linear", why) ||
+        !checkVector(o.twist.angular, vadop::kMaxAngularSpeed, "rad/s", field + ".twist.angular", why)) {
+      dropObject(why);
+      continue;
+    }
+    const geometry_msgs::Quaternion& q = o.pose.orientation;
+    Eigen::Quaterniond quat(q.w, q.x, q.y, q.z);
+    const double scale = std::max({std::fabs(q.x), std::fabs(q.y), std::fabs(q.z), std::fabs(q.w)});
+    quat.coeffs() /= scale;  // finite and non-zero (checked): normalising cannot overflow
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() = quat.normalized().toRotationMatrix();
+    pose.translation() = Eigen::Vector3d(o.pose.position.x, o.pose.position.y, o.pose.position.z);
+    pose = to_fixed * pose;
+    if (!(pose.translation().cwiseAbs().maxCoeff() <= vadop::kMaxCoordinate)) {
+      dropObject(field + ".pose.position is out of range in \"" + fixed_frame_ + "\"");
+      continue;
+    }
+    const std::string name = tp.prefix + "/" + o.id;
+    size_t slot;
+    const auto it = by_name_.find(name);
+    if (it != by_name_.end()) {
+      slot = it->second;
+    } else {
+      if (!free_.empty()) {
+        slot = free_.back();
+        free_.pop_back();
+      } else {
+        slot = slots_.size();
+        slots_.emplace_back();
+      }
+      by_name_.emplace(name, slot);
+      ++st.objects;
+    }
+    TrackedObject& t = slots_[slot];
+    t.alive = true;
+    t.name = name;
+    t.source = source;
+    t.shape = std::move(shape);
+    t.pose = pose;
+    t.v = to_fixed.linear() * toEigen(o.twist.linear);
+    t.w = to_fixed.linear() * toEigen(o.twist.angular);
+    t.stamp = stamp;
+    t.last_seen = receipt;
+  }
+  return InputResult::kAccepted;
+}
+
+void Tracks::release(size_t slot) {
+  TrackedObject& t = slots_[slot];
+  by_name_.erase(t.name);
+  --status_[t.source].objects;
+  t = TrackedObject();
+  free_.push_back(slot);
+}
+
+void Tracks::expire(const ros::Time& now, std::vector<size_t>& left) {
+  for (size_t s = 0; s < slots_.size(); ++s) {
+    const TrackedObject& t = slots_[s];
+    if (!t.alive || !(secondsBetween(now, t.last_seen) > params_[t.source].timeout)) continue;
+    ++status_[t.source].objects_expired;
+    release(s);
+    left.push_back(s);
+  }
+}
+
+void Tracks::drop(size_t slot, const std::string& why, const ros::Time& now) {
+  if (slot >= slots_.size() || !slots_[slot].alive) return;
+  const size_t source = slots_[slot].source;
+  ++status_[source].objects_dropped;
+  problem(source, "\"" + slots_[slot].name + "\" left out: " + why, now);
+  release(slot);
+}
+
+void Tracks::clear(std::vector<size_t>& left) {
+  for (size_t s = 0; s < slots_.size(); ++s) {
+    if (!slots_[s].alive) continue;
+    release(s);
+    left.push_back(s);
+  }
+  for (ros::Time& t : last_stamp_) t = ros::Time();
+}
+
+}  // namespace vadop_ros
