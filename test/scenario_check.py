@@ -20,9 +20,20 @@ scenario seconds and T a pair's true first contact (shapes grown by p):
     (cycles within the bag: after it every body goes stale and stands still);
  5. the node lived through the bag: cycles until the bag's end, no gap above 3 periods;
  6. the scenario's `expect:` entries: pairs that must / must not collide, a minimum number of
-    impacts, and /diagnostics statuses (e.g. the stale or bad body named, the others ok).
+    impacts, and /diagnostics statuses (e.g. the stale or bad body named, the others ok);
+ 7. with a tracker (scenario `tracker:`, issue 17): an object whose life ended in the bag is named
+    by no impact array stamped later than its end + its source's timeout + 2 cycles (until the
+    id's next life); the scenario has no ghost contact (an object that left, going on straight or
+    standing still, touching a body while a monitor may still hold it: a design error); the
+    monitor's "<monitor>: tracks" status on /diagnostics has every "<prefix>: ..." key, a summary
+    "N tracked objects from M source(s)", "<prefix>: objects" within the truth's bounds (at least
+    the objects alive well around the stamp, at most those alive or left less than the timeout
+    before) and above 0 at some point, and "<prefix>: objects dropped" above 0 when the tracker
+    sends NaN objects. A pair may have one truth entry per life of a reused id ("exists_since"):
+    each is checked on the reports from that life's start on.
 `expect:` keys: impacts, no_impacts ([[body, body], ...]), min_impacts, time_tol (rule 3's
-tolerance, s), diagnostics, and monitors: {<monitor>: {...}} (per-monitor overrides of the pair
+tolerance, s), diagnostics, tracks ([{prefix, min: {"<prefix>: <key>": n}}]: the largest value
+of those diagnostics keys), and monitors: {<monitor>: {...}} (per-monitor overrides of the pair
 keys and time_tol).
 It prints one summary line per monitor (and per impact for small scenarios), and writes them
 to $ROS_TEST_RESULTS_DIR/vadop/scenario_summary/<scenario>.txt.
@@ -35,6 +46,7 @@ keeps ~workdir for inspection, says so in the failure message and writes KEPT_FO
 """
 import json
 import os
+import re
 import shutil
 import sys
 import time
@@ -188,7 +200,12 @@ class ScenarioCheck(unittest.TestCase):
                 if abs(toi - tti) > 1e-6:
                     errors.append("%s: time_of_impact - stamp = %.6f != time_to_impact %.6f" % (mon, toi, tti))
                 reports.setdefault(key(a, la, b, lb), []).append((s, tti, contact))
-        truth_pairs = {key(p["a"], p["la"], p["b"], p["lb"]): p for p in truth["pairs"]}
+        # One entry per pair; a tracked object's id reused for a second life may give a pair one entry per
+        # life ("exists_since": the later of the two lives' starts): each is checked on the reports since then.
+        truth_pairs = {}
+        for p in sorted(truth["pairs"], key=lambda p: p["t"]):
+            truth_pairs.setdefault(key(p["a"], p["la"], p["b"], p["lb"]), {}).setdefault(p.get("exists_since"), p)
+        truth_list = sorted((p for lives in truth_pairs.values() for p in lives.values()), key=lambda p: p["t"])
         exp = dict(self.expect)
         exp.update((self.expect.get("monitors", {}) or {}).get(mon, {}) or {})
         time_tol = float(exp.get("time_tol", TIME_TOL))
@@ -206,12 +223,14 @@ class ScenarioCheck(unittest.TestCase):
         worst = 0.0
         worst_rotating = 0.0
         details = []
-        for k, p in sorted(truth_pairs.items(), key=lambda kv: kv[1]["t"]):
+        for p in truth_list:
+            k = key(p["a"], p["la"], p["b"], p["lb"])
             T = p["t"]
             if T > last_cycle:
                 n_skipped += 1
                 continue
-            before = [r for r in reports.get(k, []) if r[0] < T]
+            since = p.get("exists_since")
+            before = [r for r in reports.get(k, []) if r[0] < T and (since is None or r[0] >= since)]
             knowable = max(first_cycle, p["clean_since"]) + p["msg_delay"] + LATENCY + 1.0 / rate
             if not before:
                 if T <= knowable:
@@ -253,8 +272,11 @@ class ScenarioCheck(unittest.TestCase):
                                   "%d of %d reports beyond %.0f ms, the last %.2f s ahead)%s"
                                   % (mon, label(k), 1e3 * e, s, T, T - s, len(bad), len(errs), 1e3 * time_tol,
                                      T - bad[-1][0], " (rotating link)" if p["rotating"] else ""))
+            why = " (velocity change in the window)"
+            if since is not None and p["clean_since"] <= since + 1e-9:
+                why = " (seen %.2f s before)" % (T - since)
             details.append("  %-40s T=%7.3f s  first warning %.3f s ahead%s  max |err| %s%s"
-                           % (label(k), T, warning, "" if rule else " (velocity change in the window)",
+                           % (label(k), T, warning, "" if rule else why,
                               "%.1f ms" % (1e3 * pair_worst) if pair_worst is not None else "n/a",
                               " (rotating)" if p["rotating"] else ""))
 
@@ -280,14 +302,133 @@ class ScenarioCheck(unittest.TestCase):
                 "window(s) (rule >= %.3f s); max |time_to_impact error| %.1f ms over %d reports%s (tolerance %.0f ms); "
                 "%d false pair(s); %d arrays, max gap %.0f ms; connected to every topic %.2f s after rosbag play "
                 "started"
-                % (truth["scenario"], mon, horizon, rate, padding, len(truth_pairs), n_reported, n_skipped,
+                % (truth["scenario"], mon, horizon, rate, padding, len(truth_list), n_reported, n_skipped,
                    "%.3f s" % min_warning if min_warning is not None else "n/a", n_rule, horizon - 1.0 / rate - clock_tol,
                    1e3 * worst, n_checked,
                    ", %.1f ms on rotating links" % (1e3 * worst_rotating) if worst_rotating else "", 1e3 * time_tol,
                    len(false), len(arrays), 1e3 * max_gap, self.record.get("connect_wall_s", float("nan"))))
         self.summary.append(line)
-        if len(details) <= 12:
+        if len(details) <= 12 or truth.get("tracks"):
             self.summary.extend(details)
+        if truth.get("tracks"):
+            errors.extend(self.check_tracks(mon, truth, arrays, rate, duration))
+        return errors
+
+    # ------------------------------------------------------------------ tracked objects (issue 17)
+    def check_tracks(self, mon, truth, arrays, rate, duration):
+        """Objects of a tracker (scenario `tracker:`) that left (their life ended in the bag) must be
+        out of the monitor's world once their source's timeout has passed: no impact array stamped
+        later than the life's end + timeout + 2 cycles (and before the id's next life) names them.
+        Also: no ghost contact in the scenario's design (see scenario_gen.py: an object that left,
+        going on straight or standing still, touching another body while a monitor may still hold it
+        and predict it: such a report would be legitimate, the truth has no such pair)."""
+        errors = []
+        t0 = truth["t0"]
+        for g in truth.get("ghost_contacts", []) or []:
+            errors.append("%s: scenario design: %s leaves at %.3f s, but %s it would touch %s at %.3f s, within "
+                          "the time a monitor may still hold and predict it (%.3f s): move it"
+                          % (mon, g["body"], g["life_end"], "going on straight" if g["model"] == "straight"
+                             else "standing still", g["other"], g["t"],
+                             truth["ghost_window"].get(g["body"].split("/")[0], float("nan"))))
+        windows = []  # (body, life end, from, to)
+        for name, info in sorted(truth["tracks"].items()):
+            lives = info["lives"]
+            for n, (on, off) in enumerate(lives):
+                if off is None or off >= duration:
+                    continue
+                nxt = lives[n + 1][0] if n + 1 < len(lives) else float("inf")
+                windows.append((name, off, off + float(info["timeout"]) + 2.0 / rate, nxt))
+        late = {}  # (body, life end) -> [(stamp, other)]
+        for s, impacts in arrays:
+            s -= t0
+            for a, la, b, lb, tti, contact, closing, toi in impacts:
+                for name, off, lo, hi in windows:
+                    if lo < s < hi and name in (a, b):
+                        late.setdefault((name, off), []).append((s, b if a == name else a, tti))
+        n_late = sum(len(v) for v in late.values())
+        for (name, off), rows in sorted(late.items(), key=lambda kv: kv[1][0][0]):
+            info = truth["tracks"][name]
+            errors.append("%s: %s left at %.3f s (timeout %.2f s) but %d impact(s) name it from %.3f s on (first: with "
+                          "%s, in %.3f s; last at %.3f s): it stayed in the monitor's world"
+                          % (mon, name, off, info["timeout"], len(rows), rows[0][0], rows[0][1], rows[0][2], rows[-1][0]))
+        for tr in truth.get("trackers", []) or []:
+            self.summary.append(
+                "  tracks %s (%s, %.0f Hz, timeout %.2f s): %d objects, %d lives, %d left in the bag; %d impact(s) "
+                "naming an object after it left (rule: stamp > end + timeout + 2 cycles); %d always-NaN object(s), %d NaN "
+                "copies, %d duplicate id(s); %d ghost contact(s) in the design"
+                % (tr["prefix"], tr["topic"], tr["rate"], tr["timeout"], tr["objects"], tr["lives"],
+                   sum(1 for w in windows if w[0].startswith(tr["prefix"] + "/")), n_late, tr["nan_objects"],
+                   tr["nan_copies"], tr["decoys"], len(truth.get("ghost_contacts", []) or [])))
+        return errors
+
+    def check_track_diagnostics(self, mon, tr, truth, rows, rate):
+        """The monitor's "tracks" status on /diagnostics for the tracker tr (truth's "trackers" entry): present,
+        with every per-source key; "<prefix>: objects" within what the truth allows (objects alive well around
+        the status's stamp at least, those alive or still held at most) and above 0 at some point; objects
+        dropped above 0 when the tracker sends NaN objects; the scenario's `expect: tracks` minimums."""
+        errors = []
+        P = tr["prefix"]
+        keys = ["objects", "arrays accepted", "arrays dropped", "objects dropped", "objects expired", "last problem"]
+        if not rows:
+            return ["%s: no 'tracks' status on /diagnostics" % mon]
+        duration = truth["duration"]
+        margin = 0.2 + 2.0 / rate  # the status's stamp against the moment its counts were taken
+        lives = [(on, duration if off is None else min(off, duration), float(info["timeout"]))
+                 for name, info in truth["tracks"].items() if info["prefix"] == P for on, off in info["lives"]]
+        counts = {k: [] for k in keys[:-1]}
+        bad_rows = []
+        problems = set()
+        n_missing = 0
+        for s, level, message, values in rows:
+            missing = [k for k in keys if "%s: %s" % (P, k) not in values]
+            if missing:
+                n_missing += 1
+                if n_missing == 1:
+                    errors.append("%s at %.2f s: 'tracks' status without %s (has %s)"
+                                  % (mon, s, ", ".join("'%s: %s'" % (P, k) for k in missing), sorted(values)))
+                continue
+            try:
+                row = {k: int(float(values["%s: %s" % (P, k)])) for k in keys[:-1]}
+            except ValueError:
+                errors.append("%s at %.2f s: 'tracks' counts not numbers: %r" % (mon, s, values))
+                continue
+            for k in keys[:-1]:
+                counts[k].append(row[k])
+            problems.add(values["%s: %s" % (P, "last problem")])
+            lo = sum(1 for on, off, _ in lives if on <= s - margin and off >= s + margin)
+            hi = sum(1 for on, off, timeout in lives if on <= s + margin and off + timeout + margin >= s)
+            if not lo <= row["objects"] <= hi:
+                bad_rows.append((s, row["objects"], lo, hi))
+            sources = len([t for t in truth.get("trackers", []) if t["in_node"]])
+            m = re.search(r"(\d+) tracked objects? from (\d+) sources?", message)
+            if not m or int(m.group(2)) != sources or (sources == 1 and int(m.group(1)) != row["objects"]):
+                errors.append("%s at %.2f s: 'tracks' summary %r, expected \"%d tracked objects from %d source(s)\""
+                              % (mon, s, message, row["objects"], sources))
+        if n_missing > 1:
+            errors.append("%s: %d of %d 'tracks' statuses without every '%s: ...' key" % (mon, n_missing, len(rows), P))
+        for s, n, lo, hi in bad_rows[:5]:
+            errors.append("%s at %.2f s: '%s: objects' is %d, the truth allows %d to %d (alive within %.2f s of the "
+                          "stamp, or left less than the timeout + %.2f s before)" % (mon, s, P, n, lo, hi, margin, margin))
+        if not counts["objects"] or max(counts["objects"]) <= 0:
+            errors.append("%s: '%s: objects' never above 0 (%d statuses)" % (mon, P, len(rows)))
+        if (tr["nan_objects"] or tr["nan_copies"]) and (not counts["objects dropped"] or max(counts["objects dropped"]) <= 0):
+            errors.append("%s: '%s: objects dropped' never above 0, the tracker sent %d always-NaN object(s) and %d NaN "
+                          "copies" % (mon, P, tr["nan_objects"], tr["nan_copies"]))
+        for e in self.expect.get("tracks", []) or []:
+            if e.get("prefix", P) != P or e.get("monitor", mon) != mon:
+                continue
+            for k, need in (e.get("min") or {}).items():
+                k = k[len(P) + 2:] if k.startswith(P + ": ") else k
+                got = max(counts.get(k) or [float("-inf")])
+                if got < need:
+                    errors.append("%s: '%s: %s' at most %s, expected at least %s" % (mon, P, k, got, need))
+        mx = {k: (max(v) if v else None) for k, v in counts.items()}
+        self.diag_summary.append(
+            "  diagnostics tracks %s (%s): %d statuses, objects %s to %s (%d outside the truth's bounds), max objects "
+            "dropped %s, expired %s, arrays accepted %s, dropped %s; last problems %s"
+            % (P, mon, len(rows), min(counts["objects"]) if counts["objects"] else None, mx["objects"], len(bad_rows),
+               mx["objects dropped"], mx["objects expired"], mx["arrays accepted"], mx["arrays dropped"],
+               sorted(problems)[:3]))
         return errors
 
     def test_impacts(self):
@@ -314,6 +455,15 @@ class ScenarioCheck(unittest.TestCase):
         for m in self.monitors:
             if not bodies.get(m):
                 errors.append("%s: no 'bodies' status on /diagnostics" % m)
+        tracks = {}
+        for s, name, level, message, values in diags:
+            if name.endswith(": tracks"):
+                tracks.setdefault(name.split(":")[0].lstrip("/"), []).append((s - t0, level, message, values))
+        for m in self.monitors:
+            for tr in self.truths[m].get("trackers", []) or []:
+                if tr["in_node"]:
+                    errors.extend(self.check_track_diagnostics(m, tr, self.truths[m], tracks.get(m, []),
+                                                               float(rospy.get_param("/%s/rate" % m))))
         for e in self.expect.get("diagnostics", []) or []:
             mon = e.get("monitor", self.monitors[0])
             lo, hi = e["during"]

@@ -121,17 +121,20 @@ def main():
     # Every monitor up and subscribed to every odometry topic; our subscribers connected.
     master = rosgraph.Master("/scenario_player")
     topics = sorted({b.topic for b in sc.bodies})
+    # and to the trackers the monitors take (their `tracks` sources)
+    tracker_topics = sorted({t.topic for t in sc.trackers if t.in_node})
     deadline = time.time() + 60.0
     while not rospy.is_shutdown():
         _, subscribers, _ = master.getSystemState()
         subs_of = {t: set(nodes) for t, nodes in subscribers}
-        ready = all(all("/" + m in subs_of.get(t, ()) for t in topics) for m in monitors)
+        ready = all(all("/" + m in subs_of.get(t, ()) for t in topics + tracker_topics) for m in monitors)
         ready = ready and all(s.get_num_connections() > 0 for s in subs[:-1])
         if ready or time.time() > deadline:
             break
         time.sleep(0.1)
     if not ready:
-        rospy.logerr("scenario_player: the monitors did not subscribe within 60 s")
+        rospy.logerr("scenario_player: the monitors did not subscribe within 60 s (to %s)" % ", ".join(
+            topics + tracker_topics))
 
     clock_pub = rospy.Publisher("/clock", Clock, queue_size=10)  # used after the bag only
     # Paused until every monitor is connected to the bag's topics (see the module docstring).

@@ -4,6 +4,7 @@
 // globs, a velocity gate limited by a tracked object, and objects joining and leaving the world
 // without disturbing the bodies.
 #include "vadop_ros/monitor_core.h"
+#include "vadop_ros/monitor_diagnostics.h"
 #include "vadop_ros/tracks.h"
 #include "fake_tf.h"
 #include "yaml_xmlrpc.h"
@@ -14,6 +15,7 @@
 
 #include <cmath>
 #include <limits>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -294,6 +296,27 @@ TEST(TracksInTheMonitor, IgnorePairsAndGateIgnoreMatchTheObjectNames) {
   ASSERT_EQ(check.status, vadop_ros::CommandCheck::Status::kChecked);
   EXPECT_FALSE(check.limited);
   EXPECT_DOUBLE_EQ(check.scale.scale, 1.0);
+}
+
+TEST(Tracks, DiagnosticsCountObjectsAndDrops) {
+  Tracks t({people()}, "odom", 5.0);
+  FakeTf tf;
+  vadop::TrackedObject bad = object("9", 0, 0);
+  bad.pose.position.x = std::numeric_limits<double>::quiet_NaN();
+  t.onArray(0, array(100.0, {object("1", 0, 0), object("2", 1, 0), bad}), ros::Time(100.0), tf);
+  diagnostic_updater::DiagnosticStatusWrapper stat;
+  vadop_ros::reportTracks(stat, t, ros::Time(100.1));
+  EXPECT_EQ(stat.message, "2 tracked objects from 1 source(s); bad input recently (see last problem)");
+  EXPECT_EQ(stat.level, diagnostic_msgs::DiagnosticStatus::WARN);
+  std::map<std::string, std::string> kv;
+  for (const auto& v : stat.values) kv[v.key] = v.value;
+  EXPECT_EQ(kv["people: objects"], "2");
+  EXPECT_EQ(kv["people: objects dropped"], "1");
+  EXPECT_EQ(kv["people: arrays accepted"], "1");
+  EXPECT_NE(kv["people: last problem"].find("objects[2] (id \"9\")"), std::string::npos);
+  diagnostic_updater::DiagnosticStatusWrapper later;
+  vadop_ros::reportTracks(later, t, ros::Time(200.0));  // long after the bad input
+  EXPECT_EQ(later.level, diagnostic_msgs::DiagnosticStatus::OK);
 }
 
 TEST(TracksInTheMonitor, Parameters) {
