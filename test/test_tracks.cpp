@@ -249,6 +249,13 @@ TEST(TracksInTheMonitor, ImpactsNameTheObjectAndObjectsLeaveWithoutDisturbingBod
   EXPECT_NEAR(out.impacts[0].time_to_impact, 1.7, 1e-4);
   EXPECT_EQ(core.lastStats().elements_in_world, 3u);
   EXPECT_EQ(core.lastStats().tracked_objects, 2u);
+  auto drawn = [&](const std::string& ns) {
+    const visualization_msgs::MarkerArray m = core.markers();
+    size_t n = 0;
+    for (const auto& x : m.markers) n += x.ns == ns && x.action == visualization_msgs::Marker::ADD;
+    return n;
+  };
+  EXPECT_GT(drawn("people/7"), 0u);
   // The gate: the robot's command is limited by the person.
   const vadop_ros::CommandCheck check =
       core.checkCommand(0, Eigen::Vector3d(1, 0, 0), Eigen::Vector3d::Zero(), ros::Time(100.0), tf, 2.0, 0.5);
@@ -268,6 +275,8 @@ TEST(TracksInTheMonitor, ImpactsNameTheObjectAndObjectsLeaveWithoutDisturbingBod
   EXPECT_EQ(core.lastStats().tracked_objects, 1u);
   EXPECT_EQ(core.lastStats().elements_in_world, 2u);
   EXPECT_EQ(core.tracks().status(0).objects_expired, 1u);
+  EXPECT_EQ(drawn("people/7"), 0u);  // its markers went with it (each array starts with DELETEALL)
+  EXPECT_GT(drawn("people/8"), 0u);
   // 7 comes back on the other side, walking in: predicted again, under its name.
   core.registry().onOdometry(0, odom(100.9, 0.9, 1.0), ros::Time(100.9));
   core.tracks().onArray(0, array(100.9, {object("8", 0.0, 20.0), object("7", 3.0, 0.0, -1.0)}), ros::Time(100.9), tf);
