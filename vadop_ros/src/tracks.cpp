@@ -41,23 +41,23 @@ void Tracks::problem(size_t source, const std::string& why, const ros::Time& rec
   }
 }
 
-bool Tracks::shapeOf(size_t source, const shape_msgs::SolidPrimitive& p, const std::string& field, vadop::Shape& out,
+bool Tracks::shapeOf(size_t source, const shape_msgs::SolidPrimitive& p, size_t index, vadop::Shape& out,
                      std::string& why) const {
   using shape_msgs::SolidPrimitive;
   const auto& d = p.dimensions;
+  // Named only when something is wrong: the common case builds no string.
+  const auto fieldName = [index] { return "objects[" + std::to_string(index) + "].shape"; };
   // The dimensions a primitive needs (SolidPrimitive's index constants), each finite, > 0, in range.
   auto dims = [&](size_t n, const char* names) {
     if (d.size() != n) {
-      why = field + ".dimensions has " + std::to_string(d.size()) + " values, a " + names;
+      why = fieldName() + ".dimensions has " + std::to_string(d.size()) + " values, a " + names;
       return false;
     }
     for (size_t i = 0; i < n; ++i) {
-      const std::string f = field + ".dimensions[" + std::to_string(i) + "]";
-      if (!checkValue(d[i], vadop::kMaxSize, "m", f, why)) return false;
-      if (!(d[i] > 0.0)) {
-        why = f + " = " + std::to_string(d[i]) + " is not > 0";
-        return false;
-      }
+      if (d[i] > 0.0 && d[i] <= vadop::kMaxSize) continue;  // false for NaN
+      const std::string f = fieldName() + ".dimensions[" + std::to_string(i) + "]";
+      if (checkValue(d[i], vadop::kMaxSize, "m", f, why)) why = f + " = " + std::to_string(d[i]) + " is not > 0";
+      return false;
     }
     return true;
   };
@@ -65,7 +65,7 @@ bool Tracks::shapeOf(size_t source, const shape_msgs::SolidPrimitive& p, const s
     switch (p.type) {
       case 0:
         if (!params_[source].has_default_shape) {
-          why = field + ".type is 0 (the source's default) and the source has no default_shape";
+          why = fieldName() + ".type is 0 (the source's default) and the source has no default_shape";
           return false;
         }
         out = params_[source].default_shape;
@@ -83,11 +83,11 @@ bool Tracks::shapeOf(size_t source, const shape_msgs::SolidPrimitive& p, const s
         out = vadop::makeCylinder(d[SolidPrimitive::CYLINDER_RADIUS], d[SolidPrimitive::CYLINDER_HEIGHT]);
         return true;
       default:
-        why = field + ".type = " + std::to_string(p.type) + " is not supported (BOX, SPHERE, CYLINDER, or 0)";
+        why = fieldName() + ".type = " + std::to_string(p.type) + " is not supported (BOX, SPHERE, CYLINDER, or 0)";
         return false;
     }
   } catch (const vadop::InvalidArgument& e) {
-    why = field + ": " + e.what();
+    why = fieldName() + ": " + e.what();
     return false;
   }
 }
@@ -131,10 +131,10 @@ InputResult Tracks::onArray(size_t source, const vadop::TrackedObjectArray& msg,
   for (size_t i = 0; i < msg.objects.size(); ++i) last_of[msg.objects[i].id] = i;
   for (size_t i = 0; i < msg.objects.size(); ++i) {
     const vadop::TrackedObject& o = msg.objects[i];
-    const std::string field = "objects[" + std::to_string(i) + "]";
+    const auto field = [i] { return "objects[" + std::to_string(i) + "]"; };
     auto dropObject = [&](const std::string& why) {
       ++st.objects_dropped;
-      problem(source, "object " + field + " (id \"" + o.id + "\") dropped: " + why, receipt);
+      problem(source, "object " + field() + " (id \"" + o.id + "\") dropped: " + why, receipt);
     };
     if (o.id.empty()) {
       dropObject("empty id");
@@ -146,11 +146,27 @@ InputResult Tracks::onArray(size_t source, const vadop::TrackedObjectArray& msg,
     }
     std::string why;
     vadop::Shape shape;
-    if (!shapeOf(source, o.shape, field + ".shape", shape, why) ||
-        !checkPoint(o.pose.position, field + ".pose.position", why) ||
-        !checkQuaternion(o.pose.orientation, field + ".pose.orientation", why) ||
-        !checkVector(o.twist.linear, vadop::kMaxLinearSpeed, "m/s", field + ".twist.linear", why) ||
-        !checkVector(o.twist.angular, vadop::kMaxAngularSpeed, "rad/s", field + ".twist.angular", why)) {
+    if (!shapeOf(source, o.shape, i, shape, why)) {
+      dropObject(why);
+      continue;
+    }
+    // Every value finite and in range, the quaternion not degenerate: the common case, checked
+    // without building field names; otherwise the checks that name the field.
+    const geometry_msgs::Point& pp = o.pose.position;
+    const geometry_msgs::Quaternion& pq = o.pose.orientation;
+    const geometry_msgs::Vector3 &tl = o.twist.linear, &ta = o.twist.angular;
+    const auto within = [](double v, double limit) { return std::fabs(v) <= limit; };  // false for NaN
+    const bool plausible =
+        within(pp.x, vadop::kMaxCoordinate) && within(pp.y, vadop::kMaxCoordinate) &&
+        within(pp.z, vadop::kMaxCoordinate) && within(tl.x, vadop::kMaxLinearSpeed) &&
+        within(tl.y, vadop::kMaxLinearSpeed) && within(tl.z, vadop::kMaxLinearSpeed) &&
+        within(ta.x, vadop::kMaxAngularSpeed) && within(ta.y, vadop::kMaxAngularSpeed) &&
+        within(ta.z, vadop::kMaxAngularSpeed) && within(pq.x, 1e150) && within(pq.y, 1e150) &&
+        within(pq.z, 1e150) && within(pq.w, 1e150) && pq.x * pq.x + pq.y * pq.y + pq.z * pq.z + pq.w * pq.w > 1e-18;
+    if (!plausible && (!checkPoint(pp, field() + ".pose.position", why) ||
+                       !checkQuaternion(pq, field() + ".pose.orientation", why) ||
+                       !checkVector(tl, vadop::kMaxLinearSpeed, "m/s", field() + ".twist.linear", why) ||
+                       !checkVector(ta, vadop::kMaxAngularSpeed, "rad/s", field() + ".twist.angular", why))) {
       dropObject(why);
       continue;
     }
@@ -163,7 +179,7 @@ InputResult Tracks::onArray(size_t source, const vadop::TrackedObjectArray& msg,
     pose.translation() = Eigen::Vector3d(o.pose.position.x, o.pose.position.y, o.pose.position.z);
     pose = to_fixed * pose;
     if (!(pose.translation().cwiseAbs().maxCoeff() <= vadop::kMaxCoordinate)) {
-      dropObject(field + ".pose.position is out of range in \"" + fixed_frame_ + "\"");
+      dropObject(field() + ".pose.position is out of range in \"" + fixed_frame_ + "\"");
       continue;
     }
     const std::string name = tp.prefix + "/" + o.id;

@@ -83,7 +83,7 @@ class Tracks {
   void problem(size_t source, const std::string& why, const ros::Time& receipt);
   void release(size_t slot);
   // The object's shape from its primitive (type 0: the source's default); false and `why` when bad.
-  bool shapeOf(size_t source, const shape_msgs::SolidPrimitive& p, const std::string& field, vadop::Shape& out,
+  bool shapeOf(size_t source, const shape_msgs::SolidPrimitive& p, size_t index, vadop::Shape& out,
                std::string& why) const;
 
   std::vector<TrackParams> params_;
