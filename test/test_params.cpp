@@ -44,6 +44,7 @@ TEST(Params, DefaultsWhenEmpty) {
   EXPECT_DOUBLE_EQ(p.stale_timeout, 0.5);
   EXPECT_EQ(p.axes, 32);
   EXPECT_DOUBLE_EQ(p.phi_deg, 25.0);
+  EXPECT_EQ(p.threads, 0);  // every core
   EXPECT_FALSE(p.self_collision);
   EXPECT_TRUE(p.bodies.empty());
   EXPECT_TRUE(p.static_obstacles.empty());
@@ -103,6 +104,9 @@ TEST(Params, TopLevelErrorsNameTheParameter) {
   EXPECT_NE(errorOf("ignore_pairs: [[a]]").find("~ignore_pairs[0]"), std::string::npos);
   EXPECT_NE(errorOf("ignore_pairs: [[a, 3]]").find("~ignore_pairs[0][1]"), std::string::npos);
   EXPECT_NE(errorOf("horizon: .nan").find("~horizon"), std::string::npos);
+  EXPECT_EQ(errorOf("threads: -1"), "~threads: must be an integer in [0, 256] (0: one per hardware thread), got -1");
+  EXPECT_NE(errorOf("threads: 1.5").find("~threads: must be an integer"), std::string::npos);
+  EXPECT_EQ(parseParams(yaml("threads: 2")).threads, 2);
 }
 
 TEST(Params, BodyErrorsNameTheBodyAndField) {

@@ -6,8 +6,12 @@
 #include "vadop/vadop_grid.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <exception>
+#include <mutex>
+#include <thread>
 #include <sstream>
 #include <utility>
 
@@ -75,6 +79,11 @@ World::World(const WorldConfig& config) : config_(config) {
   if (o.max_iterations <= 0) {
     throw InvalidArgument("World: toi.max_iterations must be > 0, got " + std::to_string(o.max_iterations));
   }
+  if (config.threads < 0 || config.threads > kMaxThreads) {
+    throw InvalidArgument("World: threads must be in [0, " + std::to_string(kMaxThreads) + "] (0: one per hardware "
+                          "thread), got " + std::to_string(config.threads));
+  }
+  threads_ = config.threads > 0 ? config.threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   broad_phase_ = makeBroadPhase(config);
 }
 
@@ -286,24 +295,31 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
       queried.erase(std::unique(queried.begin(), queried.end()), queried.end());
     }
   }
-  std::vector<WorldImpact> out, undecided;
-  size_t calls = 0;
+  // The pair filters, before the narrow phase, on this thread (the predicate is the caller's).
+  std::vector<std::pair<BodyId, BodyId>> tests;
   for (const Pair& p : only || paths ? queried : broad_phase_->pairs()) {
     BodyId ia = p.a, ib = p.b;
     if (records_[ib].key < records_[ia].key) std::swap(ia, ib);  // a = the body added first
-    const Record* ra = &records_[ia];
-    const Record* rb = &records_[ib];
-    // The pair filters, before the narrow phase.
-    if (!(ra->group & rb->mask) || !(rb->group & ra->mask)) continue;
-    if (pair_filter_ && !pair_filter_(ra->key, rb->key)) continue;
-    ++calls;
-    const Impact hit = narrow(ia, ib, t0, t1);
+    const Record& ra = records_[ia];
+    const Record& rb = records_[ib];
+    if (!(ra.group & rb.mask) || !(rb.group & ra.mask)) continue;
+    if (pair_filter_ && !pair_filter_(ra.key, rb.key)) continue;
+    tests.emplace_back(ia, ib);
+  }
+  std::vector<Impact> results;
+  narrowAll(tests, t0, t1, results);
+  std::vector<WorldImpact> out, undecided;
+  const size_t calls = tests.size();
+  for (size_t k = 0; k < tests.size(); ++k) {
+    const Impact& hit = results[k];
     if (!hit.hit && !hit.undecided) continue;
+    const Record& ra = records_[tests[k].first];
+    const Record& rb = records_[tests[k].second];
     WorldImpact w;
-    w.a = ra->name;
-    w.b = rb->name;
-    w.a_key = ra->key;
-    w.b_key = rb->key;
+    w.a = ra.name;
+    w.b = rb.name;
+    w.a_key = ra.key;
+    w.b_key = rb.key;
     w.impact = hit;
     (hit.hit ? out : undecided).push_back(std::move(w));
   }
@@ -343,6 +359,51 @@ void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std
       if (p_only || in_only(path_bodies_[j])) out.push_back(makePair(p, path_bodies_[j]));
     }
   }
+}
+
+void World::narrowAll(const std::vector<std::pair<BodyId, BodyId>>& tests, double t0, double t1,
+                      std::vector<Impact>& results) const {
+  results.resize(tests.size());
+  // Below this many pairs per thread, starting threads costs more than it saves.
+  constexpr size_t kPairsPerThread = 32;
+  constexpr size_t kChunk = 8;  // pairs taken at a time: narrow-phase costs vary by orders of magnitude
+  const size_t threads = std::min(static_cast<size_t>(threads_), tests.size() / kPairsPerThread);
+  if (threads <= 1) {
+    for (size_t k = 0; k < tests.size(); ++k) results[k] = narrow(tests[k].first, tests[k].second, t0, t1);
+    return;
+  }
+  std::atomic<size_t> next{0};
+  std::mutex error_lock;
+  size_t error_at = tests.size();
+  std::exception_ptr error;
+  auto work = [&]() {
+    for (;;) {
+      const size_t begin = next.fetch_add(kChunk);
+      if (begin >= tests.size()) return;
+      const size_t end = std::min(begin + kChunk, tests.size());
+      for (size_t k = begin; k < end; ++k) {
+        try {
+          results[k] = narrow(tests[k].first, tests[k].second, t0, t1);
+        } catch (...) {
+          const std::lock_guard<std::mutex> lock(error_lock);
+          if (k < error_at) {
+            error_at = k;
+            error = std::current_exception();
+          }
+        }
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  pool.reserve(threads - 1);
+  try {
+    for (size_t i = 1; i < threads; ++i) pool.emplace_back(work);
+  } catch (...) {
+    // No thread to be had: this one does the rest.
+  }
+  work();
+  for (std::thread& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
 }
 
 Impact World::narrow(BodyId a, BodyId b, double t0, double t1) const {

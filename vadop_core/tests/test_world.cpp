@@ -491,6 +491,45 @@ TEST(World, BroadPhasesGiveIdenticalResultsOnRandomScenes) {
   RecordProperty("impacts", static_cast<int>(total_impacts));
 }
 
+// The narrow phase on several threads: the same impacts (to the last bit), the same undecided
+// pairs and candidate counts as on one, whatever the count; with `only` too.
+TEST(World, ThreadsGiveIdenticalResults) {
+  testing_scene::GenParams g;
+  g.path_fraction = 0.05;
+  for (uint64_t seed = 1; seed <= 1; ++seed) {
+    const Scene scene = parseScene(testing_scene::randomSceneJson(seed, g));
+    std::string reference, reference_only;
+    size_t reference_candidates = 0, reference_undecided = 0;
+    for (const int threads : {1, 2, 8, 0}) {
+      WorldConfig c;
+      c.threads = threads;
+      c.toi.max_iterations = 3;  // some pairs undecided: they must match too
+      World w(c);
+      addToWorld(scene, w);
+      const std::string lines = impactsToJsonLines(w.predict(0.0, scene.horizon));
+      const std::string undecided = impactsToJsonLines(w.lastUndecided());
+      const std::string only = impactsToJsonLines(w.predict(0.0, scene.horizon, w.ids()));
+      if (threads == 1) {
+        reference = lines + undecided;
+        reference_only = only;
+        reference_candidates = w.lastCandidateCount();
+        reference_undecided = w.lastUndecided().size();
+        EXPECT_GT(std::count(lines.begin(), lines.end(), '\n'), 100) << "seed " << seed;
+        EXPECT_GT(reference_undecided, 0u) << "seed " << seed;
+        continue;
+      }
+      EXPECT_EQ(lines + undecided, reference) << "seed " << seed << ", " << threads << " threads";
+      EXPECT_EQ(only, reference_only) << "seed " << seed << ", " << threads << " threads";
+      EXPECT_EQ(w.lastCandidateCount(), reference_candidates);
+    }
+  }
+  WorldConfig bad;
+  bad.threads = -1;
+  EXPECT_THROW(World{bad}, InvalidArgument);
+  bad.threads = kMaxThreads + 1;
+  EXPECT_THROW(World{bad}, InvalidArgument);
+}
+
 TEST(World, IncrementalUpdatesMatchAWorldBuiltFromScratch) {
   // Frames of a random scene with velocity changes, removes and re-adds between predicts.
   testing_scene::GenParams p;

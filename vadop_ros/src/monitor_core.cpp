@@ -17,6 +17,7 @@ PredictorConfig predictorConfig(const MonitorParams& p) {
   PredictorConfig c;
   c.axes = p.axes;
   c.phi_deg = p.phi_deg;
+  c.threads = p.threads;
   return c;
 }
 
@@ -28,6 +29,7 @@ Predictor makePredictor(const MonitorParams& p, bool queries_only = false) {
   try {
     PredictorConfig c = predictorConfig(p);
     c.queries_only = queries_only;
+    if (queries_only) c.threads = 1;  // the gates' world answers queries, never predicts
     return Predictor(c);
   } catch (const vadop::InvalidArgument& e) {
     throw ParamError(std::string("~axes / ~phi_deg: rejected by the VADOP broad phase: ") + e.what());

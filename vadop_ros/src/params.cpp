@@ -3,6 +3,7 @@
 #include <vadop/error.h>
 #include <vadop/limits.h>
 #include <vadop/vadop.h>
+#include <vadop/world.h>
 
 #include <ros/names.h>
 #include <ros/node_handle.h>
@@ -465,7 +466,7 @@ void parseTracks(const XmlRpcValue& list, MonitorParams& out) {
 
 const std::set<std::string>& topLevelKeys() {
   static const std::set<std::string> keys = {
-      "fixed_frame", "rate", "horizon", "padding", "stale_timeout", "max_stamp_skew", "axes", "phi_deg",
+      "fixed_frame", "rate", "horizon", "padding", "stale_timeout", "max_stamp_skew", "axes", "phi_deg", "threads",
       "self_collision", "ignore_pairs", "bodies", "static_obstacles", "tracks", "log_impacts",
       "publish_markers",
       // set by diagnostic_updater and dynamic_reconfigure themselves
@@ -535,6 +536,11 @@ MonitorParams parseParams(const XmlRpcValue& root) {
   // The library validates the pair (pool size, phi >= covering radius) when the world is
   // built; the monitor builds it with these values and reports its message under ~axes/~phi_deg.
   if (p.axes < 3 || p.axes > 4096) fail("~axes", "must be an integer in [3, 4096], got " + std::to_string(p.axes));
+  if (const XmlRpcValue* v = member(root, "threads")) p.threads = toInt(*v, "~threads");
+  if (p.threads < 0 || p.threads > vadop::kMaxThreads) {
+    fail("~threads", "must be an integer in [0, " + std::to_string(vadop::kMaxThreads) +
+                         "] (0: one per hardware thread), got " + std::to_string(p.threads));
+  }
   if (!(p.phi_deg >= 0.0 && p.phi_deg < 90.0)) fail("~phi_deg", "must be in [0, 90), got " + num(p.phi_deg));
   if (const XmlRpcValue* v = member(root, "self_collision")) p.self_collision = toBool(*v, "~self_collision");
   if (const XmlRpcValue* v = member(root, "log_impacts")) p.log_impacts = toBool(*v, "~log_impacts");

@@ -21,6 +21,7 @@ vadop::WorldConfig worldConfig(const PredictorConfig& c) {
   w.vadop.axes = c.axes;
   w.vadop.phi_deg = c.phi_deg;
   w.toi.max_iterations = c.max_iterations;
+  w.threads = c.threads;
   return w;
 }
 

@@ -63,7 +63,12 @@ struct WorldConfig {
   BroadPhaseKind broad_phase = BroadPhaseKind::kVadop;
   VadopConfig vadop;  // axes, phi_deg, ...: used (and validated) by kVadop and kVadopSap
   ToiOptions toi;
+  // Threads of predict's narrow phase (its candidate pairs shared out among them; the result is
+  // the same for every count): 1 runs it on the caller's thread; 0 means one per hardware
+  // thread (std::thread::hardware_concurrency). In [0, kMaxThreads].
+  int threads = 1;
 };
+constexpr int kMaxThreads = 256;
 
 struct WorldImpact {
   std::string a, b;     // a was added before b
@@ -212,12 +217,17 @@ class World {
   // other bodies, and every pair of two path bodies; with `only`, those involving one of them.
   void pathPairs(double t0, double t1, const std::vector<BodyId>* only, std::vector<Pair>& out);
   Impact narrow(BodyId a, BodyId b, double t0, double t1) const;
+  // narrow() on every pair of `tests` into `results` (same order), on threads_ threads when there
+  // are enough pairs; rethrows the exception of the first pair (by index) that threw.
+  void narrowAll(const std::vector<std::pair<BodyId, BodyId>>& tests, double t0, double t1,
+                 std::vector<Impact>& results) const;
   bool onPath(BodyId id) const { return records_[id].chain != nullptr; }
   const Record& record(const std::string& id, const char* operation) const;
   BodyId bodyId(const std::string& id, const char* operation) const;
   std::vector<WorldImpact> run(double t0, double horizon, const std::vector<BodyId>* only);
 
   WorldConfig config_;
+  int threads_ = 1;  // config_.threads resolved
   std::unique_ptr<BroadPhase> broad_phase_;
   std::vector<Record> records_;  // by BodyId of the broad phase
   std::unordered_map<std::string, BodyId> by_name_;

@@ -124,6 +124,9 @@ struct MonitorParams {
   double max_stamp_skew = 5.0;
   int axes = 32;                // VADOP pool size (vadop::VadopConfig default)
   double phi_deg = 25.0;        // VADOP zone half-width (vadop::VadopConfig default)
+  // Threads of the narrow phase each cycle, [0, vadop::kMaxThreads]; 0: one per hardware thread.
+  // The impacts are the same for every count.
+  int threads = 0;
   bool self_collision = false;
   std::vector<std::pair<std::string, std::string>> ignore_pairs;
   std::vector<BodyParams> bodies;
