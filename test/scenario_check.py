@@ -328,8 +328,7 @@ class ScenarioCheck(unittest.TestCase):
             errors.append("%s: scenario design: %s leaves at %.3f s, but %s it would touch %s at %.3f s, within "
                           "the time a monitor may still hold and predict it (%.3f s): move it"
                           % (mon, g["body"], g["life_end"], "going on straight" if g["model"] == "straight"
-                             else "standing still", g["other"], g["t"],
-                             truth["ghost_window"].get(g["body"].split("/")[0], float("nan"))))
+                             else "standing still", g["other"], g["t"], g["window"]))
         windows = []  # (body, life end, from, to)
         for name, info in sorted(truth["tracks"].items()):
             lives = info["lives"]

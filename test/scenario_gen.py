@@ -47,8 +47,9 @@ A scenario file (test/scenarios/*.yaml) holds the vadop_monitor parameters at it
       frame: odom            # default_shape and timeout (frame: odom only)
       rate: 15               # arrays per second, first at `phase` (default 0), to the bag's end
       objects:               # each a body "<prefix>/<id>" (link empty) while alive
-        - {id: "1", life: [on, off], p: [x, y], v: [vx, vy]}   # alive over [on, off) (off null:
-                             # to the end), at p at time `at` (default: on), constant velocity v
+        - {id: "1", life: [on, off], p: [x, y], v: [vx, vy]}   # alive over [on, off) ([on]: to
+                             # the end; no null: rosparam loads the file into the node, and XML-RPC
+                             # has no nil), at p at time `at` (default: on), constant velocity v
         - {id: "2", lives: [{life: [..], p: [..], v: [..]}, {life: [..], ...}]}   # id reused
         - {id: "k", shape: {type: cylinder, radius: 0.25, length: 1.2}, ...}  # explicit
                              # primitive in the message (else type 0: default_shape); z: the
@@ -660,9 +661,9 @@ class Tracker:
             lives_spec = o.get("lives") or [o]
             lives = []
             for ls in lives_spec:
-                on, off = ls["life"]
-                on = float(on)
-                off = None if off is None else float(off)
+                life_spec = list(ls["life"])
+                on = float(life_spec[0])
+                off = float(life_spec[1]) if len(life_spec) > 1 and life_spec[1] is not None else None
                 v = [float(x) for x in ls.get("v", [0.0, 0.0])]
                 at = float(ls.get("at", on))
                 p_at = np.asarray(ls["p"], dtype=float)
@@ -983,7 +984,8 @@ class Scenario:
                 if ghost[i] or ghost[j]:
                     g, o = (ea, eb) if ghost[i] else (eb, ea)
                     ghost_pairs.append({"body": g.body.name, "model": g.body.ghost, "life_end": g.body.on,
-                                        "other": o.body.name, "other_link": o.link, "t": float(hit)})
+                                        "window": g.body.off - g.body.on, "other": o.body.name,
+                                        "other_link": o.link, "t": float(hit)})
                     continue
                 pairs.append(self._pair_record(a, b, hit))
         pairs.sort(key=lambda p: p["t"])

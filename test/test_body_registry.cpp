@@ -510,6 +510,11 @@ TEST(BodyRegistry, FutureStampIsDroppedAndBlocksNothing) {
   // The ordinary rule still holds for stamps not ahead of the clock.
   EXPECT_EQ(r.onOdometry(0, odom(1000.35, 9, 0, 1), ros::Time(1000.5)), InputResult::kOutOfOrder);
   EXPECT_EQ(r.onOdometry(0, odom(1000.4, 9, 0, 1), ros::Time(1000.5)), InputResult::kOutOfOrder);
+  // And while the clock lags the stamps by a few ms (a simulated /clock): a duplicate or an
+  // older stamp arriving before the clock reached the last stamp is still out of order.
+  EXPECT_EQ(r.onOdometry(0, odom(1000.45, 5, 0, 1), ros::Time(1000.448)), InputResult::kAccepted);
+  EXPECT_EQ(r.onOdometry(0, odom(1000.45, 9, 0, 1), ros::Time(1000.449)), InputResult::kOutOfOrder);
+  EXPECT_EQ(r.onOdometry(0, odom(1000.15, 9, 0, 1), ros::Time(1000.449)), InputResult::kOutOfOrder);
   // The skew is a parameter.
   r.setMaxStampSkew(1e5 + 10.0);
   EXPECT_EQ(r.onOdometry(0, odom(1000.6 + 1e5, 0, 0, 1), ros::Time(1000.6)), InputResult::kAccepted);

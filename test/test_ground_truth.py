@@ -197,6 +197,63 @@ class FirstContact(unittest.TestCase):
         self.assertAlmostEqual(t, (8 - math.sqrt(1.2 ** 2 - 1.05 ** 2)) / 2, delta=1e-6)
 
 
+class TrackedLives(unittest.TestCase):
+    """test/scenario_gen.py's tracked objects (issue 17): a body per life, contacts only within lives."""
+
+    BASE = {"fixed_frame": "odom", "rate": 30.0, "horizon": 2.0,
+            "bodies": [{"name": "robot", "odom_topic": "/robot/odom", "shape": {"type": "sphere", "radius": 0.5}}],
+            "tracks": [{"topic": "/people/tracks", "prefix": "people", "timeout": 0.5,
+                        "default_shape": {"type": "cylinder", "radius": 0.3, "length": 1.8}}]}
+
+    def scenario(self, objects, duration=12.0):
+        import tempfile
+        import yaml
+        import scenario_gen as sg
+        spec = dict(self.BASE)
+        spec["scenario"] = {"duration": duration, "bodies": {"robot": {"pose": [0.0, 0.0, 0.0], "z": 0.9}},
+                            "tracker": {"topic": "/people/tracks", "rate": 10, "objects": objects}}
+        with tempfile.NamedTemporaryFile("w", suffix=".yaml", delete=False) as f:
+            yaml.safe_dump(spec, f)
+        try:
+            return sg.Scenario(f.name)
+        finally:
+            os.unlink(f.name)
+
+    def test_contact_within_life_only(self):
+        # a walks at 1 m/s towards the robot (a sphere r 0.5 at the origin) from x = 5 at 1 s: touches at x = 0.8, 5.2 s
+        sc = self.scenario([{"id": "a", "life": [1.0], "p": [5.0, 0.0], "v": [-1.0, 0.0]},
+                            {"id": "b", "life": [1.0, 3.0], "p": [5.0, 3.0], "v": [-1.0, 0.0], "yaw": 0.0},
+                            {"id": "c", "life": [0.0, 4.0], "at": 4.2, "p": [0.0, 0.8], "v": [0.0, -1.0]},
+                            {"id": "n", "nan": True, "life": [0.0], "p": [0.0, 0.0]}])
+        truth = sc.truth(0.0, 12.0)
+        pairs = {(p["a"], p["b"]): p for p in truth["pairs"]}
+        self.assertEqual(sorted(pairs), [("robot", "people/a")])  # c left at 4.0, 0.2 s before contact
+        p = pairs[("robot", "people/a")]
+        self.assertAlmostEqual(p["t"], 5.2, delta=1e-5)
+        self.assertEqual((p["clean_since"], p["exists_since"]), (1.0, 1.0))
+        self.assertNotIn("people/n", truth["tracks"])  # always NaN: never a body
+        self.assertEqual(truth["tracks"]["people/c"]["lives"], [[0.0, 4.0]])
+        # c going on straight would touch the robot 0.2 s after leaving: a ghost contact (design error)
+        ghosts = {(g["body"], g["model"]) for g in truth["ghost_contacts"]}
+        self.assertIn(("people/c", "straight"), ghosts)
+        self.assertNotIn(("people/b", "straight"), ghosts)
+
+    def test_reused_id_gives_one_entry_per_life(self):
+        sc = self.scenario([{"id": "a", "lives": [{"life": [0.0, 4.0], "at": 2.0, "p": [0.0, 0.8], "v": [0.0, -1.0]},
+                                                  {"life": [6.0], "at": 9.0, "p": [-0.8, 0.0], "v": [1.0, 0.0]}],
+                             "nan_at": [7.0]}])
+        truth = sc.truth(0.0, 12.0)
+        got = [(round(p["t"], 4), p["exists_since"], round(p["msg_delay"], 4)) for p in truth["pairs"]]
+        # the NaN copy at 7.0 s: 0.2 s between good copies in the second life
+        self.assertEqual(got, [(2.0, 0.0, 0.1), (9.0, 6.0, 0.2)])
+        self.assertEqual(truth["tracks"]["people/a"]["lives"], [[0.0, 4.0], [6.0, None]])
+
+    def test_lives_must_not_overlap(self):
+        with self.assertRaises(ValueError):
+            self.scenario([{"id": "a", "lives": [{"life": [0.0, 4.0], "p": [3.0, 3.0]},
+                                                 {"life": [4.2, None], "p": [3.0, 3.0]}]}])
+
+
 if __name__ == "__main__":
     if any(a.startswith("--gtest_output") for a in sys.argv):  # run by catkin: junit result file
         import rosunit

@@ -410,9 +410,11 @@ InputResult BodyRegistry::acceptStamp(Body& b, ros::Time stamp, const ros::Time&
     rejectInput(b, why, receipt);
     return InputResult::kInvalid;
   }
-  // Out of order / duplicate, but only while the last stamp is not ahead of this receipt: a
-  // slightly-future stamp blocks nothing once the clock has reached it.
-  if (b.has_state && stamp <= b.stamp && b.stamp <= receipt) {
+  // Out of order / duplicate, but only while the last stamp is not ahead of this receipt by more
+  // than the clock may lag the messages (a simulated /clock is published at its own rate, so a
+  // message often arrives a few ms before the clock reaches its stamp): a stamp further in the
+  // future blocks nothing once the clock has reached it.
+  if (b.has_state && stamp <= b.stamp && secondsBetween(b.stamp, receipt) <= kClockLag) {
     ++b.status.dropped_out_of_order;
     ROS_DEBUG_NAMED("vadop_monitor", "body \"%s\": message with stamp %s ignored (not newer than %s)", b.name.c_str(),
                     stampText(stamp).c_str(), stampText(b.stamp).c_str());

@@ -344,6 +344,9 @@ class BodyRegistry {
   static constexpr double kInvalidMarkSeconds = 5.0;
   // Wall seconds between two warnings of one kind for one body.
   static constexpr double kWarnPeriod = 5.0;
+  // How far (s) the node's clock may lag a message's stamp at its receipt with that message
+  // still ordered against the previous one (see acceptStamp).
+  static constexpr double kClockLag = 0.25;
   // A missing transform is only warned about once it has been missing this long (s, ROS
   // time): tf takes a moment to fill at start-up. The status flags it at once.
   static constexpr double kTfWarnAfter = 2.0;
