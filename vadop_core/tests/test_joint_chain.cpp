@@ -27,18 +27,10 @@
 
 namespace {
 
-using namespace chain_scenes;  // NOLINT: the scenes of this test
+using namespace chain_scenes;  // NOLINT: the scenes of this test (and their Eigen / vadop names)
 
 using Eigen::AngleAxisd;
-using Eigen::Isometry3d;
-using Eigen::Matrix3d;
 using Eigen::Quaterniond;
-using Eigen::Vector3d;
-using vadop::ChainJoint;
-using vadop::JointPath;
-using vadop::JointType;
-using vadop::LinkChain;
-using vadop::TimedPath;
 
 constexpr double kTol = 1e-6;  // ToiOptions default
 constexpr double kEps = 1e-9;  // truth time resolution (s)
