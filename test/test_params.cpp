@@ -107,6 +107,9 @@ TEST(Params, TopLevelErrorsNameTheParameter) {
   EXPECT_EQ(errorOf("threads: -1"), "~threads: must be an integer in [0, 256] (0: one per hardware thread), got -1");
   EXPECT_NE(errorOf("threads: 1.5").find("~threads: must be an integer"), std::string::npos);
   EXPECT_EQ(parseParams(yaml("threads: 2")).threads, 2);
+  EXPECT_EQ(errorOf("broad_phase: octree"),
+            "~broad_phase: unknown broad phase \"octree\" (expected vadop, vadop_sap, sap, grid or brute)");
+  EXPECT_EQ(parseParams(yaml("broad_phase: grid")).broad_phase, "grid");
 }
 
 TEST(Params, BodyErrorsNameTheBodyAndField) {

@@ -18,6 +18,7 @@ PredictorConfig predictorConfig(const MonitorParams& p) {
   c.axes = p.axes;
   c.phi_deg = p.phi_deg;
   c.threads = p.threads;
+  c.broad_phase = p.broad_phase;
   return c;
 }
 

@@ -466,7 +466,7 @@ void parseTracks(const XmlRpcValue& list, MonitorParams& out) {
 
 const std::set<std::string>& topLevelKeys() {
   static const std::set<std::string> keys = {
-      "fixed_frame", "rate", "horizon", "padding", "stale_timeout", "max_stamp_skew", "axes", "phi_deg", "threads",
+      "fixed_frame", "rate", "horizon", "padding", "stale_timeout", "max_stamp_skew", "axes", "phi_deg", "threads", "broad_phase",
       "self_collision", "ignore_pairs", "bodies", "static_obstacles", "tracks", "log_impacts",
       "publish_markers",
       // set by diagnostic_updater and dynamic_reconfigure themselves
@@ -537,6 +537,14 @@ MonitorParams parseParams(const XmlRpcValue& root) {
   // built; the monitor builds it with these values and reports its message under ~axes/~phi_deg.
   if (p.axes < 3 || p.axes > 4096) fail("~axes", "must be an integer in [3, 4096], got " + std::to_string(p.axes));
   if (const XmlRpcValue* v = member(root, "threads")) p.threads = toInt(*v, "~threads");
+  if (const XmlRpcValue* v = member(root, "broad_phase")) {
+    p.broad_phase = toString(*v, "~broad_phase");
+    try {
+      vadop::parseBroadPhaseKind(p.broad_phase);
+    } catch (const vadop::InvalidArgument& e) {
+      fail("~broad_phase", e.what());
+    }
+  }
   if (p.threads < 0 || p.threads > vadop::kMaxThreads) {
     fail("~threads", "must be an integer in [0, " + std::to_string(vadop::kMaxThreads) +
                          "] (0: one per hardware thread), got " + std::to_string(p.threads));

@@ -17,7 +17,7 @@ Eigen::Vector3d pointVelocity(const vadop::Motion& m, const Eigen::Vector3d& x, 
 
 vadop::WorldConfig worldConfig(const PredictorConfig& c) {
   vadop::WorldConfig w;
-  w.broad_phase = c.queries_only ? vadop::BroadPhaseKind::kBrute : vadop::BroadPhaseKind::kVadop;
+  w.broad_phase = c.queries_only ? vadop::BroadPhaseKind::kBrute : vadop::parseBroadPhaseKind(c.broad_phase);
   w.vadop.axes = c.axes;
   w.vadop.phi_deg = c.phi_deg;
   w.toi.max_iterations = c.max_iterations;

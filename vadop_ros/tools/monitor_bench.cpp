@@ -30,6 +30,9 @@
 // Tracks::onArray (its cost is `feed`); --churn C: each object leaves with probability C per
 // second (its id is no longer reported: it expires 0.5 s later) and a new id takes its place.
 //
+// --fast F: a share F of the bodies 5 times faster (1.5-7.5 m/s: mixed speeds); --3d H: every
+// body also climbs and sinks at up to 0.5 m/s between 0 and H m (drones); --broadphase K: the
+// world's broad phase (vadop, grid, sap, vadop_sap, brute; ~broad_phase), the same narrow phase.
 // --threads T: the narrow phase on T threads (~threads; default 1; 0: all cores). With T > 1 the
 // thread's CPU time no longer covers the cycle: read the wall clock.
 //
@@ -150,7 +153,8 @@ std::string chainUrdf(int links) {
 }
 
 Result run(size_t n, int cycles, int warmup, double rate, double horizon, double area, double turn, bool markers,
-           unsigned seed, int links, size_t gates, bool tracks, double churn, int threads) {
+           unsigned seed, int links, size_t gates, bool tracks, double churn, int threads, double fast,
+           double ceiling, const std::string& broad_phase) {
   std::mt19937 rng(seed);
 
   vadop_ros::MonitorParams p;
@@ -159,6 +163,7 @@ Result run(size_t n, int cycles, int warmup, double rate, double horizon, double
   p.horizon = horizon;
   p.stale_timeout = 0.5;
   p.threads = threads;
+  p.broad_phase = broad_phase;
   if (tracks) {
     vadop_ros::TrackParams t;
     t.topic = "/people/tracks";
@@ -199,7 +204,7 @@ Result run(size_t n, int cycles, int warmup, double rate, double horizon, double
   for (size_t i = 0; i < std::min(gates, n); ++i) gate_list.emplace_back(i, core.registry());
   Result r;
 
-  vadop_ros::WanderingFleet sim(n, area, turn, rng);
+  vadop_ros::WanderingFleet sim(n, area, turn, rng, fast, 5.0, ceiling);
 
   NoTf tf;
   const double dt = 1.0 / rate;
@@ -248,6 +253,8 @@ Result run(size_t n, int cycles, int warmup, double rate, double horizon, double
       msg.child_frame_id = p.bodies[i].name;
       msg.pose.pose.position.x = s.x;
       msg.pose.pose.position.y = s.y;
+      msg.pose.pose.position.z = s.z;
+      msg.twist.twist.linear.z = s.vz;
       msg.pose.pose.orientation.z = std::sin(s.yaw / 2);
       msg.pose.pose.orientation.w = std::cos(s.yaw / 2);
       msg.twist.twist.linear.x = s.v;
@@ -338,6 +345,8 @@ int main(int argc, char** argv) {
   bool tracks = false;
   double churn = 0.2;
   int threads = 1;
+  double fast = 0.0, ceiling = 0.0;
+  std::string broad_phase = "vadop";
   std::vector<size_t> startup_sizes;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -363,12 +372,15 @@ int main(int argc, char** argv) {
       else if (a == "--startup") startup_sizes = parseList(next());
       else if (a == "--tracks") tracks = true;
       else if (a == "--threads") threads = std::stoi(next());
+      else if (a == "--fast") fast = std::stod(next());
+      else if (a == "--3d") ceiling = std::stod(next());
+      else if (a == "--broadphase") broad_phase = next();
       else if (a == "--churn") churn = std::stod(next());
       else {
         std::fprintf(stderr,
                      "usage: %s [--bodies 100,1000,5000] [--cycles 150] [--warmup 15] [--rate 30] [--horizon 2] "
                      "[--area 6] [--turn 0.5] [--markers] [--seed 1] [--links K] [--gates G] [--tracks [--churn C]] "
-                     "[--threads T] | "
+                     "[--threads T] [--fast F] [--3d H] [--broadphase vadop|grid|sap|vadop_sap|brute] | "
                      "--startup 5000,50000\n",
                      argv[0]);
         return a == "--help" || a == "-h" ? 0 : 2;
@@ -393,13 +405,16 @@ int main(int argc, char** argv) {
               "0.3-1.5 m/s, turning at up to %.2f rad/s%s\n",
               cycles, warmup, rate, period_ms, horizon, area, turn, markers ? ", markers built every cycle" : "");
   if (links >= 2) std::printf("  each body a %d-link robot (URDF, links rigid with the body)\n", links);
+  std::printf("  broad phase %s%s%s\n", broad_phase.c_str(), fast > 0 ? ", a share of fast bodies (5x)" : "",
+              ceiling > 0 ? ", 3D (climbing and sinking)" : "");
   std::printf("  wall = steady clock; cpu = CPU time of the thread (what one core spends, whatever the load)\n");
   std::printf("%7s %9s %9s %9s %9s %9s %9s %8s %10s %10s %9s %11s %9s\n", "bodies", "cpu_mean", "cpu_p95",
               "wall_mean", "wall_med", "wall_p95", "wall_max", "feed", "predict", "markers", "cpu%per", "candidates",
               "impacts");
   int verdict = -1;
   for (const size_t n : sizes) {
-    const Result r = run(n, cycles, warmup, rate, horizon, area, turn, markers, seed, links, gates, tracks, churn, threads);
+    const Result r = run(n, cycles, warmup, rate, horizon, area, turn, markers, seed, links, gates, tracks, churn, threads,
+                         fast, ceiling, broad_phase);
     std::printf("%7zu %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %8.3f %10.3f %10.3f %8.1f%% %11.1f %9.1f\n", r.n,
                 r.cpu_mean, r.cpu_p95, r.mean, r.median, r.p95, r.max, r.feed_mean, r.predict_mean, r.markers_mean,
                 100.0 * r.cpu_mean / period_ms, r.candidates, r.impacts);

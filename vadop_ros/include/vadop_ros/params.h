@@ -127,6 +127,9 @@ struct MonitorParams {
   // Threads of the narrow phase each cycle, [0, vadop::kMaxThreads]; 0: one per hardware thread.
   // The impacts are the same for every count.
   int threads = 0;
+  // The world's broad phase (vadop::parseBroadPhaseKind): "vadop" (default), "grid" (the plain
+  // swept-AABB grid), "sap", "vadop_sap" or "brute"; the impacts are the same, the cost differs.
+  std::string broad_phase = "vadop";
   bool self_collision = false;
   std::vector<std::pair<std::string, std::string>> ignore_pairs;
   std::vector<BodyParams> bodies;

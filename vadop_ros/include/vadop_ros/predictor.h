@@ -33,6 +33,7 @@ struct PredictorConfig {
   double phi_deg = 25.0; // VADOP zone half-width
   int max_iterations = 10000;  // the narrow phase's budget per pair (vadop::ToiOptions)
   int threads = 1;             // of predict's narrow phase (vadop::WorldConfig::threads; 0: all cores)
+  std::string broad_phase = "vadop";  // vadop::parseBroadPhaseKind's names
   // A world that is never predicted, only asked (the gates' copy): a broad phase whose
   // single-body queries scan every body, with nothing to maintain per setMotion.
   bool queries_only = false;
