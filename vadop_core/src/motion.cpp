@@ -3,6 +3,7 @@
 #include "vadop/error.h"
 #include "vadop/limits.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace vadop {
@@ -60,6 +61,36 @@ Eigen::Matrix3d Motion::spin(double t) const {
   const double angle = rotation.norm();
   if (angle == 0.0) return Eigen::Matrix3d::Identity();
   return Eigen::AngleAxisd(angle, rotation / angle).toRotationMatrix();
+}
+
+// With s = t - t0, E = exp([w] s), c the point the body turns about (the origin when it has no
+// pivot) and u = origin(t0) - c(t0), a material point p (body coordinates) is at
+//   x(t0 + s) = c(t0) + v s + E (R(t0) p + u).
+// For two motions M, N (D = M minus N):
+//   x_M - x_N = (D origin(t0) + D v s) + (E_M - I) D u + (E_M - E_N) u_N + (E_M R_M(t0) - E_N R_N(t0)) p.
+// The first term is convex in s: largest at s = 0 or s = T. A rotation by theta moves a vector by
+// at most min(2, theta) times its length; E_M differs from I by |w_M| s, E_M from E_N by at
+// most |D w| s (the differential of exp between two skew matrices has norm <= 1: integrate
+// along the segment from w_N s to w_M s), and E_M R_M(t0) from E_N R_N(t0) by at most
+// theta0 + |D w| s (bi-invariant metric, triangle inequality), theta0 the angle between the
+// two orientations at t0. Every other term grows with s: taken at s = T.
+double maxDisplacement(const Motion& m, const Motion& n, double radius, double t0, double t1) {
+  const double T = t1 - t0;
+  auto turnPoint = [](const Motion& x, double t) { return x.hasPivot() ? x.pivotAt(t) : x.positionAt(t); };
+  const Eigen::Vector3d om = m.positionAt(t0), on = n.positionAt(t0);
+  const Eigen::Vector3d cm = turnPoint(m, t0), cn = turnPoint(n, t0);
+  const Eigen::Vector3d um = om - cm, un = on - cn;
+  const Eigen::Vector3d d_origin = om - on, d_v = m.linear_velocity - n.linear_velocity;
+  const double dw = (m.angular_velocity - n.angular_velocity).norm();
+  const double theta0 = m.orientationAt(t0).angularDistance(n.orientationAt(t0));
+  const double translation = std::max(d_origin.norm(), (d_origin + d_v * T).norm());
+  const double pivots = std::min(2.0, m.angular_velocity.norm() * T) * (um - un).norm() +
+                        std::min(2.0, dw * T) * un.norm();
+  const double turn = std::min(2.0, theta0 + dw * T) * radius;
+  // Rounding of the positions above (a few ulps of the largest coordinate involved).
+  const double scale = 1.0 + std::max({om.norm(), on.norm(), cm.norm(), cn.norm()}) + radius +
+                       (m.linear_velocity.norm() + n.linear_velocity.norm()) * std::abs(T);
+  return translation + pivots + turn + 1e-13 * scale;
 }
 
 Eigen::Vector3d screwPivotOffset(const Eigen::Vector3d& origin_velocity, const Eigen::Vector3d& w) {

@@ -1,5 +1,7 @@
 #include "vadop/world.h"
 
+#include "pair_certificates.h"
+
 #include "vadop/error.h"
 #include "vadop/limits.h"
 #include "vadop/sweep_prune.h"
@@ -82,6 +84,21 @@ World::World(const WorldConfig& config) : config_(config) {
   if (config.threads < 0 || config.threads > kMaxThreads) {
     throw InvalidArgument("World: threads must be in [0, " + std::to_string(kMaxThreads) + "] (0: one per hardware "
                           "thread), got " + std::to_string(config.threads));
+  }
+  const WorldConfig::Coherence& co = config.coherence;
+  if (!(std::isfinite(co.clearance) && co.clearance >= 0.0 && co.clearance <= kMaxSize) ||
+      (co.clearance > 0.0 && co.clearance <= o.tolerance)) {
+    throw InvalidArgument("World: coherence.clearance must be 0 (off) or in (toi.tolerance = " +
+                          formatNumber(o.tolerance) + ", " + formatNumber(kMaxSize) + "] m, got " +
+                          formatNumber(co.clearance));
+  }
+  if (!(std::isfinite(co.lookahead) && co.lookahead >= 0.0 && co.lookahead <= kMaxTime)) {
+    throw InvalidArgument("World: coherence.lookahead must be in [0, " + formatNumber(kMaxTime) + "] s, got " +
+                          formatNumber(co.lookahead));
+  }
+  if (co.clearance > 0.0) {
+    certificates_ = std::make_unique<detail::PairCertificates>();
+    certificates_->configure(co.clearance, o.tolerance);
   }
   threads_ = config.threads > 0 ? config.threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   broad_phase_ = makeBroadPhase(config);
@@ -307,7 +324,9 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
     tests.emplace_back(ia, ib);
   }
   std::vector<Impact> results;
+  if (certificates_ && !only) certificates_->beginPass();
   narrowAll(tests, t0, t1, results);
+  if (certificates_ && !only) certificates_->endPass();
   std::vector<WorldImpact> out, undecided;
   const size_t calls = tests.size();
   for (size_t k = 0; k < tests.size(); ++k) {
@@ -361,29 +380,27 @@ void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std
   }
 }
 
-void World::narrowAll(const std::vector<std::pair<BodyId, BodyId>>& tests, double t0, double t1,
-                      std::vector<Impact>& results) const {
-  results.resize(tests.size());
+void World::parallelFor(size_t n, const std::function<void(size_t)>& f) const {
   // Below this many pairs per thread, starting threads costs more than it saves.
   constexpr size_t kPairsPerThread = 32;
   constexpr size_t kChunk = 8;  // pairs taken at a time: narrow-phase costs vary by orders of magnitude
-  const size_t threads = std::min(static_cast<size_t>(threads_), tests.size() / kPairsPerThread);
+  const size_t threads = std::min(static_cast<size_t>(threads_), n / kPairsPerThread);
   if (threads <= 1) {
-    for (size_t k = 0; k < tests.size(); ++k) results[k] = narrow(tests[k].first, tests[k].second, t0, t1);
+    for (size_t k = 0; k < n; ++k) f(k);
     return;
   }
   std::atomic<size_t> next{0};
   std::mutex error_lock;
-  size_t error_at = tests.size();
+  size_t error_at = n;
   std::exception_ptr error;
   auto work = [&]() {
     for (;;) {
       const size_t begin = next.fetch_add(kChunk);
-      if (begin >= tests.size()) return;
-      const size_t end = std::min(begin + kChunk, tests.size());
+      if (begin >= n) return;
+      const size_t end = std::min(begin + kChunk, n);
       for (size_t k = begin; k < end; ++k) {
         try {
-          results[k] = narrow(tests[k].first, tests[k].second, t0, t1);
+          f(k);
         } catch (...) {
           const std::lock_guard<std::mutex> lock(error_lock);
           if (k < error_at) {
@@ -404,6 +421,79 @@ void World::narrowAll(const std::vector<std::pair<BodyId, BodyId>>& tests, doubl
   work();
   for (std::thread& t : pool) t.join();
   if (error) std::rethrow_exception(error);
+}
+
+void World::narrowAll(const std::vector<std::pair<BodyId, BodyId>>& tests, double t0, double t1,
+                      std::vector<Impact>& results) {
+  results.assign(tests.size(), Impact{});
+  last_reused_ = 0;
+  if (!certificates_) {
+    parallelFor(tests.size(), [&](size_t k) { results[k] = narrow(tests[k].first, tests[k].second, t0, t1); });
+    return;
+  }
+  // Lookups on this thread; the narrow phase of the rest (certifying where worth trying) on the
+  // threads; the certificates stored back here, in order.
+  using Certificates = detail::PairCertificates;
+  auto body = [&](BodyId id) {
+    return Certificates::Body{records_[id].key, &broad_phase_->motion(id), records_[id].prepared->shape().bounding_radius};
+  };
+  struct Job {
+    size_t k;
+    bool certify;
+    // Filled by the narrow phase when certify: the gap exceeds the clearance over [t0, until)
+    // (and at until when closed); until <= t0: nothing certified.
+    double until = 0.0;
+    bool closed = false;
+  };
+  std::vector<Job> jobs;
+  for (size_t k = 0; k < tests.size(); ++k) {
+    const BodyId a = tests[k].first, b = tests[k].second;
+    if (records_[a].chain || records_[b].chain) {
+      jobs.push_back({k, false});
+      continue;
+    }
+    switch (certificates_->lookup(body(a), body(b), t0, t1)) {
+      case Certificates::Verdict::kClear:
+        results[k].time = t1;  // no contact: hit == false
+        ++last_reused_;
+        break;
+      case Certificates::Verdict::kNear: jobs.push_back({k, false}); break;
+      case Certificates::Verdict::kUnknown: jobs.push_back({k, true}); break;
+    }
+  }
+  const double clearance = certificates_->clearance();
+  const double t_end = t1 + config_.coherence.lookahead;
+  parallelFor(jobs.size(), [&](size_t i) {
+    Job& job = jobs[i];
+    const BodyId a = tests[job.k].first, b = tests[job.k].second;
+    if (job.certify) {
+      // "No contact" for a tolerance of 2 x clearance certifies a gap > clearance (the contract
+      // of time_of_impact.h) up to its time, or over the whole window without a hit.
+      ToiOptions wide = config_.toi;
+      wide.tolerance = 2.0 * clearance;
+      const Impact c = timeOfImpact(*records_[a].prepared, broad_phase_->motion(a), *records_[b].prepared,
+                                    broad_phase_->motion(b), t0, t_end, wide);
+      job.closed = !c.hit && !c.undecided;
+      job.until = job.closed ? t_end : c.time;
+      if (job.until > t1 || (job.closed && job.until >= t1)) {
+        results[job.k].time = t1;  // clear over the window
+        return;
+      }
+    }
+    results[job.k] = narrow(a, b, t0, t1);
+  });
+  for (const Job& job : jobs) {
+    const BodyId a = tests[job.k].first, b = tests[job.k].second;
+    if (records_[a].chain || records_[b].chain) continue;
+    const Impact& r = results[job.k];
+    if (!job.certify) {
+      if (r.hit || r.undecided) certificates_->markNear(body(a), body(b));  // still touching: wait again
+    } else if (job.until > t1 || (job.closed && job.until >= t1)) {
+      certificates_->certify(body(a), body(b), t0, job.until, job.closed);
+    } else {
+      certificates_->markNear(body(a), body(b));
+    }
+  }
 }
 
 Impact World::narrow(BodyId a, BodyId b, double t0, double t1) const {

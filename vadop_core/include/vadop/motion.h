@@ -49,6 +49,17 @@ struct Motion {
 Eigen::Vector3d screwPivotOffset(const Eigen::Vector3d& origin_velocity, const Eigen::Vector3d& w);
 Eigen::Vector3d screwPivotVelocity(const Eigen::Vector3d& origin_velocity, const Eigen::Vector3d& w);
 
+// A bound on how far apart one body is placed by two motions: the largest distance, over
+// every t in [t0, t1] and every material point within `radius` of the body origin, between the
+// point moved by `m` and the same point moved by `n` (the Hausdorff distance between the two
+// placements of a shape whose bounding_radius is `radius`). The gap between two bodies under
+// new motions is at least their gap under old ones minus both bodies' bounds: what lets a
+// verdict of the narrow phase outlive small changes of velocity (WorldConfig::coherence).
+// Closed form, never below the true value (derivation in motion.cpp); exact for pure
+// translations, and 0 for two motions describing the same trajectory up to rounding.
+// Requires t0 <= t1 and valid motions (not checked: a hot-path helper).
+double maxDisplacement(const Motion& m, const Motion& n, double radius, double t0, double t1);
+
 // Builds a Motion, normalising the quaternion. Throws vadop::InvalidArgument naming the
 // field when any value is NaN/Inf or the quaternion's norm is below 1e-9 (a zero quaternion).
 Motion makeMotion(const Eigen::Vector3d& position, const Eigen::Quaterniond& orientation,

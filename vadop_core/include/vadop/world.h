@@ -46,6 +46,9 @@
 #include <vector>
 
 namespace vadop {
+namespace detail {
+class PairCertificates;
+}
 
 enum class BroadPhaseKind {
   kVadop,     // VADOP volumes on a grid of swept AABBs (VadopGridBroadPhase), WorldConfig::vadop
@@ -67,6 +70,20 @@ struct WorldConfig {
   // the same for every count): 1 runs it on the caller's thread; 0 means one per hardware
   // thread (std::thread::hardware_concurrency). In [0, kMaxThreads].
   int threads = 1;
+  // Temporal coherence of the narrow phase (0: off). With clearance > 0, a pair that predict
+  // finds more than `clearance` apart over its window extended by `lookahead` keeps that
+  // certificate: later predicts whose window lies within the certified interval answer the pair
+  // "no contact" without the narrow phase while both bodies' motions stay close enough to the
+  // certificate's -- maxDisplacement (motion.h) of the two summed below clearance -
+  // toi.tolerance, so the gap still exceeds the tolerance. Results are those of the narrow
+  // phase itself (contacts are always computed afresh); only bodies moving with one Motion are
+  // certified. Costs a wider first test per pair (clearance as its tolerance, over the longer
+  // window) and memory per candidate pair; pays when motions change little between predicts
+  // (re-stated odometry). clearance: 0 or in (toi.tolerance, 1e5] m; lookahead in [0, 1e7] s.
+  struct Coherence {
+    double clearance = 0.0;  // m
+    double lookahead = 0.0;  // s
+  } coherence;
 };
 constexpr int kMaxThreads = 256;
 
@@ -196,6 +213,8 @@ class World {
   // Narrow-phase calls made by the last predict: its candidate pairs after any `only` filter
   // and after the pair filters (setFilter, setPairFilter); filtered pairs are not counted.
   size_t lastCandidateCount() const { return last_candidates_; }
+  // Of those, the pairs answered by a certificate of WorldConfig::coherence (no narrow phase).
+  size_t lastReusedCount() const { return last_reused_; }
   // The pairs of the last predict that the narrow phase could not decide within its budget
   // (Impact::undecided: clear up to impact.time, unknown after), in the order of predict's
   // result. Not contacts: predict does not return them. The same for every broad phase.
@@ -220,7 +239,10 @@ class World {
   // narrow() on every pair of `tests` into `results` (same order), on threads_ threads when there
   // are enough pairs; rethrows the exception of the first pair (by index) that threw.
   void narrowAll(const std::vector<std::pair<BodyId, BodyId>>& tests, double t0, double t1,
-                 std::vector<Impact>& results) const;
+                 std::vector<Impact>& results);
+  // f(k) for k in [0, n), on threads_ threads when n is large enough; rethrows the exception
+  // of the smallest k that threw.
+  void parallelFor(size_t n, const std::function<void(size_t)>& f) const;
   bool onPath(BodyId id) const { return records_[id].chain != nullptr; }
   const Record& record(const std::string& id, const char* operation) const;
   BodyId bodyId(const std::string& id, const char* operation) const;
@@ -234,6 +256,8 @@ class World {
   std::vector<BodyId> path_bodies_;  // sorted
   uint64_t next_key_ = 0;
   size_t last_candidates_ = 0;
+  size_t last_reused_ = 0;
+  std::unique_ptr<detail::PairCertificates> certificates_;  // WorldConfig::coherence
   std::vector<WorldImpact> last_undecided_;
   PairPredicate pair_filter_;
 };
