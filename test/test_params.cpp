@@ -45,6 +45,8 @@ TEST(Params, DefaultsWhenEmpty) {
   EXPECT_EQ(p.axes, 32);
   EXPECT_DOUBLE_EQ(p.phi_deg, 25.0);
   EXPECT_EQ(p.threads, 0);  // every core
+  EXPECT_DOUBLE_EQ(p.coherence_clearance, 0.2);
+  EXPECT_DOUBLE_EQ(p.coherence_lookahead, 0.5);
   EXPECT_FALSE(p.self_collision);
   EXPECT_TRUE(p.bodies.empty());
   EXPECT_TRUE(p.static_obstacles.empty());
@@ -110,6 +112,15 @@ TEST(Params, TopLevelErrorsNameTheParameter) {
   EXPECT_EQ(errorOf("broad_phase: octree"),
             "~broad_phase: unknown broad phase \"octree\" (expected vadop, vadop_sap, sap, grid or brute)");
   EXPECT_EQ(parseParams(yaml("broad_phase: grid")).broad_phase, "grid");
+  EXPECT_EQ(errorOf("coherence_clearance: -0.1"), "~coherence_clearance: must be in [0, 10], got -0.1");
+  EXPECT_EQ(errorOf("coherence_clearance: 0.0001"),
+            "~coherence_clearance: must be 0 (off) or in [0.001, 10] m, got 0.0001");
+  EXPECT_NE(errorOf("coherence_clearance: .nan").find("~coherence_clearance: must be a finite number"), std::string::npos);
+  EXPECT_EQ(errorOf("coherence_lookahead: 11"), "~coherence_lookahead: must be in [0, 10], got 11");
+  const MonitorParams coherent = parseParams(yaml("coherence_clearance: 0.3\ncoherence_lookahead: 1.5"));
+  EXPECT_DOUBLE_EQ(coherent.coherence_clearance, 0.3);
+  EXPECT_DOUBLE_EQ(coherent.coherence_lookahead, 1.5);
+  EXPECT_DOUBLE_EQ(parseParams(yaml("coherence_clearance: 0")).coherence_clearance, 0.0);
 }
 
 TEST(Params, BodyErrorsNameTheBodyAndField) {

@@ -65,32 +65,44 @@ Eigen::Matrix3d Motion::spin(double t) const {
 
 // With s = t - t0, E = exp([w] s), c the point the body turns about (the origin when it has no
 // pivot) and u = origin(t0) - c(t0), a material point p (body coordinates) is at
-//   x(t0 + s) = c(t0) + v s + E (R(t0) p + u).
-// For two motions M, N (D = M minus N):
-//   x_M - x_N = (D origin(t0) + D v s) + (E_M - I) D u + (E_M - E_N) u_N + (E_M R_M(t0) - E_N R_N(t0)) p.
-// The first term is convex in s: largest at s = 0 or s = T. A rotation by theta moves a vector by
-// at most min(2, theta) times its length; E_M differs from I by |w_M| s, E_M from E_N by at
-// most |D w| s (the differential of exp between two skew matrices has norm <= 1: integrate
-// along the segment from w_N s to w_M s), and E_M R_M(t0) from E_N R_N(t0) by at most
-// theta0 + |D w| s (bi-invariant metric, triangle inequality), theta0 the angle between the
-// two orientations at t0. Every other term grows with s: taken at s = T.
+//   x(t0 + s) = origin(t0 + s) + E R(t0) p,   origin(t0 + s) = c(t0) + v s + E u.
+// For two motions M, N (D = M minus N), x_M - x_N = D origin(s) + (E_M R_M(t0) - E_N R_N(t0)) p.
+// A rotation by theta moves a vector by at most min(2, theta) times its length; E_M and E_N
+// differ by a rotation of at most |D w| s (the differential of exp between two skew matrices has
+// norm <= 1: integrate along the segment from w_N s to w_M s), so E_M R_M(t0) and E_N R_N(t0)
+// by at most theta0 + |D w| s (bi-invariant metric), theta0 the angle between the orientations
+// at t0: the second term is at most min(2, theta0 + |D w| T) r. Two bounds of |D origin(s)|, the
+// smaller taken:
+//  - about the pivots: D origin(s) = (D origin(t0) + D v s) + (E_M - I) D u + (E_M - E_N) u_N;
+//    tight when both turn about nearly the same point (a link about its joint);
+//  - along the origins' paths: origin'' = [w]^2 E u = E k with k = w x (w x u), so
+//    |D origin'' | <= |D k| + min(2, |D w| s) |k_N| and D origin(s) is within s^2/2 of that of
+//    D origin(t0) + D origin'(t0) s; tight for vehicles, whose far turning centres move a lot
+//    with small changes of w while k (|w| |v|) does not.
+// The terms linear in s are convex in s (largest at s = 0 or T); the others grow with s.
 double maxDisplacement(const Motion& m, const Motion& n, double radius, double t0, double t1) {
   const double T = t1 - t0;
   auto turnPoint = [](const Motion& x, double t) { return x.hasPivot() ? x.pivotAt(t) : x.positionAt(t); };
   const Eigen::Vector3d om = m.positionAt(t0), on = n.positionAt(t0);
   const Eigen::Vector3d cm = turnPoint(m, t0), cn = turnPoint(n, t0);
   const Eigen::Vector3d um = om - cm, un = on - cn;
-  const Eigen::Vector3d d_origin = om - on, d_v = m.linear_velocity - n.linear_velocity;
+  const Eigen::Vector3d d_origin = om - on;
   const double dw = (m.angular_velocity - n.angular_velocity).norm();
   const double theta0 = m.orientationAt(t0).angularDistance(n.orientationAt(t0));
-  const double translation = std::max(d_origin.norm(), (d_origin + d_v * T).norm());
-  const double pivots = std::min(2.0, m.angular_velocity.norm() * T) * (um - un).norm() +
-                        std::min(2.0, dw * T) * un.norm();
+  auto linear = [&](const Eigen::Vector3d& d_rate) { return std::max(d_origin.norm(), (d_origin + d_rate * T).norm()); };
+  const double about_pivots = linear(m.linear_velocity - n.linear_velocity) +
+                              std::min(2.0, m.angular_velocity.norm() * T) * (um - un).norm() +
+                              std::min(2.0, dw * T) * un.norm();
+  const Eigen::Vector3d vm = m.linear_velocity + m.angular_velocity.cross(um);  // the origins' velocities
+  const Eigen::Vector3d vn = n.linear_velocity + n.angular_velocity.cross(un);
+  const Eigen::Vector3d km = m.angular_velocity.cross(m.angular_velocity.cross(um));
+  const Eigen::Vector3d kn = n.angular_velocity.cross(n.angular_velocity.cross(un));
+  const double along_paths = linear(vm - vn) + 0.5 * T * T * ((km - kn).norm() + std::min(2.0, dw * T) * kn.norm());
   const double turn = std::min(2.0, theta0 + dw * T) * radius;
   // Rounding of the positions above (a few ulps of the largest coordinate involved).
   const double scale = 1.0 + std::max({om.norm(), on.norm(), cm.norm(), cn.norm()}) + radius +
                        (m.linear_velocity.norm() + n.linear_velocity.norm()) * std::abs(T);
-  return translation + pivots + turn + 1e-13 * scale;
+  return std::min(about_pivots, along_paths) + turn + 1e-13 * scale;
 }
 
 Eigen::Vector3d screwPivotOffset(const Eigen::Vector3d& origin_velocity, const Eigen::Vector3d& w) {

@@ -19,6 +19,8 @@ PredictorConfig predictorConfig(const MonitorParams& p) {
   c.phi_deg = p.phi_deg;
   c.threads = p.threads;
   c.broad_phase = p.broad_phase;
+  c.coherence_clearance = p.coherence_clearance;
+  c.coherence_lookahead = p.coherence_lookahead;
   return c;
 }
 
@@ -30,7 +32,10 @@ Predictor makePredictor(const MonitorParams& p, bool queries_only = false) {
   try {
     PredictorConfig c = predictorConfig(p);
     c.queries_only = queries_only;
-    if (queries_only) c.threads = 1;  // the gates' world answers queries, never predicts
+    if (queries_only) {
+      c.threads = 1;  // the gates' world answers queries, never predicts
+      c.coherence_clearance = 0.0;
+    }
     return Predictor(c);
   } catch (const vadop::InvalidArgument& e) {
     throw ParamError(std::string("~axes / ~phi_deg: rejected by the VADOP broad phase: ") + e.what());
@@ -489,6 +494,7 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
   stats_.elements_in_world = predictor_.size();
   stats_.predict_seconds = secondsSince(predict_start);
   stats_.candidates = predictor_.lastCandidateCount();
+  stats_.reused = predictor_.lastReusedCount();
   stats_.raw_impacts = raw.size();
 
   const auto& elements = registry_.elements();

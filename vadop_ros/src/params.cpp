@@ -467,6 +467,7 @@ void parseTracks(const XmlRpcValue& list, MonitorParams& out) {
 const std::set<std::string>& topLevelKeys() {
   static const std::set<std::string> keys = {
       "fixed_frame", "rate", "horizon", "padding", "stale_timeout", "max_stamp_skew", "axes", "phi_deg", "threads", "broad_phase",
+      "coherence_clearance", "coherence_lookahead",
       "self_collision", "ignore_pairs", "bodies", "static_obstacles", "tracks", "log_impacts",
       "publish_markers",
       // set by diagnostic_updater and dynamic_reconfigure themselves
@@ -549,6 +550,13 @@ MonitorParams parseParams(const XmlRpcValue& root) {
     fail("~threads", "must be an integer in [0, " + std::to_string(vadop::kMaxThreads) +
                          "] (0: one per hardware thread), got " + std::to_string(p.threads));
   }
+  p.coherence_clearance =
+      ranged(member(root, "coherence_clearance"), p.coherence_clearance, 0.0, 10.0, false, "~coherence_clearance");
+  if (p.coherence_clearance > 0.0 && p.coherence_clearance < 0.001) {
+    fail("~coherence_clearance", "must be 0 (off) or in [0.001, 10] m, got " + num(p.coherence_clearance));
+  }
+  p.coherence_lookahead =
+      ranged(member(root, "coherence_lookahead"), p.coherence_lookahead, 0.0, 10.0, false, "~coherence_lookahead");
   if (!(p.phi_deg >= 0.0 && p.phi_deg < 90.0)) fail("~phi_deg", "must be in [0, 90), got " + num(p.phi_deg));
   if (const XmlRpcValue* v = member(root, "self_collision")) p.self_collision = toBool(*v, "~self_collision");
   if (const XmlRpcValue* v = member(root, "log_impacts")) p.log_impacts = toBool(*v, "~log_impacts");

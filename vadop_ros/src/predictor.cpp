@@ -22,6 +22,8 @@ vadop::WorldConfig worldConfig(const PredictorConfig& c) {
   w.vadop.phi_deg = c.phi_deg;
   w.toi.max_iterations = c.max_iterations;
   w.threads = c.threads;
+  w.coherence.clearance = c.coherence_clearance;
+  w.coherence.lookahead = c.coherence_lookahead;
   return w;
 }
 
@@ -131,6 +133,7 @@ std::vector<double> Predictor::pathTimes(size_t i, double t0, double t1) const {
 const vadop::Shape& Predictor::shape(size_t i) const { return impl_->world.shape(impl_->slots.at(i).id); }
 size_t Predictor::size() const { return impl_->world.size(); }
 size_t Predictor::lastCandidateCount() const { return impl_->world.lastCandidateCount(); }
+size_t Predictor::lastReusedCount() const { return impl_->world.lastReusedCount(); }
 const std::vector<RawImpact>& Predictor::lastUndecided() const { return impl_->undecided; }
 
 bool Predictor::firstContact(const std::vector<size_t>& movers, const std::vector<vadop::Motion>& motions, double t0,

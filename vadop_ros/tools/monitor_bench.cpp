@@ -33,6 +33,9 @@
 // --fast F: a share F of the bodies 5 times faster (1.5-7.5 m/s: mixed speeds); --3d H: every
 // body also climbs and sinks at up to 0.5 m/s between 0 and H m (drones); --broadphase K: the
 // world's broad phase (vadop, grid, sap, vadop_sap, brute; ~broad_phase), the same narrow phase.
+// --noise S: every odometry message's twist gets Gaussian noise of S (m/s on the forward speed,
+// rad/s on the turn rate). --coherence C[,L]: ~coherence_clearance C m and ~coherence_lookahead
+// L s (default: the node's, 0.2 and 0.5; --coherence 0 turns it off).
 // --threads T: the narrow phase on T threads (~threads; default 1; 0: all cores). With T > 1 the
 // thread's CPU time no longer covers the cycle: read the wall clock.
 //
@@ -78,7 +81,7 @@ struct Result {
   double mean = 0, median = 0, p95 = 0, max = 0;  // wall clock
   double cpu_mean = 0, cpu_p95 = 0;                // thread CPU time
   double feed_mean = 0, predict_mean = 0, markers_mean = 0;
-  double candidates = 0, impacts = 0, ignored_tested = 0;
+  double candidates = 0, impacts = 0, ignored_tested = 0, reused = 0;
   size_t elements = 0;
   size_t tracked = 0;     // --tracks: objects in the world at the end
   uint64_t expired = 0;   // --tracks: objects that left over the run
@@ -152,9 +155,33 @@ std::string chainUrdf(int links) {
   return s + "</robot>";
 }
 
-Result run(size_t n, int cycles, int warmup, double rate, double horizon, double area, double turn, bool markers,
-           unsigned seed, int links, size_t gates, bool tracks, double churn, int threads, double fast,
-           double ceiling, const std::string& broad_phase) {
+// What one run measures (the command line's options).
+struct Options {
+  int cycles = 150, warmup = 15;
+  double rate = 30.0, horizon = 2.0, area = 6.0, turn = 0.5;
+  bool markers = false;
+  unsigned seed = 1;
+  int links = 1;
+  size_t gates = 0;
+  bool tracks = false;
+  double churn = 0.2;
+  int threads = 1;
+  double fast = 0.0, ceiling = 0.0;
+  std::string broad_phase = "vadop";
+  double noise = 0.0;                       // --noise: odometry twist noise (m/s and rad/s, 1 sigma)
+  // --coherence C,L (the node's defaults; --coherence 0: off)
+  double clearance = vadop_ros::MonitorParams{}.coherence_clearance;
+  double lookahead = vadop_ros::MonitorParams{}.coherence_lookahead;
+};
+
+Result run(size_t n, const Options& o) {
+  const int cycles = o.cycles, warmup = o.warmup, links = o.links, threads = o.threads;
+  const double rate = o.rate, horizon = o.horizon, area = o.area, turn = o.turn, churn = o.churn, fast = o.fast,
+               ceiling = o.ceiling;
+  const bool markers = o.markers, tracks = o.tracks;
+  const unsigned seed = o.seed;
+  const size_t gates = o.gates;
+  const std::string& broad_phase = o.broad_phase;
   std::mt19937 rng(seed);
 
   vadop_ros::MonitorParams p;
@@ -164,6 +191,8 @@ Result run(size_t n, int cycles, int warmup, double rate, double horizon, double
   p.stale_timeout = 0.5;
   p.threads = threads;
   p.broad_phase = broad_phase;
+  p.coherence_clearance = o.clearance;
+  p.coherence_lookahead = o.lookahead;
   if (tracks) {
     vadop_ros::TrackParams t;
     t.topic = "/people/tracks";
@@ -210,7 +239,7 @@ Result run(size_t n, int cycles, int warmup, double rate, double horizon, double
   const double dt = 1.0 / rate;
   ros::Time now(1000.0);
   std::vector<double> cycle_ms, cpu_ms, feed_ms, predict_ms, marker_ms;
-  double candidates = 0, impacts = 0, ignored_tested = 0;
+  double candidates = 0, impacts = 0, ignored_tested = 0, reused = 0;
   nav_msgs::Odometry msg;
   msg.header.frame_id = "odom";
   // Tracked objects: the tracker's array (built outside the timed part) and each object's id.
@@ -220,6 +249,8 @@ Result run(size_t n, int cycles, int warmup, double rate, double horizon, double
   uint64_t next_id = 0;
   for (uint64_t& x : id) x = next_id++;
   std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::normal_distribution<double> noise(0.0, o.noise > 0.0 ? o.noise : 1.0);
+  auto noisy = [&](double x) { return o.noise > 0.0 ? x + noise(rng) : x; };
   for (int c = 0; c < warmup + cycles; ++c) {
     now += ros::Duration(dt);
     sim.step(dt, rng);
@@ -257,8 +288,8 @@ Result run(size_t n, int cycles, int warmup, double rate, double horizon, double
       msg.twist.twist.linear.z = s.vz;
       msg.pose.pose.orientation.z = std::sin(s.yaw / 2);
       msg.pose.pose.orientation.w = std::cos(s.yaw / 2);
-      msg.twist.twist.linear.x = s.v;
-      msg.twist.twist.angular.z = s.w;
+      msg.twist.twist.linear.x = noisy(s.v);
+      msg.twist.twist.angular.z = noisy(s.w);
       core.registry().onOdometry(i, msg, now);
     }
     const auto t1 = std::chrono::steady_clock::now();
@@ -296,6 +327,7 @@ Result run(size_t n, int cycles, int warmup, double rate, double horizon, double
     marker_ms.push_back(mk);
     candidates += static_cast<double>(core.lastStats().candidates);
     ignored_tested += static_cast<double>(core.lastStats().ignored_tested);
+    reused += static_cast<double>(core.lastStats().reused);
     impacts += static_cast<double>(core.lastStats().impacts);
   }
   r.n = n;
@@ -315,6 +347,7 @@ Result run(size_t n, int cycles, int warmup, double rate, double horizon, double
   r.markers_mean = mean(marker_ms);
   r.candidates = candidates / cycles;
   r.ignored_tested = ignored_tested / cycles;
+  r.reused = reused / cycles;
   r.impacts = impacts / cycles;
   r.elements = core.lastStats().elements_in_world;
   if (tracks) {
@@ -336,17 +369,12 @@ std::vector<size_t> parseList(const std::string& s) {
 
 int main(int argc, char** argv) {
   std::vector<size_t> sizes = {100, 1000, 5000};
-  int cycles = 150, warmup = 15;
-  double rate = 30.0, horizon = 2.0, area = 6.0, turn = 0.5;
-  bool markers = false;
-  unsigned seed = 1;
-  int links = 1;
-  size_t gates = 0;
-  bool tracks = false;
-  double churn = 0.2;
-  int threads = 1;
-  double fast = 0.0, ceiling = 0.0;
-  std::string broad_phase = "vadop";
+  Options o;
+  int &cycles = o.cycles, &warmup = o.warmup, &links = o.links, &threads = o.threads;
+  double &rate = o.rate, &horizon = o.horizon, &area = o.area, &turn = o.turn, &fast = o.fast, &ceiling = o.ceiling;
+  std::string& broad_phase = o.broad_phase;
+  bool& markers = o.markers;
+  bool& tracks = o.tracks;
   std::vector<size_t> startup_sizes;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -365,22 +393,30 @@ int main(int argc, char** argv) {
       else if (a == "--horizon") horizon = std::stod(next());
       else if (a == "--area") area = std::stod(next());
       else if (a == "--turn") turn = std::stod(next());
-      else if (a == "--seed") seed = static_cast<unsigned>(std::stoul(next()));
+      else if (a == "--seed") o.seed = static_cast<unsigned>(std::stoul(next()));
       else if (a == "--markers") markers = true;
       else if (a == "--links") links = std::stoi(next());
-      else if (a == "--gates") gates = std::stoul(next());
+      else if (a == "--gates") o.gates = std::stoul(next());
       else if (a == "--startup") startup_sizes = parseList(next());
       else if (a == "--tracks") tracks = true;
       else if (a == "--threads") threads = std::stoi(next());
       else if (a == "--fast") fast = std::stod(next());
       else if (a == "--3d") ceiling = std::stod(next());
       else if (a == "--broadphase") broad_phase = next();
-      else if (a == "--churn") churn = std::stod(next());
+      else if (a == "--churn") o.churn = std::stod(next());
+      else if (a == "--noise") o.noise = std::stod(next());
+      else if (a == "--coherence") {
+        const std::string v = next();
+        const size_t comma = v.find(',');
+        o.clearance = std::stod(v.substr(0, comma));
+        if (comma != std::string::npos) o.lookahead = std::stod(v.substr(comma + 1));
+      }
       else {
         std::fprintf(stderr,
                      "usage: %s [--bodies 100,1000,5000] [--cycles 150] [--warmup 15] [--rate 30] [--horizon 2] "
                      "[--area 6] [--turn 0.5] [--markers] [--seed 1] [--links K] [--gates G] [--tracks [--churn C]] "
-                     "[--threads T] [--fast F] [--3d H] [--broadphase vadop|grid|sap|vadop_sap|brute] | "
+                     "[--threads T] [--fast F] [--3d H] [--broadphase vadop|grid|sap|vadop_sap|brute] [--noise S] "
+                     "[--coherence C[,L]] | "
                      "--startup 5000,50000\n",
                      argv[0]);
         return a == "--help" || a == "-h" ? 0 : 2;
@@ -407,17 +443,24 @@ int main(int argc, char** argv) {
   if (links >= 2) std::printf("  each body a %d-link robot (URDF, links rigid with the body)\n", links);
   std::printf("  broad phase %s%s%s\n", broad_phase.c_str(), fast > 0 ? ", a share of fast bodies (5x)" : "",
               ceiling > 0 ? ", 3D (climbing and sinking)" : "");
+  if (o.noise > 0) std::printf("  odometry twist noise %.3f (m/s, rad/s; 1 sigma, every message)\n", o.noise);
+  if (o.clearance > 0) {
+    std::printf("  temporal coherence: clearance %.3f m, lookahead %.2f s (~coherence_clearance, ~coherence_lookahead)\n",
+                o.clearance, o.lookahead);
+  } else {
+    std::printf("  no temporal coherence (--coherence 0)\n");
+  }
   std::printf("  wall = steady clock; cpu = CPU time of the thread (what one core spends, whatever the load)\n");
   std::printf("%7s %9s %9s %9s %9s %9s %9s %8s %10s %10s %9s %11s %9s\n", "bodies", "cpu_mean", "cpu_p95",
               "wall_mean", "wall_med", "wall_p95", "wall_max", "feed", "predict", "markers", "cpu%per", "candidates",
               "impacts");
   int verdict = -1;
   for (const size_t n : sizes) {
-    const Result r = run(n, cycles, warmup, rate, horizon, area, turn, markers, seed, links, gates, tracks, churn, threads,
-                         fast, ceiling, broad_phase);
+    const Result r = run(n, o);
     std::printf("%7zu %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %8.3f %10.3f %10.3f %8.1f%% %11.1f %9.1f\n", r.n,
                 r.cpu_mean, r.cpu_p95, r.mean, r.median, r.p95, r.max, r.feed_mean, r.predict_mean, r.markers_mean,
                 100.0 * r.cpu_mean / period_ms, r.candidates, r.impacts);
+    if (o.clearance > 0) std::printf("  (of the candidate pairs, %.1f per cycle answered by certificates)\n", r.reused);
     if (tracks) {
       std::printf("  (tracked objects in one array per cycle: %zu in the world at the end, %llu expired over the run; "
                   "feed = Tracks::onArray)\n",

@@ -39,7 +39,8 @@ struct CycleStats {
   size_t elements_in_world = 0;
   size_t moving_elements = 0;    // of the bodies (registry)
   size_t tracked_objects = 0;    // of ~tracks, in the world
-  size_t candidates = 0;         // narrow-phase calls (World::lastCandidateCount)
+  size_t candidates = 0;         // candidate pairs after the filters (World::lastCandidateCount)
+  size_t reused = 0;             // of which answered by certificates (~coherence_clearance)
   size_t raw_impacts = 0;        // before filtering
   // Narrow-phase calls on pairs the filters (pairIgnored) then rejected: the raw impacts and
   // undecided pairs they reject. 0 by construction: the filters run before the narrow phase

@@ -130,6 +130,11 @@ struct MonitorParams {
   // The world's broad phase (vadop::parseBroadPhaseKind): "vadop" (default), "grid" (the plain
   // swept-AABB grid), "sap", "vadop_sap" or "brute"; the impacts are the same, the cost differs.
   std::string broad_phase = "vadop";
+  // Temporal coherence of the narrow phase (vadop::WorldConfig::coherence): a pair found more
+  // than coherence_clearance m apart over the horizon + coherence_lookahead s is not computed
+  // again while the bodies' new motions stay within the certificate's bound. 0: off.
+  double coherence_clearance = 0.2;  // m, 0 or in [0.001, 10]
+  double coherence_lookahead = 0.5;  // s, [0, 10]
   bool self_collision = false;
   std::vector<std::pair<std::string, std::string>> ignore_pairs;
   std::vector<BodyParams> bodies;

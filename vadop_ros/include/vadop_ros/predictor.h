@@ -34,6 +34,9 @@ struct PredictorConfig {
   int max_iterations = 10000;  // the narrow phase's budget per pair (vadop::ToiOptions)
   int threads = 1;             // of predict's narrow phase (vadop::WorldConfig::threads; 0: all cores)
   std::string broad_phase = "vadop";  // vadop::parseBroadPhaseKind's names
+  // vadop::WorldConfig::coherence (0: off).
+  double coherence_clearance = 0.0;  // m
+  double coherence_lookahead = 0.0;  // s
   // A world that is never predicted, only asked (the gates' copy): a broad phase whose
   // single-body queries scan every body, with nothing to maintain per setMotion.
   bool queries_only = false;
@@ -126,6 +129,8 @@ class Predictor {
   size_t size() const;
   // Narrow-phase calls of the last predict (pairs left out by the filters are not counted).
   size_t lastCandidateCount() const;
+  // Of those, the pairs answered by certificates (vadop::World::lastReusedCount).
+  size_t lastReusedCount() const;
 
  private:
   struct Impl;
