@@ -23,7 +23,20 @@ PairCertificates::Verdict PairCertificates::lookup(const Body& a, const Body& b,
   if (!inside) return Verdict::kUnknown;
   const double moved = maxDisplacement(e.a, *a.motion, a.radius, t0, t1) +
                        maxDisplacement(e.b, *b.motion, b.radius, t0, t1);
-  return moved < budget_ ? Verdict::kClear : Verdict::kUnknown;
+  if (moved < budget_) {
+    ++e.reuses;
+    return Verdict::kClear;
+  }
+  // The motions left the certificate (noise, a new command). One that dies young did not pay
+  // for its wide test: wait before the next, twice as long each time it happens again.
+  if (e.reuses < kYoung) {
+    e.backoff = std::min(kNearWait, std::max(1, 2 * e.backoff));
+    e.near = e.backoff - 1;  // this lookup is the first of the wait
+    e.until = e.from;
+    return Verdict::kNear;
+  }
+  e.backoff = 0;
+  return Verdict::kUnknown;
 }
 
 PairCertificates::Entry& PairCertificates::slot(const Body& a, const Body& b) {
@@ -40,6 +53,7 @@ void PairCertificates::certify(const Body& a, const Body& b, double from, double
   e.until = until;
   e.closed = closed;
   e.near = 0;
+  e.reuses = 0;
 }
 
 void PairCertificates::markNear(const Body& a, const Body& b) {

@@ -5,7 +5,8 @@
 // over the window stays below clearance - tolerance: the gap then exceeds the tolerance
 // throughout, which is what the narrow phase's "no contact" means (time_of_impact.h).
 // Pairs whose certification failed within the window (or that touch) are marked near: computed
-// directly for the next kNearWait lookups, then certification is tried again. Keys are the World's insertion keys
+// directly for the next kNearWait lookups, then certification is tried again; so are, for a
+// growing while, pairs whose certificates keep dying young (noisy motions). Keys are the World's insertion keys
 // (never reused). Motions only: pairs involving a path or a chain are not certified here.
 // Not thread-safe.
 #pragma once
@@ -43,6 +44,9 @@ class PairCertificates {
   // `closed`) under motions ma, mb.
   void certify(const Body& a, const Body& b, double from, double until, bool closed);
   static constexpr int kNearWait = 15;
+  // A certificate invalidated by the motions after fewer reuses than this died young: the pair
+  // waits 1, 2, 4, ... up to kNearWait lookups before the next attempt.
+  static constexpr int kYoung = 3;
   void markNear(const Body& a, const Body& b);
   void forget(const Body& a, const Body& b) { entries_.erase(pairKey(a.key, b.key)); }
 
@@ -57,7 +61,9 @@ class PairCertificates {
     Motion a, b;
     double from = 0.0, until = 0.0;
     bool closed = false;
-    int near = 0;  // lookups left before certification is tried again
+    int near = 0;     // lookups left before certification is tried again
+    int reuses = 0;   // windows answered by the current certificate
+    int backoff = 0;  // the last wait after a certificate that died young
     uint64_t pass = 0;
   };
   struct PairKey {

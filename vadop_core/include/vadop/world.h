@@ -76,8 +76,9 @@ struct WorldConfig {
   // "no contact" without the narrow phase while both bodies' motions stay close enough to the
   // certificate's -- maxDisplacement (motion.h) of the two summed below clearance -
   // toi.tolerance, so the gap still exceeds the tolerance. Results are those of the narrow
-  // phase itself (contacts are always computed afresh); only bodies moving with one Motion are
-  // certified. Costs a wider first test per pair (clearance as its tolerance, over the longer
+  // phase itself (contacts are always computed afresh; a pair the narrow phase would leave
+  // undecided within its budget may instead be certified clear); only bodies moving with one
+  // Motion are certified. Costs a wider first test per pair (clearance as its tolerance, over the longer
   // window) and memory per candidate pair; pays when motions change little between predicts
   // (re-stated odometry). clearance: 0 or in (toi.tolerance, 1e5] m; lookahead in [0, 1e7] s.
   struct Coherence {
