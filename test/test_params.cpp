@@ -45,7 +45,7 @@ TEST(Params, DefaultsWhenEmpty) {
   EXPECT_EQ(p.axes, 32);
   EXPECT_DOUBLE_EQ(p.phi_deg, 25.0);
   EXPECT_EQ(p.threads, 0);  // every core
-  EXPECT_DOUBLE_EQ(p.coherence_clearance, 0.2);
+  EXPECT_DOUBLE_EQ(p.coherence_clearance, 0.0);  // off
   EXPECT_DOUBLE_EQ(p.coherence_lookahead, 0.5);
   EXPECT_FALSE(p.self_collision);
   EXPECT_TRUE(p.bodies.empty());

@@ -35,7 +35,9 @@
 // world's broad phase (vadop, grid, sap, vadop_sap, brute; ~broad_phase), the same narrow phase.
 // --noise S: every odometry message's twist gets Gaussian noise of S (m/s on the forward speed,
 // rad/s on the turn rate). --coherence C[,L]: ~coherence_clearance C m and ~coherence_lookahead
-// L s (default: the node's, 0.2 and 0.5; --coherence 0 turns it off).
+// L s (default: the node's, off; L default 0.5). --paired: a second core
+// without coherence is fed the same messages and cycled each cycle, before or after the first in
+// turn: the per-cycle CPU ratio, robust to the machine's drift (same impacts checked).
 // --threads T: the narrow phase on T threads (~threads; default 1; 0: all cores). With T > 1 the
 // thread's CPU time no longer covers the cycle: read the wall clock.
 //
@@ -54,6 +56,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
 #include <random>
 #include <sstream>
 #include <string>
@@ -82,6 +85,9 @@ struct Result {
   double cpu_mean = 0, cpu_p95 = 0;                // thread CPU time
   double feed_mean = 0, predict_mean = 0, markers_mean = 0;
   double candidates = 0, impacts = 0, ignored_tested = 0, reused = 0;
+  // --paired: CPU ms median of this core and of the paired one (coherence off), and the median and
+  // quartiles of the per-cycle ratio.
+  double cpu_median = 0, paired_median = 0, ratio_median = 0, ratio_p25 = 0, ratio_p75 = 0;
   size_t elements = 0;
   size_t tracked = 0;     // --tracks: objects in the world at the end
   uint64_t expired = 0;   // --tracks: objects that left over the run
@@ -169,7 +175,8 @@ struct Options {
   double fast = 0.0, ceiling = 0.0;
   std::string broad_phase = "vadop";
   double noise = 0.0;                       // --noise: odometry twist noise (m/s and rad/s, 1 sigma)
-  // --coherence C,L (the node's defaults; --coherence 0: off)
+  bool paired = false;                      // --paired: also time the same cycle without coherence
+  // --coherence C,L (default: the node's, off)
   double clearance = vadop_ros::MonitorParams{}.coherence_clearance;
   double lookahead = vadop_ros::MonitorParams{}.coherence_lookahead;
 };
@@ -229,6 +236,18 @@ Result run(size_t n, const Options& o) {
     return !urdf.empty();
   });
 
+  // --paired: a second core, coherence off, fed the same messages.
+  std::unique_ptr<vadop_ros::MonitorCore> shadow;
+  if (o.paired) {
+    vadop_ros::MonitorParams q = p;
+    q.coherence_clearance = 0.0;
+    shadow = std::make_unique<vadop_ros::MonitorCore>(q, [&](const std::string&, std::string& value) {
+      value = urdf;
+      return !urdf.empty();
+    });
+  }
+  std::vector<double> paired_ms;
+  std::vector<std::pair<double, double>> reported(n);
   std::vector<vadop_ros::VelocityGate> gate_list;
   for (size_t i = 0; i < std::min(gates, n); ++i) gate_list.emplace_back(i, core.registry());
   Result r;
@@ -275,27 +294,46 @@ Result run(size_t n, const Options& o) {
         o.twist.angular.z = b.w;
       }
     }
+    // The twists as odometry reports them (noise drawn outside the timed part, the same for the
+    // paired core).
+    for (size_t i = 0; i < (tracks ? 0 : n); ++i) reported[i] = {noisy(sim[i].v), noisy(sim[i].w)};
+    auto feed = [&](vadop_ros::MonitorCore& into) {
+      for (size_t i = 0; i < (tracks ? 0 : n); ++i) {
+        const vadop_ros::WanderingFleet::Body& s = sim[i];
+        msg.header.stamp = now;
+        msg.child_frame_id = p.bodies[i].name;
+        msg.pose.pose.position.x = s.x;
+        msg.pose.pose.position.y = s.y;
+        msg.pose.pose.position.z = s.z;
+        msg.twist.twist.linear.z = s.vz;
+        msg.pose.pose.orientation.z = std::sin(s.yaw / 2);
+        msg.pose.pose.orientation.w = std::cos(s.yaw / 2);
+        msg.twist.twist.linear.x = reported[i].first;
+        msg.twist.twist.angular.z = reported[i].second;
+        into.registry().onOdometry(i, msg, now);
+      }
+    };
+    // --paired: the same cycle without coherence, before or after this one in turn.
+    auto pairedCycle = [&]() {
+      const double b0 = threadCpuMs();
+      feed(*shadow);
+      shadow->cycle(now, tf);
+      const double ms = threadCpuMs() - b0;
+      if (c >= warmup) {
+        paired_ms.push_back(ms);
+        if (shadow->lastStats().impacts != core.lastStats().impacts && c % 2 == 1) std::abort();
+      }
+    };
+    if (shadow && c % 2 == 0) pairedCycle();
     const double cpu0 = threadCpuMs();
     const auto t0 = std::chrono::steady_clock::now();
     if (tracks) core.tracks().onArray(0, objects, now, tf);
-    for (size_t i = 0; i < (tracks ? 0 : n); ++i) {
-      const vadop_ros::WanderingFleet::Body& s = sim[i];
-      msg.header.stamp = now;
-      msg.child_frame_id = p.bodies[i].name;
-      msg.pose.pose.position.x = s.x;
-      msg.pose.pose.position.y = s.y;
-      msg.pose.pose.position.z = s.z;
-      msg.twist.twist.linear.z = s.vz;
-      msg.pose.pose.orientation.z = std::sin(s.yaw / 2);
-      msg.pose.pose.orientation.w = std::cos(s.yaw / 2);
-      msg.twist.twist.linear.x = noisy(s.v);
-      msg.twist.twist.angular.z = noisy(s.w);
-      core.registry().onOdometry(i, msg, now);
-    }
+    feed(core);
     const auto t1 = std::chrono::steady_clock::now();
     core.cycle(now, tf);
     const auto t2 = std::chrono::steady_clock::now();
     const double cpu2 = threadCpuMs();
+    if (shadow && c % 2 == 1) pairedCycle();
     double mk = 0.0;
     if (markers) {
       const auto m = core.markers();
@@ -341,6 +379,15 @@ Result run(size_t n, const Options& o) {
   r.p95 = percentile(cycle_ms, 0.95);
   r.max = *std::max_element(cycle_ms.begin(), cycle_ms.end());
   r.cpu_mean = mean(cpu_ms);
+  if (!paired_ms.empty()) {
+    std::vector<double> ratio;
+    for (size_t k = 0; k < cpu_ms.size(); ++k) ratio.push_back(cpu_ms[k] / paired_ms[k]);
+    r.paired_median = percentile(paired_ms, 0.5);
+    r.cpu_median = percentile(cpu_ms, 0.5);
+    r.ratio_median = percentile(ratio, 0.5);
+    r.ratio_p25 = percentile(ratio, 0.25);
+    r.ratio_p75 = percentile(ratio, 0.75);
+  }
   r.cpu_p95 = percentile(cpu_ms, 0.95);
   r.feed_mean = mean(feed_ms);
   r.predict_mean = mean(predict_ms);
@@ -405,6 +452,7 @@ int main(int argc, char** argv) {
       else if (a == "--broadphase") broad_phase = next();
       else if (a == "--churn") o.churn = std::stod(next());
       else if (a == "--noise") o.noise = std::stod(next());
+      else if (a == "--paired") o.paired = true;
       else if (a == "--coherence") {
         const std::string v = next();
         const size_t comma = v.find(',');
@@ -416,7 +464,7 @@ int main(int argc, char** argv) {
                      "usage: %s [--bodies 100,1000,5000] [--cycles 150] [--warmup 15] [--rate 30] [--horizon 2] "
                      "[--area 6] [--turn 0.5] [--markers] [--seed 1] [--links K] [--gates G] [--tracks [--churn C]] "
                      "[--threads T] [--fast F] [--3d H] [--broadphase vadop|grid|sap|vadop_sap|brute] [--noise S] "
-                     "[--coherence C[,L]] | "
+                     "[--coherence C[,L] [--paired]] | "
                      "--startup 5000,50000\n",
                      argv[0]);
         return a == "--help" || a == "-h" ? 0 : 2;
@@ -429,6 +477,10 @@ int main(int argc, char** argv) {
   if (!startup_sizes.empty()) {
     startup(startup_sizes);
     return 0;
+  }
+  if (o.paired && !(o.clearance > 0)) {
+    std::fprintf(stderr, "--paired compares against coherence off: give --coherence C[,L] with C > 0\n");
+    return 2;
   }
   if (cycles < 1 || warmup < 0 || !(rate > 0) || !(horizon >= 0) || !(area > 0) || !(turn >= 0) || sizes.empty() || links < 1) {
     std::fprintf(stderr, "bad arguments\n");
@@ -448,7 +500,7 @@ int main(int argc, char** argv) {
     std::printf("  temporal coherence: clearance %.3f m, lookahead %.2f s (~coherence_clearance, ~coherence_lookahead)\n",
                 o.clearance, o.lookahead);
   } else {
-    std::printf("  no temporal coherence (--coherence 0)\n");
+    std::printf("  no temporal coherence (--coherence C[,L] turns it on)\n");
   }
   std::printf("  wall = steady clock; cpu = CPU time of the thread (what one core spends, whatever the load)\n");
   std::printf("%7s %9s %9s %9s %9s %9s %9s %8s %10s %10s %9s %11s %9s\n", "bodies", "cpu_mean", "cpu_p95",
@@ -461,6 +513,11 @@ int main(int argc, char** argv) {
                 r.cpu_mean, r.cpu_p95, r.mean, r.median, r.p95, r.max, r.feed_mean, r.predict_mean, r.markers_mean,
                 100.0 * r.cpu_mean / period_ms, r.candidates, r.impacts);
     if (o.clearance > 0) std::printf("  (of the candidate pairs, %.1f per cycle answered by certificates)\n", r.reused);
+    if (o.paired) {
+      std::printf("  paired, the same cycles without coherence (alternating which runs first): CPU ms median %.3f "
+                  "against %.3f; per-cycle ratio median %.3f (quartiles %.3f-%.3f)\n",
+                  r.cpu_median, r.paired_median, r.ratio_median, r.ratio_p25, r.ratio_p75);
+    }
     if (tracks) {
       std::printf("  (tracked objects in one array per cycle: %zu in the world at the end, %llu expired over the run; "
                   "feed = Tracks::onArray)\n",

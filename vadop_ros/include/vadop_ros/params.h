@@ -133,7 +133,7 @@ struct MonitorParams {
   // Temporal coherence of the narrow phase (vadop::WorldConfig::coherence): a pair found more
   // than coherence_clearance m apart over the horizon + coherence_lookahead s is not computed
   // again while the bodies' new motions stay within the certificate's bound. 0: off.
-  double coherence_clearance = 0.2;  // m, 0 or in [0.001, 10]
+  double coherence_clearance = 0.0;  // m, 0 or in [0.001, 10]
   double coherence_lookahead = 0.5;  // s, [0, 10]
   bool self_collision = false;
   std::vector<std::pair<std::string, std::string>> ignore_pairs;
