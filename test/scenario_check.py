@@ -463,6 +463,20 @@ class ScenarioCheck(unittest.TestCase):
                 if tr["in_node"]:
                     errors.extend(self.check_track_diagnostics(m, tr, self.truths[m], tracks.get(m, []),
                                                                float(rospy.get_param("/%s/rate" % m))))
+        # Temporal coherence on (~coherence_clearance > 0): certificates must have answered pairs
+        # (the scenario's other checks then show that none hid an impact).
+        for m in self.monitors:
+            if float(rospy.get_param("/%s/coherence_clearance" % m, 0.0)) <= 0.0:
+                continue
+            key = "candidates answered by certificates"
+            counts = [int(float(values[key])) for s, name, level, message, values in diags
+                      if name.endswith(": cycle") and name.split(":")[0].lstrip("/") == m and key in values]
+            if not counts or max(counts) == 0:
+                errors.append("%s: coherence_clearance > 0 but no cycle status shows a pair answered by a certificate "
+                              "(%d statuses)" % (m, len(counts)))
+            else:
+                self.diag_summary.append("  diagnostics cycle %s: up to %d candidate pairs a cycle answered by "
+                                         "certificates (%d statuses)" % (m, max(counts), len(counts)))
         for e in self.expect.get("diagnostics", []) or []:
             mon = e.get("monitor", self.monitors[0])
             lo, hi = e["during"]

@@ -159,15 +159,7 @@ static_obstacles:
 // impacts are those of a monitor without it, cycle after cycle.
 TEST(MonitorCore, CoherenceReusesCertificatesAndReportsTheSameImpacts) {
   // The plain grid: VADOP's volumes, aligned with c and d's parallel velocities, would prune c-d.
-  const std::string scene = R"(
-horizon: 2.0
-broad_phase: grid
-bodies:
-  - {name: a, odom_topic: /a, shape: {type: sphere, radius: 0.5}}
-  - {name: b, odom_topic: /b, shape: {type: sphere, radius: 0.5}}
-  - {name: c, odom_topic: /c, shape: {type: sphere, radius: 0.5}}
-  - {name: d, odom_topic: /d, shape: {type: sphere, radius: 0.5}}
-)";
+  const std::string scene = std::string("broad_phase: grid\n") + kFour;
   MonitorCore plain = makeCore("coherence_clearance: 0\n" + scene);
   MonitorCore coherent = makeCore("coherence_clearance: 0.1\ncoherence_lookahead: 0.5\n" + scene);
   FakeTf tf;
