@@ -1,7 +1,8 @@
 // libFuzzer target: the node's message path. The input bytes are decoded into a sequence of
 // operations on a MonitorCore built from a small fixed configuration (three primitive bodies,
 // one with TwistStamped and a pose from tf; a rigid URDF body and a URDF body whose links come
-// from tf, both test/data/two_link.urdf; two static obstacles):
+// from tf, both test/data/two_link.urdf; two static obstacles; temporal coherence on, so that
+// certificates meet every hostile input too):
 //   odometry / twist / planned-path / joint-state / joint-trajectory messages with arbitrary doubles (NaN, Inf, huge, tiny) and arbitrary
 //   stamps (sec up to 2^32 - 1) and receipt times; tf poses with arbitrary values and stamps;
 //   clock steps, jumps forward and back (a jump back resets, as the node's timer does);
@@ -82,6 +83,7 @@ rate: 30.0
 horizon: 2.0
 stale_timeout: 0.5
 max_stamp_skew: 5.0
+coherence_clearance: 0.05
 bodies:
   - {name: a, odom_topic: /a, path_topic: /a/plan, shape: {type: sphere, radius: 0.5}}
   - {name: b, odom_topic: /b, shape: {type: box, size: [1, 0.5, 0.3]}}
