@@ -441,9 +441,11 @@ void World::narrowAll(const std::vector<std::pair<BodyId, BodyId>>& tests, doubl
     size_t k;
     bool certify;
     // Filled by the narrow phase when certify: the gap exceeds the clearance over [t0, until)
-    // (and at until when closed); until <= t0: nothing certified.
+    // (and at until when closed: no contact over the whole extended window); clear when that
+    // covers [t0, t1].
     double until = 0.0;
     bool closed = false;
+    bool clear = false;
   };
   std::vector<Job> jobs;
   for (size_t k = 0; k < tests.size(); ++k) {
@@ -475,8 +477,9 @@ void World::narrowAll(const std::vector<std::pair<BodyId, BodyId>>& tests, doubl
                                     broad_phase_->motion(b), t0, t_end, wide);
       job.closed = !c.hit && !c.undecided;
       job.until = job.closed ? t_end : c.time;
-      if (job.until > t1 || (job.closed && job.until >= t1)) {
-        results[job.k].time = t1;  // clear over the window
+      job.clear = job.closed || job.until > t1;
+      if (job.clear) {
+        results[job.k].time = t1;  // no contact: hit == false
         return;
       }
     }
@@ -488,7 +491,7 @@ void World::narrowAll(const std::vector<std::pair<BodyId, BodyId>>& tests, doubl
     const Impact& r = results[job.k];
     if (!job.certify) {
       if (r.hit || r.undecided) certificates_->markNear(body(a), body(b));  // still touching: wait again
-    } else if (job.until > t1 || (job.closed && job.until >= t1)) {
+    } else if (job.clear) {
       certificates_->certify(body(a), body(b), t0, job.until, job.closed);
     } else {
       certificates_->markNear(body(a), body(b));
