@@ -48,7 +48,6 @@ class PairCertificates {
   // waits 1, 2, 4, ... up to kNearWait lookups before the next attempt.
   static constexpr int kYoung = 3;
   void markNear(const Body& a, const Body& b);
-  void forget(const Body& a, const Body& b) { entries_.erase(pairKey(a.key, b.key)); }
 
   // A full pass (every candidate pair looked up) ends with endPass: entries no lookup touched
   // since beginPass (pairs no longer candidates, bodies removed) are dropped.
