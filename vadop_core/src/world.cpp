@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <exception>
+#include <limits>
 #include <mutex>
 #include <thread>
 #include <sstream>
@@ -19,6 +20,11 @@
 
 namespace vadop {
 namespace {
+
+// Boxes as lo x y z, hi x y z; touching counts.
+bool boxesOverlap(const double* a, const double* b) {
+  return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
+}
 
 // The id in double quotes, with quotes, backslashes and control characters escaped, so that a
 // message always stays on one line.
@@ -355,18 +361,45 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
   return out;
 }
 
+std::optional<Shape> World::pathVolume(BodyId p, double t0, double t1) const {
+  // A link whose joints move is found within its reach of the base's origin: a ball about the
+  // base's origin moving with each piece of the base's path.
+  const LinkChain& chain = *records_[p].chain;
+  if (chain.joints().empty()) return std::nullopt;
+  return makeSphere(broad_phase_->shape(p).bounding_radius + chain.reach(t0, t1));
+}
+
+void World::pathBox(BodyId p, const Shape* ball, double t0, double t1, double* box) const {
+  const TimedPath& path = records_[p].chain->base();
+  for (int k = 0; k < 3; ++k) {
+    box[k] = std::numeric_limits<double>::infinity();
+    box[3 + k] = -std::numeric_limits<double>::infinity();
+  }
+  path.forEachPiece(t0, t1, [&](size_t k, double s, double e) {
+    double piece[6];
+    SweptBody(ball ? *ball : broad_phase_->shape(p), path.motion(k), s, e).box(piece);
+    for (int c = 0; c < 3; ++c) {
+      box[c] = std::min(box[c], piece[c]);
+      box[3 + c] = std::max(box[3 + c], piece[3 + c]);
+    }
+  });
+}
+
 void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std::vector<Pair>& out) {
   auto in_only = [only](BodyId id) { return !only || std::binary_search(only->begin(), only->end(), id); };
   std::vector<BodyId> found;
-  for (size_t i = 0; i < path_bodies_.size(); ++i) {
+  const size_t n = path_bodies_.size();
+  // Two path bodies touch at one time: their boxes over the slice of the window holding it
+  // overlap. Per body, 6 doubles for its box over the whole window, then 6 for each of kSlices
+  // equal slices of it.
+  constexpr size_t kSlices = 4;
+  constexpr size_t kStride = 6 * (kSlices + 1);
+  std::vector<double> boxes(kStride * n);
+  for (size_t i = 0; i < n; ++i) {
     const BodyId p = path_bodies_[i];
-    const LinkChain& chain = *records_[p].chain;
-    const TimedPath& path = chain.base();
+    const TimedPath& path = records_[p].chain->base();
     const bool p_only = in_only(p);
-    // A link whose joints move is found within its reach of the base's origin: a ball about the
-    // base's origin moving with each piece of the base's path.
-    std::optional<Shape> ball;
-    if (!chain.joints().empty()) ball = makeSphere(broad_phase_->shape(p).bounding_radius + chain.reach(t0, t1));
+    const std::optional<Shape> ball = pathVolume(p, t0, t1);
     path.forEachPiece(t0, t1, [&](size_t k, double s, double e) {
       // The broad phase holds p's shape padded; p itself (at rest there) is found too: skipped.
       broad_phase_->query(ball ? *ball : broad_phase_->shape(p), path.motion(k), s, e, found);
@@ -374,8 +407,30 @@ void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std
         if (!onPath(other) && (p_only || in_only(other))) out.push_back(makePair(p, other));
       }
     });
-    for (size_t j = i + 1; j < path_bodies_.size(); ++j) {
-      if (p_only || in_only(path_bodies_[j])) out.push_back(makePair(p, path_bodies_[j]));
+    double* box = &boxes[kStride * i];
+    pathBox(p, ball ? &*ball : nullptr, t0, t1, box);
+    for (size_t k = 0; k < kSlices; ++k) {
+      const double s = t0 + (t1 - t0) * static_cast<double>(k) / kSlices;
+      const double e = k + 1 == kSlices ? t1 : t0 + (t1 - t0) * static_cast<double>(k + 1) / kSlices;
+      const std::optional<Shape> slice_ball = pathVolume(p, s, e);
+      pathBox(p, slice_ball ? &*slice_ball : nullptr, s, e, box + 6 * (k + 1));
+    }
+  }
+  // Sweep and prune on x of the whole-window boxes, then the slices: a fleet of arms or of
+  // robots on plans is not O(n^2).
+  std::vector<uint32_t> order(n);
+  for (uint32_t i = 0; i < n; ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return boxes[kStride * a] < boxes[kStride * b]; });
+  for (size_t a = 0; a < n; ++a) {
+    const double* box_a = &boxes[kStride * order[a]];
+    for (size_t b = a + 1; b < n && boxes[kStride * order[b]] <= box_a[3]; ++b) {
+      const double* box_b = &boxes[kStride * order[b]];
+      if (!boxesOverlap(box_a, box_b)) continue;
+      bool meet = false;
+      for (size_t k = 1; k <= kSlices && !meet; ++k) meet = boxesOverlap(box_a + 6 * k, box_b + 6 * k);
+      if (!meet) continue;
+      const BodyId pa = path_bodies_[order[a]], pb = path_bodies_[order[b]];
+      if (in_only(pa) || in_only(pb)) out.push_back(makePair(pa, pb));
     }
   }
 }
@@ -530,6 +585,13 @@ World::Reachable World::reachable(const std::vector<std::string>& movers, const 
   for (const std::string& m : movers) ids.push_back(bodyId(m, op));
   Reachable out;
   std::vector<BodyId> found;
+  // The broad phase holds the path bodies at rest: those whose boxes over the window (pathBox)
+  // overlap a mover's ball may be reached.
+  std::vector<double> path_boxes(6 * path_bodies_.size());
+  for (size_t k = 0; k < path_bodies_.size(); ++k) {
+    const std::optional<Shape> ball = pathVolume(path_bodies_[k], t0, t0 + horizon);
+    pathBox(path_bodies_[k], ball ? &*ball : nullptr, t0, t0 + horizon, &path_boxes[6 * k]);
+  }
   for (size_t i = 0; i < ids.size(); ++i) {
     if (!origins[i].allFinite() || !std::isfinite(reach[i]) || reach[i] < 0.0) {
       throw InvalidArgument(std::string(op) + ": origin and reach of " + quoted(movers[i]) +
@@ -540,9 +602,12 @@ World::Reachable World::reachable(const std::vector<std::string>& movers, const 
                                     Eigen::Vector3d::Zero(), t0);
     broad_phase_->query(ball, still, t0, t0 + horizon, found);
     out.ids.insert(out.ids.end(), found.begin(), found.end());
+    double box[6];
+    SweptBody(ball, still, t0, t0 + horizon).box(box);
+    for (size_t k = 0; k < path_bodies_.size(); ++k) {
+      if (boxesOverlap(&path_boxes[6 * k], box)) out.ids.push_back(path_bodies_[k]);
+    }
   }
-  // The broad phase holds the path bodies at rest: every one may be reached.
-  out.ids.insert(out.ids.end(), path_bodies_.begin(), path_bodies_.end());
   std::sort(out.ids.begin(), out.ids.end());
   out.ids.erase(std::unique(out.ids.begin(), out.ids.end()), out.ids.end());
   std::vector<BodyId> sorted_movers = ids;
@@ -585,6 +650,7 @@ std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::
   }
   std::optional<MoverContact> best;
   std::vector<BodyId> found;
+  std::vector<double> path_boxes;  // 6 per path body over [t0, t0 + horizon], when needed
   for (size_t i = 0; i < ids.size(); ++i) {
     const Record& rm = records_[ids[i]];
     std::optional<LinkChain> mover_chain;  // made for the first path body met
@@ -596,10 +662,22 @@ std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::
       }
     } else {
       broad_phase_->query(broad_phase_->shape(ids[i]), motions[i], t0, t1, found);
-      // The broad phase holds the path bodies at rest: every one is a candidate.
+      // The broad phase holds the path bodies at rest: those whose boxes over the window
+      // (pathBox, computed once a call) overlap the mover's swept box are candidates.
       if (!path_bodies_.empty()) {
         found.erase(std::remove_if(found.begin(), found.end(), [this](BodyId b) { return onPath(b); }), found.end());
-        found.insert(found.end(), path_bodies_.begin(), path_bodies_.end());
+        if (path_boxes.empty()) {
+          path_boxes.resize(6 * path_bodies_.size());
+          for (size_t k = 0; k < path_bodies_.size(); ++k) {
+            const std::optional<Shape> ball = pathVolume(path_bodies_[k], t0, t1);
+            pathBox(path_bodies_[k], ball ? &*ball : nullptr, t0, t1, &path_boxes[6 * k]);
+          }
+        }
+        double box[6];
+        SweptBody(broad_phase_->shape(ids[i]), motions[i], t0, t1).box(box);
+        for (size_t k = 0; k < path_bodies_.size(); ++k) {
+          if (boxesOverlap(&path_boxes[6 * k], box)) found.push_back(path_bodies_[k]);
+        }
       }
     }
     for (BodyId other : found) {

@@ -372,6 +372,104 @@ TEST(LinkChain, WorldFindsEveryPairOfEveryLink) {
   }
 }
 
+// A fleet of arms spread out (every body a path body: 100 links of moving chains and 60 rigid
+// ones, in a 10 m x 10 m x 2 m space): predict reports exactly what the chain narrow phase finds
+// on every pair, while the candidates are a small share of the pairs (the path bodies' boxes
+// prune them); firstContactIf of a mover, with and without reachable(), finds the earliest
+// contact among every body.
+TEST(LinkChain, AFleetOfArmsIsPrunedAndNoPairIsMissed) {
+  toi_scenes::Rng r(33);
+  std::vector<std::string> ids;
+  std::vector<vadop::Shape> shapes;
+  std::vector<LinkChain> chains;
+  std::vector<TChain> tchains;
+  for (int i = 0; i < 160; ++i) {
+    TChain tc = randomChain(r, i < 100 ? r.integer(1, 4) : 0);
+    tc.base.position = Vector3d(r.uni(-5.0, 5.0), r.uni(-5.0, 5.0), r.uni(-1.0, 1.0));
+    tc.base.linear_velocity *= 3.0;
+    if (i >= 100 && r.chance(0.6)) {  // meeting a moving link at some time
+      const double at = r.uni(0.1, 1.9);
+      const Vector3d target =
+          truthPose(tchains[static_cast<size_t>(r.integer(0, 99))], at).p + r.unit() * r.uni(0.0, 0.5);
+      tc.base.position += target - truthPose(tc, at).p;
+    }
+    tchains.push_back(tc);
+    ids.push_back("link" + std::to_string(i));
+    shapes.push_back(randomLinkShape(r));
+    chains.push_back(ours(tc));
+  }
+  std::vector<std::pair<std::string, double>> expected;
+  for (size_t i = 0; i < ids.size(); ++i) {
+    for (size_t j = i + 1; j < ids.size(); ++j) {
+      const vadop::Impact hit = vadop::timeOfImpact(vadop::PreparedShape(shapes[i]), chains[i],
+                                                    vadop::PreparedShape(shapes[j]), chains[j], 0.0, 2.0);
+      if (hit.hit) expected.emplace_back(ids[i] + "-" + ids[j], hit.time);
+    }
+  }
+  std::sort(expected.begin(), expected.end());
+  const size_t all_pairs = ids.size() * (ids.size() - 1) / 2;
+  for (const vadop::BroadPhaseKind kind : {vadop::BroadPhaseKind::kVadop, vadop::BroadPhaseKind::kBrute}) {
+    vadop::WorldConfig config;
+    config.broad_phase = kind;
+    vadop::World w(config);
+    for (size_t i = 0; i < ids.size(); ++i) {
+      w.add(ids[i], shapes[i], tchains[i].base);
+      w.setChain(ids[i], chains[i]);
+    }
+    const std::vector<vadop::WorldImpact> got = w.predict(0.0, 2.0);
+    std::vector<std::pair<std::string, double>> found;
+    for (const auto& x : got) found.emplace_back(x.a + "-" + x.b, x.impact.time);
+    std::sort(found.begin(), found.end());
+    ASSERT_EQ(found.size(), expected.size()) << vadop::toString(kind);
+    for (size_t k = 0; k < found.size(); ++k) {
+      EXPECT_EQ(found[k].first, expected[k].first) << vadop::toString(kind);
+      EXPECT_NEAR(found[k].second, expected[k].second, 1e-6);
+    }
+    EXPECT_LT(w.lastCandidateCount(), all_pairs / 5) << vadop::toString(kind);
+    std::printf("%s: %zu impacts, %zu candidates of %zu pairs\n", vadop::toString(kind), got.size(),
+                w.lastCandidateCount(), all_pairs);
+
+    // A sphere sent at a moving link's position at t = 1 from up to 1 m away (a body with one
+    // Motion among them).
+    const vadop::Shape ball = vadop::makeSphere(0.2);
+    w.add("mover", ball, vadop::Motion());
+    int contacts = 0;
+    for (int trial = 0; trial < 30; ++trial) {
+      const TChain& target = tchains[static_cast<size_t>(trial * 3)];
+      vadop::Motion m;
+      m.position = truthPose(target, 1.0).p + r.unit() * r.uni(0.3, 1.0);
+      m.linear_velocity = truthPose(target, 1.0).p - m.position;
+      w.setMotion("mover", m);
+      double best = 1e9;
+      const LinkChain mover_chain{vadop::TimedPath(m)};
+      for (size_t i = 0; i < ids.size(); ++i) {
+        const vadop::Impact hit =
+            vadop::timeOfImpact(vadop::PreparedShape(ball), mover_chain, vadop::PreparedShape(shapes[i]), chains[i], 0.0, 2.0);
+        if (!hit.hit) continue;
+        if (hit.initially_touching &&
+            (m.velocityOfPoint(hit.point, 0.0) - chains[i].velocityOfPoint(hit.point, 0.0)).dot(hit.normal) <= 0.0) {
+          continue;
+        }
+        best = std::min(best, hit.time);
+      }
+      const auto direct = w.firstContactIf({"mover"}, {m}, 0.0, 2.0);
+      const double reach = m.linear_velocity.norm() * 2.0;
+      const vadop::World::Reachable among = w.reachable({"mover"}, {m.position}, {reach}, 0.0, 2.0);
+      const auto via = w.firstContactIf({"mover"}, {m}, 0.0, 2.0, {}, &among);
+      ASSERT_EQ(direct.has_value(), best < 1e9) << vadop::toString(kind) << " trial " << trial;
+      ASSERT_EQ(via.has_value(), best < 1e9) << vadop::toString(kind) << " trial " << trial;
+      if (best < 1e9) {
+        EXPECT_NEAR(direct->impact.time, best, 1e-6);
+        EXPECT_NEAR(via->impact.time, best, 1e-6);
+        ++contacts;
+      }
+      EXPECT_LT(among.ids.size(), ids.size() / 2) << "reachable() prunes the path bodies";
+    }
+    EXPECT_GE(contacts, 10) << vadop::toString(kind);
+  }
+  EXPECT_GE(expected.size(), 20u);  // not vacuous: links meet links
+}
+
 class ChainTruthTest : public testing::TestWithParam<int> {};
 
 TEST_P(ChainTruthTest, MatchesCertifiedTruth) {

@@ -6,7 +6,8 @@
 // middle of the paths, past their end):
 //  - predict(t0, h) equals the reference (identical output);
 //  - predict(t0, h, only) equals the reference filtered to the pairs involving `only`;
-//  - firstContactIf of two movers finds the reference's earliest contact among all bodies;
+//  - firstContactIf of a mover (alone, and among the bodies reachable() lists) finds the
+//    reference's earliest contact among all bodies;
 //  - setMotion ends a path; bad input throws and changes nothing.
 #include "vadop/error.h"
 #include "vadop/scene_io.h"
@@ -165,6 +166,9 @@ TEST(WorldPaths, FirstContactIfMeetsBodiesOnPaths) {
       m.linear_velocity = target.poseAt(1.0).translation() - m.position;
       if (m.linear_velocity.norm() > 9e3) continue;
       const auto got = w.firstContactIf({mover}, {m}, 0.0, 2.0);
+      // The same among the bodies reachable() lists (the gate's way).
+      const World::Reachable among = w.reachable({mover}, {m.position}, {2.0 * m.linear_velocity.norm()}, 0.0, 2.0);
+      const auto via = w.firstContactIf({mover}, {m}, 0.0, 2.0, {}, &among);
       // The reference: the mover against every other body along its path.
       const PreparedShape ps(w.shape(mover));
       double best = 1e9;
@@ -180,9 +184,11 @@ TEST(WorldPaths, FirstContactIfMeetsBodiesOnPaths) {
         best = std::min(best, hit.time);
       }
       ASSERT_EQ(got.has_value(), best < 1e9) << toString(kind) << " trial " << trial;
+      ASSERT_EQ(via.has_value(), best < 1e9) << toString(kind) << " trial " << trial << " (reachable)";
       if (got) {
         // Its later windows end at the best time so far: the same contact, to the tolerance.
         EXPECT_NEAR(got->impact.time, best, 1e-6) << toString(kind) << " trial " << trial;
+        EXPECT_NEAR(via->impact.time, best, 1e-6) << toString(kind) << " trial " << trial << " (reachable)";
         ++contacts;
       }
     }

@@ -233,9 +233,16 @@ class World {
     // piece of its base's path.
     std::shared_ptr<const LinkChain> chain;
   };
-  // The pairs (sorted, unique) of the path bodies in [t0, t1]: each piece's query against the
-  // other bodies, and every pair of two path bodies; with `only`, those involving one of them.
+  // The pairs of the path bodies in [t0, t1] (the caller sorts and dedups): each piece's query
+  // against the other bodies, and the pairs of two path bodies whose pathBoxes overlap; with
+  // `only`, those involving one of them.
   void pathPairs(double t0, double t1, const std::vector<BodyId>* only, std::vector<Pair>& out);
+  // What the broad phase tests for path body p over [t0, t1]: its shape (nullopt) or, for a
+  // link whose joints move, the ball within its reach of the base's origin.
+  std::optional<Shape> pathVolume(BodyId p, double t0, double t1) const;
+  // A box (lo x y z, hi x y z) holding that volume (`ball`, or p's shape when null) along every
+  // piece of p's base path over [t0, t1]: the union of its swept boxes (SweptBody).
+  void pathBox(BodyId p, const Shape* ball, double t0, double t1, double* box) const;
   Impact narrow(BodyId a, BodyId b, double t0, double t1) const;
   // narrow() on every pair of `tests` into `results` (same order), on threads_ threads when there
   // are enough pairs; rethrows the exception of the first pair (by index) that threw.
