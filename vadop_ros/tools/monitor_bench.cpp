@@ -15,6 +15,12 @@
 // --links K (K >= 2): each body is a K-link robot instead, a URDF with links rigid with the
 // body (fixed joints, no tf): a cylinder base (r 0.3 m) and K - 1 boxes stacked on it as a mast;
 // the links of one body are never tested against each other (MonitorCore::pairIgnored).
+// --joints (with --links K): mobile manipulators instead: on the base, an arm of K - 1 links on
+// revolute joints (a shoulder turning about z, then elbows about y; links 0.6, 0.4, 0.2 m long,
+// the first alone reaching 0.3 m beyond the base's rim), each joint swinging sinusoidally (0.6-1.2 rad
+// amplitude, 0.3-1.0 rad/s); every robot publishes one sensor_msgs/JointState per cycle
+// (joint_states_topic: its links predicted along the joints' motion, vadop::LinkChain), fed to
+// the registry as the odometry is (its cost counted in feed).
 //   vadop_monitor_bench --startup 5000,50000   start-up instead: parseParams + MonitorCore for N
 //                       bodies (primitive and 3-link URDF templates), no ROS transport
 //
@@ -47,6 +53,7 @@
 #include "vadop_ros/velocity_gate.h"
 #include "wandering_fleet.h"
 
+#include <sensor_msgs/JointState.h>
 #include <shape_msgs/SolidPrimitive.h>
 
 #include <time.h>
@@ -148,11 +155,24 @@ double percentile(std::vector<double> v, double p) {
   return v[i];
 }
 
-// A K-link robot: base cylinder, then K - 1 boxes 0.1 x 0.1 x 0.4 m stacked by fixed joints.
-std::string chainUrdf(int links) {
+// A K-link robot: base cylinder, then K - 1 boxes 0.1 x 0.1 x 0.4 m stacked by fixed joints;
+// with `arm`, K - 1 arm links on revolute joints instead (--joints).
+std::string chainUrdf(int links, bool arm) {
   std::string s = "<robot name='r'><link name='l0'><collision><origin xyz='0 0 0.2'/><geometry>"
                   "<cylinder radius='0.3' length='0.4'/></geometry></collision></link>";
-  for (int k = 1; k < links; ++k) {
+  for (int k = 1; k < links && arm; ++k) {
+    // Link k: a box along its x axis, jointed at the end of link k - 1 (the shoulder on the
+    // base's top); the shoulder turns about z, the elbows about y.
+    const double length = std::max(0.2, 0.8 - 0.2 * k), prev = k == 1 ? 0.0 : std::max(0.2, 0.8 - 0.2 * (k - 1));
+    const std::string name = "l" + std::to_string(k), parent = "l" + std::to_string(k - 1);
+    s += "<link name='" + name + "'><collision><origin xyz='" + std::to_string(length / 2) +
+         " 0 0'/><geometry><box size='" + std::to_string(length) + " 0.1 0.1'/></geometry></collision></link>"
+         "<joint name='j" + std::to_string(k) + "' type='revolute'><parent link='" + parent + "'/><child link='" +
+         name + "'/><origin xyz='" + (k == 1 ? std::string("0 0 0.45") : std::to_string(prev) + " 0 0") +
+         "'/><axis xyz='" + (k == 1 ? "0 0 1" : "0 1 0") +
+         "'/><limit lower='-2.8' upper='2.8' effort='10' velocity='2'/></joint>";
+  }
+  for (int k = 1; k < links && !arm; ++k) {
     const std::string name = "l" + std::to_string(k), parent = "l" + std::to_string(k - 1);
     s += "<link name='" + name + "'><collision><origin xyz='0 0 0.2'/><geometry><box size='0.1 0.1 0.4'/>"
          "</geometry></collision></link><joint name='j" + std::to_string(k) + "' type='fixed'><parent link='" +
@@ -168,6 +188,7 @@ struct Options {
   bool markers = false;
   unsigned seed = 1;
   int links = 1;
+  bool joints = false;  // --joints: the links on revolute joints, driven by joint states
   size_t gates = 0;
   bool tracks = false;
   double churn = 0.2;
@@ -218,6 +239,7 @@ Result run(size_t n, const Options& o) {
     }
     if (links >= 2) {
       b.robot_description = "/robot_description";
+      if (o.joints) b.joint_states_topic = "/" + b.name + "/joint_states";
       p.bodies.push_back(b);
       continue;
     }
@@ -230,7 +252,7 @@ Result run(size_t n, const Options& o) {
     }
     p.bodies.push_back(b);
   }
-  const std::string urdf = links >= 2 ? chainUrdf(links) : "";
+  const std::string urdf = links >= 2 ? chainUrdf(links, o.joints) : "";
   vadop_ros::MonitorCore core(p, [&](const std::string&, std::string& value) {
     value = urdf;
     return !urdf.empty();
@@ -270,6 +292,22 @@ Result run(size_t n, const Options& o) {
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   std::normal_distribution<double> noise(0.0, o.noise > 0.0 ? o.noise : 1.0);
   auto noisy = [&](double x) { return o.noise > 0.0 ? x + noise(rng) : x; };
+  // --joints: each joint q = c + A sin(w t + phase), drawn from its own generator so that the
+  // fleet's random sequence is the same as without joints.
+  struct Swing {
+    double centre, amplitude, rate, phase;
+  };
+  const size_t arm_joints = o.joints ? static_cast<size_t>(links - 1) : 0;
+  std::vector<Swing> swing(n * arm_joints);
+  {
+    std::mt19937 joint_rng(seed + 7919);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    for (Swing& j : swing) j = {-0.5 + u(joint_rng), 0.6 + 0.6 * u(joint_rng), 0.3 + 0.7 * u(joint_rng), 6.3 * u(joint_rng)};
+  }
+  sensor_msgs::JointState joint_msg;
+  for (size_t k = 1; k <= arm_joints; ++k) joint_msg.name.push_back("j" + std::to_string(k));
+  joint_msg.position.resize(arm_joints);
+  joint_msg.velocity.resize(arm_joints);
   for (int c = 0; c < warmup + cycles; ++c) {
     now += ros::Duration(dt);
     sim.step(dt, rng);
@@ -311,6 +349,15 @@ Result run(size_t n, const Options& o) {
         msg.twist.twist.linear.x = reported[i].first;
         msg.twist.twist.angular.z = reported[i].second;
         into.registry().onOdometry(i, msg, now);
+        if (arm_joints == 0) continue;
+        joint_msg.header.stamp = now;
+        const double t = now.toSec();
+        for (size_t k = 0; k < arm_joints; ++k) {
+          const Swing& j = swing[i * arm_joints + k];
+          joint_msg.position[k] = j.centre + j.amplitude * std::sin(j.rate * t + j.phase);
+          joint_msg.velocity[k] = j.amplitude * j.rate * std::cos(j.rate * t + j.phase);
+        }
+        if (into.registry().onJointState(i, joint_msg, now) != vadop_ros::InputResult::kAccepted) std::abort();
       }
     };
     // --paired: the same cycle without coherence, before or after this one in turn.
@@ -443,6 +490,7 @@ int main(int argc, char** argv) {
       else if (a == "--seed") o.seed = static_cast<unsigned>(std::stoul(next()));
       else if (a == "--markers") markers = true;
       else if (a == "--links") links = std::stoi(next());
+      else if (a == "--joints") o.joints = true;
       else if (a == "--gates") o.gates = std::stoul(next());
       else if (a == "--startup") startup_sizes = parseList(next());
       else if (a == "--tracks") tracks = true;
@@ -462,7 +510,7 @@ int main(int argc, char** argv) {
       else {
         std::fprintf(stderr,
                      "usage: %s [--bodies 100,1000,5000] [--cycles 150] [--warmup 15] [--rate 30] [--horizon 2] "
-                     "[--area 6] [--turn 0.5] [--markers] [--seed 1] [--links K] [--gates G] [--tracks [--churn C]] "
+                     "[--area 6] [--turn 0.5] [--markers] [--seed 1] [--links K [--joints]] [--gates G] [--tracks [--churn C]] "
                      "[--threads T] [--fast F] [--3d H] [--broadphase vadop|grid|sap|vadop_sap|brute] [--noise S] "
                      "[--coherence C[,L] [--paired]] | "
                      "--startup 5000,50000\n",
@@ -492,7 +540,15 @@ int main(int argc, char** argv) {
   std::printf("  %d cycles after %d warm-up, %.0f Hz (period %.2f ms), horizon %.1f s, %.1f m^2 per body, "
               "0.3-1.5 m/s, turning at up to %.2f rad/s%s\n",
               cycles, warmup, rate, period_ms, horizon, area, turn, markers ? ", markers built every cycle" : "");
-  if (links >= 2) std::printf("  each body a %d-link robot (URDF, links rigid with the body)\n", links);
+  if (o.joints && links < 2) {
+    std::fprintf(stderr, "--joints needs --links K with K >= 2\n");
+    return 2;
+  }
+  if (links >= 2 && !o.joints) std::printf("  each body a %d-link robot (URDF, links rigid with the body)\n", links);
+  if (o.joints) {
+    std::printf("  each body a mobile manipulator: a base and a %d-link arm on revolute joints, one joint state "
+                "per cycle, links predicted along the joints' motion\n", links - 1);
+  }
   std::printf("  broad phase %s%s%s\n", broad_phase.c_str(), fast > 0 ? ", a share of fast bodies (5x)" : "",
               ceiling > 0 ? ", 3D (climbing and sinking)" : "");
   if (o.noise > 0) std::printf("  odometry twist noise %.3f (m/s, rad/s; 1 sigma, every message)\n", o.noise);
