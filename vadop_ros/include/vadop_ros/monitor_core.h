@@ -212,6 +212,11 @@ class MonitorCore {
   // end of the last cycle (syncGateWorld), and the gated commands adopted since.
   Predictor gate_predictor_;
   void syncGateWorld();
+  // Synced at the end of every cycle once a body has a gate configured or a command was
+  // checked; before that, by the first checkCommand after a cycle (on the caller's thread:
+  // a checking thread needs a configured gate, as the node's has).
+  bool gate_world_wanted_ = false;
+  bool gate_world_current_ = false;  // gate_predictor_ reflects the last cycle's end
   std::mutex* prediction_lock_ = nullptr;
   vadop::ImpactArray impacts_;
   CycleStats stats_;
