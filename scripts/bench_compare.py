@@ -87,15 +87,8 @@ def methods_in_turn(o, args):
 
 
 def load(path):
-    runs = {}
-    with open(path) as f:
-        for line in f:
-            rec = json.loads(line)
-            if "method" not in rec or "frame_cpu_ms_median" not in rec:
-                continue
-            key = (rec["method"], rec["n"], rec["speed"])
-            runs.setdefault(key, []).append(rec["frame_cpu_ms_median"])
-    return runs
+    """(method, n, speed) -> [frame_cpu_ms_median of each round]"""
+    return {key: list(by_round.values()) for key, by_round in load_rounds(path).items()}
 
 
 def main():

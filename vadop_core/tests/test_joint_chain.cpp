@@ -309,6 +309,22 @@ TEST(LinkChain, ArmTurnsIntoThePostOnTime) {
   EXPECT_NEAR(slid.time, 1.6, 1e-5);
 }
 
+// The reference of the World tests: the chain narrow phase on every pair over [0, 2] s, as
+// ("a-b", time) in pair order.
+std::vector<std::pair<std::string, double>> everyPairsImpact(const std::vector<std::string>& ids,
+                                                             const std::vector<vadop::Shape>& shapes,
+                                                             const std::vector<LinkChain>& chains) {
+  std::vector<std::pair<std::string, double>> out;
+  for (size_t i = 0; i < ids.size(); ++i) {
+    for (size_t j = i + 1; j < ids.size(); ++j) {
+      const vadop::Impact hit = vadop::timeOfImpact(vadop::PreparedShape(shapes[i]), chains[i],
+                                                    vadop::PreparedShape(shapes[j]), chains[j], 0.0, 2.0);
+      if (hit.hit) out.emplace_back(ids[i] + "-" + ids[j], hit.time);
+    }
+  }
+  return out;
+}
+
 // Links of chains in a World: predict (every broad phase, and with `only`) reports exactly the
 // pairs that the chain narrow phase finds when run on every pair, at the same times.
 TEST(LinkChain, WorldFindsEveryPairOfEveryLink) {
@@ -341,14 +357,7 @@ TEST(LinkChain, WorldFindsEveryPairOfEveryLink) {
       chains.push_back(chain);
     }
     const std::vector<vadop::WorldImpact> got = w.predict(0.0, 2.0);
-    std::vector<std::pair<std::string, double>> expected;
-    for (size_t i = 0; i < ids.size(); ++i) {
-      for (size_t j = i + 1; j < ids.size(); ++j) {
-        const vadop::Impact hit = vadop::timeOfImpact(vadop::PreparedShape(shapes[i]), chains[i],
-                                                      vadop::PreparedShape(shapes[j]), chains[j], 0.0, 2.0);
-        if (hit.hit) expected.emplace_back(ids[i] + "-" + ids[j], hit.time);
-      }
-    }
+    std::vector<std::pair<std::string, double>> expected = everyPairsImpact(ids, shapes, chains);
     ASSERT_EQ(got.size(), expected.size()) << vadop::toString(kind);
     std::vector<std::pair<std::string, double>> found;
     for (const auto& x : got) found.emplace_back(x.a + "-" + x.b, x.impact.time);
@@ -372,6 +381,34 @@ TEST(LinkChain, WorldFindsEveryPairOfEveryLink) {
   }
 }
 
+// 160 links spread over 10 x 10 x 2 m, 3 times the scenes' base speeds: 100 of chains of 1 to 4
+// joints, 60 rigid, of which about 36 meet a moving link at some time.
+struct ArmFleet {
+  std::vector<std::string> ids;
+  std::vector<vadop::Shape> shapes;
+  std::vector<LinkChain> chains;
+  std::vector<TChain> truth;
+};
+
+ArmFleet spreadArmFleet(toi_scenes::Rng& r) {
+  ArmFleet f;
+  for (int i = 0; i < 160; ++i) {
+    TChain tc = randomChain(r, i < 100 ? r.integer(1, 4) : 0);
+    tc.base.position = Vector3d(r.uni(-5.0, 5.0), r.uni(-5.0, 5.0), r.uni(-1.0, 1.0));
+    tc.base.linear_velocity *= 3.0;
+    if (i >= 100 && r.chance(0.6)) {
+      const double at = r.uni(0.1, 1.9);
+      const Vector3d target = truthPose(f.truth[static_cast<size_t>(r.integer(0, 99))], at).p + r.unit() * r.uni(0.0, 0.5);
+      tc.base.position += target - truthPose(tc, at).p;
+    }
+    f.truth.push_back(tc);
+    f.ids.push_back("link" + std::to_string(i));
+    f.shapes.push_back(randomLinkShape(r));
+    f.chains.push_back(ours(tc));
+  }
+  return f;
+}
+
 // A fleet of arms spread out (every body a path body: 100 links of moving chains and 60 rigid
 // ones, in a 10 m x 10 m x 2 m space): predict reports exactly what the chain narrow phase finds
 // on every pair, while the candidates are a small share of the pairs (the path bodies' boxes
@@ -379,33 +416,12 @@ TEST(LinkChain, WorldFindsEveryPairOfEveryLink) {
 // contact among every body.
 TEST(LinkChain, AFleetOfArmsIsPrunedAndNoPairIsMissed) {
   toi_scenes::Rng r(33);
-  std::vector<std::string> ids;
-  std::vector<vadop::Shape> shapes;
-  std::vector<LinkChain> chains;
-  std::vector<TChain> tchains;
-  for (int i = 0; i < 160; ++i) {
-    TChain tc = randomChain(r, i < 100 ? r.integer(1, 4) : 0);
-    tc.base.position = Vector3d(r.uni(-5.0, 5.0), r.uni(-5.0, 5.0), r.uni(-1.0, 1.0));
-    tc.base.linear_velocity *= 3.0;
-    if (i >= 100 && r.chance(0.6)) {  // meeting a moving link at some time
-      const double at = r.uni(0.1, 1.9);
-      const Vector3d target =
-          truthPose(tchains[static_cast<size_t>(r.integer(0, 99))], at).p + r.unit() * r.uni(0.0, 0.5);
-      tc.base.position += target - truthPose(tc, at).p;
-    }
-    tchains.push_back(tc);
-    ids.push_back("link" + std::to_string(i));
-    shapes.push_back(randomLinkShape(r));
-    chains.push_back(ours(tc));
-  }
-  std::vector<std::pair<std::string, double>> expected;
-  for (size_t i = 0; i < ids.size(); ++i) {
-    for (size_t j = i + 1; j < ids.size(); ++j) {
-      const vadop::Impact hit = vadop::timeOfImpact(vadop::PreparedShape(shapes[i]), chains[i],
-                                                    vadop::PreparedShape(shapes[j]), chains[j], 0.0, 2.0);
-      if (hit.hit) expected.emplace_back(ids[i] + "-" + ids[j], hit.time);
-    }
-  }
+  const ArmFleet fleet = spreadArmFleet(r);
+  const std::vector<std::string>& ids = fleet.ids;
+  const std::vector<vadop::Shape>& shapes = fleet.shapes;
+  const std::vector<LinkChain>& chains = fleet.chains;
+  const std::vector<TChain>& tchains = fleet.truth;
+  std::vector<std::pair<std::string, double>> expected = everyPairsImpact(ids, shapes, chains);
   std::sort(expected.begin(), expected.end());
   const size_t all_pairs = ids.size() * (ids.size() - 1) / 2;
   for (const vadop::BroadPhaseKind kind : {vadop::BroadPhaseKind::kVadop, vadop::BroadPhaseKind::kBrute}) {
