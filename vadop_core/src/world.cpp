@@ -369,7 +369,8 @@ std::optional<Shape> World::pathVolume(BodyId p, double t0, double t1) const {
   return makeSphere(broad_phase_->shape(p).bounding_radius + chain.reach(t0, t1));
 }
 
-void World::pathBox(BodyId p, const Shape* ball, double t0, double t1, double* box) const {
+void World::pathBox(BodyId p, double t0, double t1, double* box) const {
+  const std::optional<Shape> ball = pathVolume(p, t0, t1);
   const TimedPath& path = records_[p].chain->base();
   for (int k = 0; k < 3; ++k) {
     box[k] = std::numeric_limits<double>::infinity();
@@ -383,6 +384,12 @@ void World::pathBox(BodyId p, const Shape* ball, double t0, double t1, double* b
       box[3 + c] = std::max(box[3 + c], piece[3 + c]);
     }
   });
+}
+
+std::vector<double> World::pathBoxes(double t0, double t1) const {
+  std::vector<double> boxes(6 * path_bodies_.size());
+  for (size_t k = 0; k < path_bodies_.size(); ++k) pathBox(path_bodies_[k], t0, t1, &boxes[6 * k]);
+  return boxes;
 }
 
 void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std::vector<Pair>& out) {
@@ -408,12 +415,11 @@ void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std
       }
     });
     double* box = &boxes[kStride * i];
-    pathBox(p, ball ? &*ball : nullptr, t0, t1, box);
+    pathBox(p, t0, t1, box);
     for (size_t k = 0; k < kSlices; ++k) {
       const double s = t0 + (t1 - t0) * static_cast<double>(k) / kSlices;
       const double e = k + 1 == kSlices ? t1 : t0 + (t1 - t0) * static_cast<double>(k + 1) / kSlices;
-      const std::optional<Shape> slice_ball = pathVolume(p, s, e);
-      pathBox(p, slice_ball ? &*slice_ball : nullptr, s, e, box + 6 * (k + 1));
+      pathBox(p, s, e, box + 6 * (k + 1));
     }
   }
   // Sweep and prune on x of the whole-window boxes, then the slices: a fleet of arms or of
@@ -587,11 +593,7 @@ World::Reachable World::reachable(const std::vector<std::string>& movers, const 
   std::vector<BodyId> found;
   // The broad phase holds the path bodies at rest: those whose boxes over the window (pathBox)
   // overlap a mover's ball may be reached.
-  std::vector<double> path_boxes(6 * path_bodies_.size());
-  for (size_t k = 0; k < path_bodies_.size(); ++k) {
-    const std::optional<Shape> ball = pathVolume(path_bodies_[k], t0, t0 + horizon);
-    pathBox(path_bodies_[k], ball ? &*ball : nullptr, t0, t0 + horizon, &path_boxes[6 * k]);
-  }
+  const std::vector<double> path_boxes = pathBoxes(t0, t0 + horizon);
   for (size_t i = 0; i < ids.size(); ++i) {
     if (!origins[i].allFinite() || !std::isfinite(reach[i]) || reach[i] < 0.0) {
       throw InvalidArgument(std::string(op) + ": origin and reach of " + quoted(movers[i]) +
@@ -666,13 +668,7 @@ std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::
       // (pathBox, computed once a call) overlap the mover's swept box are candidates.
       if (!path_bodies_.empty()) {
         found.erase(std::remove_if(found.begin(), found.end(), [this](BodyId b) { return onPath(b); }), found.end());
-        if (path_boxes.empty()) {
-          path_boxes.resize(6 * path_bodies_.size());
-          for (size_t k = 0; k < path_bodies_.size(); ++k) {
-            const std::optional<Shape> ball = pathVolume(path_bodies_[k], t0, t1);
-            pathBox(path_bodies_[k], ball ? &*ball : nullptr, t0, t1, &path_boxes[6 * k]);
-          }
-        }
+        if (path_boxes.empty()) path_boxes = pathBoxes(t0, t1);
         double box[6];
         SweptBody(broad_phase_->shape(ids[i]), motions[i], t0, t1).box(box);
         for (size_t k = 0; k < path_bodies_.size(); ++k) {

@@ -240,9 +240,11 @@ class World {
   // What the broad phase tests for path body p over [t0, t1]: its shape (nullopt) or, for a
   // link whose joints move, the ball within its reach of the base's origin.
   std::optional<Shape> pathVolume(BodyId p, double t0, double t1) const;
-  // A box (lo x y z, hi x y z) holding that volume (`ball`, or p's shape when null) along every
-  // piece of p's base path over [t0, t1]: the union of its swept boxes (SweptBody).
-  void pathBox(BodyId p, const Shape* ball, double t0, double t1, double* box) const;
+  // A box (lo x y z, hi x y z) holding that volume along every piece of p's base path over
+  // [t0, t1]: the union of its swept boxes (SweptBody).
+  void pathBox(BodyId p, double t0, double t1, double* box) const;
+  // pathBox of every path body (6 doubles each, in path_bodies_'s order).
+  std::vector<double> pathBoxes(double t0, double t1) const;
   Impact narrow(BodyId a, BodyId b, double t0, double t1) const;
   // narrow() on every pair of `tests` into `results` (same order), on threads_ threads when there
   // are enough pairs; rethrows the exception of the first pair (by index) that threw.
