@@ -45,6 +45,7 @@ TEST(Params, DefaultsWhenEmpty) {
   EXPECT_EQ(p.axes, 32);
   EXPECT_DOUBLE_EQ(p.phi_deg, 25.0);
   EXPECT_EQ(p.threads, 0);  // every core
+  EXPECT_EQ(p.time_slices, 8);
   EXPECT_DOUBLE_EQ(p.coherence_clearance, 0.0);  // off
   EXPECT_DOUBLE_EQ(p.coherence_lookahead, 0.5);
   EXPECT_FALSE(p.self_collision);
@@ -109,6 +110,10 @@ TEST(Params, TopLevelErrorsNameTheParameter) {
   EXPECT_EQ(errorOf("threads: -1"), "~threads: must be an integer in [0, 256] (0: one per hardware thread), got -1");
   EXPECT_NE(errorOf("threads: 1.5").find("~threads: must be an integer"), std::string::npos);
   EXPECT_EQ(parseParams(yaml("threads: 2")).threads, 2);
+  EXPECT_EQ(errorOf("time_slices: 0"), "~time_slices: must be an integer in [1, 64] (1: no cull), got 0");
+  EXPECT_EQ(errorOf("time_slices: 65"), "~time_slices: must be an integer in [1, 64] (1: no cull), got 65");
+  EXPECT_NE(errorOf("time_slices: 2.5").find("~time_slices: must be an integer"), std::string::npos);
+  EXPECT_EQ(parseParams(yaml("time_slices: 1")).time_slices, 1);
   EXPECT_EQ(errorOf("broad_phase: octree"),
             "~broad_phase: unknown broad phase \"octree\" (expected vadop, vadop_sap, sap, grid or brute)");
   EXPECT_EQ(parseParams(yaml("broad_phase: grid")).broad_phase, "grid");

@@ -91,6 +91,10 @@ World::World(const WorldConfig& config) : config_(config) {
     throw InvalidArgument("World: threads must be in [0, " + std::to_string(kMaxThreads) + "] (0: one per hardware "
                           "thread), got " + std::to_string(config.threads));
   }
+  if (config.time_slices < 1 || config.time_slices > kMaxTimeSlices) {
+    throw InvalidArgument("World: time_slices must be in [1, " + std::to_string(kMaxTimeSlices) + "] (1: no cull), got " +
+                          std::to_string(config.time_slices));
+  }
   const WorldConfig::Coherence& co = config.coherence;
   if (!(std::isfinite(co.clearance) && co.clearance >= 0.0 && co.clearance <= kMaxSize) ||
       (co.clearance > 0.0 && co.clearance <= o.tolerance)) {
@@ -329,6 +333,8 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
     if (pair_filter_ && !pair_filter_(ra.key, rb.key)) continue;
     tests.emplace_back(ia, ib);
   }
+  const size_t found = tests.size();
+  cullBySlices(tests, t0, t1);
   std::vector<Impact> results;
   if (certificates_ && !only) certificates_->beginPass();
   narrowAll(tests, t0, t1, results);
@@ -357,6 +363,7 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
   std::sort(undecided.begin(), undecided.end(), order);
   // Nothing above throws once the narrow phase has run: the statistics change together.
   last_candidates_ = calls;
+  last_slice_culled_ = found - calls;
   last_undecided_ = std::move(undecided);
   return out;
 }
@@ -558,6 +565,47 @@ void World::narrowAll(const std::vector<std::pair<BodyId, BodyId>>& tests, doubl
       certificates_->markNear(body(a), body(b));
     }
   }
+}
+
+void World::cullBySlices(std::vector<std::pair<BodyId, BodyId>>& tests, double t0, double t1) {
+  const int slices = config_.time_slices;
+  if (slices <= 1 || tests.empty() || !(t1 > t0)) return;
+  ++predict_count_;
+  const size_t stride = 6 * static_cast<size_t>(slices);
+  if (slice_stamp_.size() < records_.size()) {
+    slice_stamp_.resize(records_.size(), 0);
+    slice_boxes_.resize(records_.size() * stride);
+  }
+  // Each part's box bounds the padded shape over [s, e] (SweptBody is conservative in floating
+  // point); consecutive parts share their end times, so together they cover [t0, t1].
+  auto boxes = [&](BodyId id) -> const double* {
+    double* b = &slice_boxes_[id * stride];
+    if (slice_stamp_[id] != predict_count_) {
+      slice_stamp_[id] = predict_count_;
+      const Shape& shape = broad_phase_->shape(id);
+      const Motion& motion = broad_phase_->motion(id);
+      double s = t0;
+      for (int k = 0; k < slices; ++k) {
+        const double e = k + 1 == slices ? t1 : t0 + (t1 - t0) * (k + 1) / slices;
+        SweptBody(shape, motion, s, e).box(b + 6 * k);
+        s = e;
+      }
+    }
+    return b;
+  };
+  size_t kept = 0;
+  for (const auto& pair : tests) {
+    bool keep = onPath(pair.first) || onPath(pair.second);
+    if (!keep) {
+      const double* a = boxes(pair.first);
+      const double* b = boxes(pair.second);
+      for (int k = 0; k < slices && !keep; ++k, a += 6, b += 6) {
+        keep = a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
+      }
+    }
+    if (keep) tests[kept++] = pair;
+  }
+  tests.resize(kept);
 }
 
 Impact World::narrow(BodyId a, BodyId b, double t0, double t1) const {

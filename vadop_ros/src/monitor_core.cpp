@@ -19,6 +19,7 @@ PredictorConfig predictorConfig(const MonitorParams& p) {
   c.phi_deg = p.phi_deg;
   c.threads = p.threads;
   c.broad_phase = p.broad_phase;
+  c.time_slices = p.time_slices;
   c.coherence_clearance = p.coherence_clearance;
   c.coherence_lookahead = p.coherence_lookahead;
   return c;
@@ -499,6 +500,7 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
   stats_.predict_seconds = secondsSince(predict_start);
   stats_.candidates = predictor_.lastCandidateCount();
   stats_.reused = predictor_.lastReusedCount();
+  stats_.slice_culled = predictor_.lastSliceCulledCount();
   stats_.raw_impacts = raw.size();
 
   const auto& elements = registry_.elements();

@@ -60,6 +60,7 @@ void CycleTimeWindow::report(diagnostic_updater::DiagnosticStatusWrapper& stat, 
   stat.add("moving elements", last_.moving_elements);
   stat.add("narrow-phase candidates", last_.candidates);
   stat.add("candidates answered by certificates", last_.reused);
+  stat.add("pairs culled by time slices", last_.slice_culled);
   stat.add("impacts (before filtering)", last_.raw_impacts);
   stat.add("impacts", last_.impacts);
   stat.add("undecided pairs", last_.undecided);

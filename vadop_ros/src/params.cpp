@@ -466,7 +466,7 @@ void parseTracks(const XmlRpcValue& list, MonitorParams& out) {
 
 const std::set<std::string>& topLevelKeys() {
   static const std::set<std::string> keys = {
-      "fixed_frame", "rate", "horizon", "padding", "stale_timeout", "max_stamp_skew", "axes", "phi_deg", "threads", "broad_phase",
+      "fixed_frame", "rate", "horizon", "padding", "stale_timeout", "max_stamp_skew", "axes", "phi_deg", "threads", "broad_phase", "time_slices",
       "coherence_clearance", "coherence_lookahead",
       "self_collision", "ignore_pairs", "bodies", "static_obstacles", "tracks", "log_impacts",
       "publish_markers",
@@ -545,6 +545,11 @@ MonitorParams parseParams(const XmlRpcValue& root) {
     } catch (const vadop::InvalidArgument& e) {
       fail("~broad_phase", e.what());
     }
+  }
+  if (const XmlRpcValue* v = member(root, "time_slices")) p.time_slices = toInt(*v, "~time_slices");
+  if (p.time_slices < 1 || p.time_slices > vadop::kMaxTimeSlices) {
+    fail("~time_slices", "must be an integer in [1, " + std::to_string(vadop::kMaxTimeSlices) +
+                             "] (1: no cull), got " + std::to_string(p.time_slices));
   }
   if (p.threads < 0 || p.threads > vadop::kMaxThreads) {
     fail("~threads", "must be an integer in [0, " + std::to_string(vadop::kMaxThreads) +

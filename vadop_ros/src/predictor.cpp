@@ -22,6 +22,7 @@ vadop::WorldConfig worldConfig(const PredictorConfig& c) {
   w.vadop.phi_deg = c.phi_deg;
   w.toi.max_iterations = c.max_iterations;
   w.threads = c.threads;
+  w.time_slices = c.time_slices;
   w.coherence.clearance = c.coherence_clearance;
   w.coherence.lookahead = c.coherence_lookahead;
   return w;
@@ -133,6 +134,7 @@ std::vector<double> Predictor::pathTimes(size_t i, double t0, double t1) const {
 const vadop::Shape& Predictor::shape(size_t i) const { return impl_->world.shape(impl_->slots.at(i).id); }
 size_t Predictor::size() const { return impl_->world.size(); }
 size_t Predictor::lastCandidateCount() const { return impl_->world.lastCandidateCount(); }
+size_t Predictor::lastSliceCulledCount() const { return impl_->world.lastSliceCulledCount(); }
 size_t Predictor::lastReusedCount() const { return impl_->world.lastReusedCount(); }
 const std::vector<RawImpact>& Predictor::lastUndecided() const { return impl_->undecided; }
 

@@ -39,6 +39,8 @@
 // --fast F: a share F of the bodies 5 times faster (1.5-7.5 m/s: mixed speeds); --3d H: every
 // body also climbs and sinks at up to 0.5 m/s between 0 and H m (drones); --broadphase K: the
 // world's broad phase (vadop, grid, sap, vadop_sap, brute; ~broad_phase), the same narrow phase.
+// --time-slices K: ~time_slices (the cull before the narrow phase; default the node's, 8; 1: none);
+// the column `culled` counts the broad phase's pairs it dropped per cycle.
 // --noise S: every odometry message's twist gets Gaussian noise of S (m/s on the forward speed,
 // rad/s on the turn rate). --coherence C[,L]: ~coherence_clearance C m and ~coherence_lookahead
 // L s (default: the node's, off; L default 0.5). --paired: a second core
@@ -91,7 +93,7 @@ struct Result {
   double mean = 0, median = 0, p95 = 0, max = 0;  // wall clock
   double cpu_mean = 0, cpu_p95 = 0;                // thread CPU time
   double feed_mean = 0, predict_mean = 0, markers_mean = 0;
-  double candidates = 0, impacts = 0, ignored_tested = 0, reused = 0;
+  double candidates = 0, impacts = 0, ignored_tested = 0, reused = 0, culled = 0;
   // --paired: CPU ms median of this core and of the paired one (coherence off), and the median and
   // quartiles of the per-cycle ratio.
   double cpu_median = 0, paired_median = 0, ratio_median = 0, ratio_p25 = 0, ratio_p75 = 0;
@@ -195,6 +197,7 @@ struct Options {
   int threads = 1;
   double fast = 0.0, ceiling = 0.0;
   std::string broad_phase = "vadop";
+  int time_slices = vadop_ros::MonitorParams{}.time_slices;
   double noise = 0.0;                       // --noise: odometry twist noise (m/s and rad/s, 1 sigma)
   bool paired = false;                      // --paired: also time the same cycle without coherence
   // --coherence C,L (default: the node's, off)
@@ -219,6 +222,7 @@ Result run(size_t n, const Options& o) {
   p.stale_timeout = 0.5;
   p.threads = threads;
   p.broad_phase = broad_phase;
+  p.time_slices = o.time_slices;
   p.coherence_clearance = o.clearance;
   p.coherence_lookahead = o.lookahead;
   if (tracks) {
@@ -280,7 +284,7 @@ Result run(size_t n, const Options& o) {
   const double dt = 1.0 / rate;
   ros::Time now(1000.0);
   std::vector<double> cycle_ms, cpu_ms, feed_ms, predict_ms, marker_ms;
-  double candidates = 0, impacts = 0, ignored_tested = 0, reused = 0;
+  double candidates = 0, impacts = 0, ignored_tested = 0, reused = 0, culled = 0;
   nav_msgs::Odometry msg;
   msg.header.frame_id = "odom";
   // Tracked objects: the tracker's array (built outside the timed part) and each object's id.
@@ -413,6 +417,7 @@ Result run(size_t n, const Options& o) {
     candidates += static_cast<double>(core.lastStats().candidates);
     ignored_tested += static_cast<double>(core.lastStats().ignored_tested);
     reused += static_cast<double>(core.lastStats().reused);
+    culled += static_cast<double>(core.lastStats().slice_culled);
     impacts += static_cast<double>(core.lastStats().impacts);
   }
   r.n = n;
@@ -442,6 +447,7 @@ Result run(size_t n, const Options& o) {
   r.candidates = candidates / cycles;
   r.ignored_tested = ignored_tested / cycles;
   r.reused = reused / cycles;
+  r.culled = culled / cycles;
   r.impacts = impacts / cycles;
   r.elements = core.lastStats().elements_in_world;
   if (tracks) {
@@ -498,6 +504,7 @@ int main(int argc, char** argv) {
       else if (a == "--fast") fast = std::stod(next());
       else if (a == "--3d") ceiling = std::stod(next());
       else if (a == "--broadphase") broad_phase = next();
+      else if (a == "--time-slices") o.time_slices = std::stoi(next());
       else if (a == "--churn") o.churn = std::stod(next());
       else if (a == "--noise") o.noise = std::stod(next());
       else if (a == "--paired") o.paired = true;
@@ -511,7 +518,7 @@ int main(int argc, char** argv) {
         std::fprintf(stderr,
                      "usage: %s [--bodies 100,1000,5000] [--cycles 150] [--warmup 15] [--rate 30] [--horizon 2] "
                      "[--area 6] [--turn 0.5] [--markers] [--seed 1] [--links K [--joints]] [--gates G] [--tracks [--churn C]] "
-                     "[--threads T] [--fast F] [--3d H] [--broadphase vadop|grid|sap|vadop_sap|brute] [--noise S] "
+                     "[--threads T] [--fast F] [--3d H] [--broadphase vadop|grid|sap|vadop_sap|brute] [--time-slices K] [--noise S] "
                      "[--coherence C[,L] [--paired]] | "
                      "--startup 5000,50000\n",
                      argv[0]);
@@ -559,15 +566,15 @@ int main(int argc, char** argv) {
     std::printf("  no temporal coherence (--coherence C[,L] turns it on)\n");
   }
   std::printf("  wall = steady clock; cpu = CPU time of the thread (what one core spends, whatever the load)\n");
-  std::printf("%7s %9s %9s %9s %9s %9s %9s %8s %10s %10s %9s %11s %9s\n", "bodies", "cpu_mean", "cpu_p95",
+  std::printf("%7s %9s %9s %9s %9s %9s %9s %8s %10s %10s %9s %11s %9s %9s\n", "bodies", "cpu_mean", "cpu_p95",
               "wall_mean", "wall_med", "wall_p95", "wall_max", "feed", "predict", "markers", "cpu%per", "candidates",
-              "impacts");
+              "impacts", "culled");
   int verdict = -1;
   for (const size_t n : sizes) {
     const Result r = run(n, o);
-    std::printf("%7zu %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %8.3f %10.3f %10.3f %8.1f%% %11.1f %9.1f\n", r.n,
+    std::printf("%7zu %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %8.3f %10.3f %10.3f %8.1f%% %11.1f %9.1f %9.1f\n", r.n,
                 r.cpu_mean, r.cpu_p95, r.mean, r.median, r.p95, r.max, r.feed_mean, r.predict_mean, r.markers_mean,
-                100.0 * r.cpu_mean / period_ms, r.candidates, r.impacts);
+                100.0 * r.cpu_mean / period_ms, r.candidates, r.impacts, r.culled);
     if (o.clearance > 0) std::printf("  (of the candidate pairs, %.1f per cycle answered by certificates)\n", r.reused);
     if (o.paired) {
       std::printf("  paired, the same cycles without coherence (alternating which runs first): CPU ms median %.3f "

@@ -41,6 +41,7 @@ struct CycleStats {
   size_t tracked_objects = 0;    // of ~tracks, in the world
   size_t candidates = 0;         // candidate pairs after the filters (World::lastCandidateCount)
   size_t reused = 0;             // of which answered by certificates (~coherence_clearance)
+  size_t slice_culled = 0;       // broad-phase pairs dropped before them (World::lastSliceCulledCount)
   size_t raw_impacts = 0;        // before filtering
   // Narrow-phase calls on pairs the filters (pairIgnored) then rejected: the raw impacts and
   // undecided pairs they reject. 0 by construction: the filters run before the narrow phase

@@ -130,6 +130,9 @@ struct MonitorParams {
   // The world's broad phase (vadop::parseBroadPhaseKind): "vadop" (default), "grid" (the plain
   // swept-AABB grid), "sap", "vadop_sap" or "brute"; the impacts are the same, the cost differs.
   std::string broad_phase = "vadop";
+  // Time slices of the cull before the narrow phase (vadop::WorldConfig::time_slices),
+  // [1, vadop::kMaxTimeSlices]; 1: none. The impacts are the same for every count.
+  int time_slices = 8;
   // Temporal coherence of the narrow phase (vadop::WorldConfig::coherence): a pair found more
   // than coherence_clearance m apart over the horizon + coherence_lookahead s is not computed
   // again while the bodies' new motions stay within the certificate's bound. 0: off.

@@ -34,6 +34,7 @@ struct PredictorConfig {
   int max_iterations = 10000;  // the narrow phase's budget per pair (vadop::ToiOptions)
   int threads = 1;             // of predict's narrow phase (vadop::WorldConfig::threads; 0: all cores)
   std::string broad_phase = "vadop";  // vadop::parseBroadPhaseKind's names
+  int time_slices = 8;                // vadop::WorldConfig::time_slices (1: no cull)
   // vadop::WorldConfig::coherence (0: off).
   double coherence_clearance = 0.0;  // m
   double coherence_lookahead = 0.0;  // s
@@ -131,6 +132,8 @@ class Predictor {
   size_t lastCandidateCount() const;
   // Of those, the pairs answered by certificates (vadop::World::lastReusedCount).
   size_t lastReusedCount() const;
+  // Broad-phase pairs the time-slice cull dropped before the narrow phase (not counted above).
+  size_t lastSliceCulledCount() const;
 
  private:
   struct Impl;
