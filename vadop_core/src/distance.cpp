@@ -64,7 +64,10 @@ Eigen::Vector3d coreSupportBody(const PreparedShapeData& s, const Eigen::Vector3
                              d.z() >= 0.0 ? s.half_extents.z() : -s.half_extents.z());
     case CoreKind::kCylinder: {
       Eigen::Vector3d p(0.0, 0.0, d.z() >= 0.0 ? s.half_length : -s.half_length);
-      const double r = std::hypot(d.x(), d.y());
+      // sqrt, not hypot (several times slower, ~7% of a fleet's cycle): hypot only where the
+      // squares would underflow (a search direction nearly along the axis).
+      const double r2 = d.x() * d.x() + d.y() * d.y();
+      const double r = r2 > 1e-280 ? std::sqrt(r2) : std::hypot(d.x(), d.y());
       if (r > 0.0) {
         p.x() = s.cyl_radius * (d.x() / r);
         p.y() = s.cyl_radius * (d.y() / r);
