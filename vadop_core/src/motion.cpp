@@ -20,6 +20,7 @@ void requireInRange(const std::string& error, const std::string& what) {
 // Every coordinate within limit (limits.h: kMaxCoordinate).
 void requireCoordinates(const Eigen::Vector3d& v, double limit, const std::string& what, const char* field) {
   for (int k = 0; k < 3; ++k) {
+    if (std::abs(v[k]) <= limit) continue;  // the field's name is spelled out for an error only
     requireInRange(rangeError(v[k], limit, std::string(field) + "[" + std::to_string(k) + "]", "m"), what);
   }
 }

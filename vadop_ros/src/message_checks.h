@@ -35,11 +35,15 @@ inline bool checkValue(double v, double limit, const char* unit, const std::stri
 
 inline bool checkVector(const geometry_msgs::Vector3& v, double limit, const char* unit, const std::string& field,
                  std::string& why) {
+  // Every value in range (false for a NaN): no field name is spelled out (per message, per body).
+  if (std::fabs(v.x) <= limit && std::fabs(v.y) <= limit && std::fabs(v.z) <= limit) return true;
   return checkValue(v.x, limit, unit, field + ".x", why) && checkValue(v.y, limit, unit, field + ".y", why) &&
          checkValue(v.z, limit, unit, field + ".z", why);
 }
 
 inline bool checkPoint(const geometry_msgs::Point& v, const std::string& field, std::string& why) {
+  const double limit = vadop::kMaxCoordinate;
+  if (std::fabs(v.x) <= limit && std::fabs(v.y) <= limit && std::fabs(v.z) <= limit) return true;
   return checkValue(v.x, vadop::kMaxCoordinate, "m", field + ".x", why) &&
          checkValue(v.y, vadop::kMaxCoordinate, "m", field + ".y", why) &&
          checkValue(v.z, vadop::kMaxCoordinate, "m", field + ".z", why);
