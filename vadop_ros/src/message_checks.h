@@ -44,9 +44,8 @@ inline bool checkVector(const geometry_msgs::Vector3& v, double limit, const cha
 inline bool checkPoint(const geometry_msgs::Point& v, const std::string& field, std::string& why) {
   const double limit = vadop::kMaxCoordinate;
   if (std::fabs(v.x) <= limit && std::fabs(v.y) <= limit && std::fabs(v.z) <= limit) return true;
-  return checkValue(v.x, vadop::kMaxCoordinate, "m", field + ".x", why) &&
-         checkValue(v.y, vadop::kMaxCoordinate, "m", field + ".y", why) &&
-         checkValue(v.z, vadop::kMaxCoordinate, "m", field + ".z", why);
+  return checkValue(v.x, limit, "m", field + ".x", why) && checkValue(v.y, limit, "m", field + ".y", why) &&
+         checkValue(v.z, limit, "m", field + ".z", why);
 }
 
 inline bool checkQuaternion(const geometry_msgs::Quaternion& q, const std::string& field, std::string& why) {
