@@ -2,7 +2,7 @@
 
 #include "vadop/error.h"
 #include "vadop/vadop.h"
-#include "box_grid.h"
+#include "cell_grid.h"
 
 #include <algorithm>
 #include <cmath>
@@ -180,7 +180,7 @@ void BroadPhase::queryChanged(const double* box, BodyId self, double t0, double 
   // latest such t0 (changed_t0_; a response loop's queries only move forward), rebuilt from
   // scratch otherwise. A body changed again is indexed again (its old box goes stale).
   if (!changed_grid_valid_ || t0 < changed_t0_) {
-    if (!changed_grid_) changed_grid_ = std::make_unique<detail::BoxGrid>();
+    if (!changed_grid_) changed_grid_ = std::make_unique<detail::CellGrid>();
     // Cells about the size of the median box, measured on the first changed bodies.
     std::vector<double> extent;
     double max_abs = 0.0;

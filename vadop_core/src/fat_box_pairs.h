@@ -1,13 +1,13 @@
 // The pairs a slow scene keeps from frame to frame: each body has a "fat" box (a box expected
 // to contain its swept boxes for some frames to come), a hash grid holds the fat boxes, and each
-// body lists the bodies whose fat boxes overlap its own (the grid is detail::BoxGrid). Changing a body's fat box costs
+// body lists the bodies whose fat boxes overlap its own (the grid is detail::CellGrid, filled box by box). Changing a body's fat box costs
 // O(cells it spans x their occupancy); bodies whose fat boxes did not change keep their pairs.
 // VadopGridBroadPhase's incremental mode is built on it. It knows nothing of swept volumes or
 // time (the caller decides when a fat box no longer holds), and it is not thread-safe.
 #pragma once
 
 #include "vadop/broad_phase.h"
-#include "box_grid.h"
+#include "cell_grid.h"
 
 #include <cstddef>
 #include <cstdint>
@@ -20,7 +20,7 @@ class FatBoxPairs {
  public:
   // A fat box spanning more cells than this is "large": it is kept out of the grid and off the
   // partner lists, and the caller tests it against every body.
-  static constexpr size_t kMaxCells = detail::BoxGrid::kMaxCells;
+  static constexpr size_t kMaxCells = detail::CellGrid::kMaxCells;
 
   // Forgets every body; the next update() uses cell size h (> 0, finite), or coarser cells if
   // box coordinates reach max_abs (their largest magnitude), so that cells stay in the key range.
@@ -47,7 +47,7 @@ class FatBoxPairs {
     grid_.forEachOverlap(box, std::forward<F>(f));
   }
 
-  size_t bodies() const { return grid_.bodies(); }
+  size_t bodies() const { return grid_.items(); }
   size_t pairs() const { return pair_count_; }
   // Reset and rebuild to give the memory of stale grid listings back.
   bool wasteful() const { return grid_.wasteful(); }
@@ -56,7 +56,7 @@ class FatBoxPairs {
  private:
   void unlinkPartners(BodyId id);
 
-  detail::BoxGrid grid_;
+  detail::CellGrid grid_;
   std::vector<std::vector<BodyId>> adj_;  // per BodyId
   std::vector<uint8_t> in_update_;        // per BodyId, during update()
   size_t pair_count_ = 0;

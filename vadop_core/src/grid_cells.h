@@ -1,5 +1,5 @@
-// Cell arithmetic shared by the hash grids of the broad phase (vadop_grid.cpp, fat_box_pairs.cpp)
-// and the bit-set walk of the VADOP axis sets.
+// Cell arithmetic shared by the broad phase's cell grid (cell_grid.h), the response loop's hash
+// of pairs and the bit-set walk of the VADOP axis sets.
 #pragma once
 
 #include <cstddef>

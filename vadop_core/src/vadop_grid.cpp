@@ -2,6 +2,7 @@
 
 #include "vadop/error.h"
 #include "axis_set.h"
+#include "cell_grid.h"
 #include "fat_box_pairs.h"
 #include "grid_cells.h"
 #include "popcount.h"
@@ -16,35 +17,22 @@
 //  - Two bodies whose boxes overlap share the cell holding the lo corner of the boxes'
 //    intersection (both boxes contain that point), and the floor of a maximum is the maximum of
 //    the floors, so that cell is (max of the two lo-corner cells) per axis: a pair is tested in
-//    that cell only. Cells are found by exact integer coordinates (hash table with full keys),
-//    so two far cells never merge.
-//  - A body whose box spans more than kMaxCellsPerBody cells is not put in the grid but tested
+//    that cell only. Cells are found by exact integer coordinates (cell_grid.h), so two far
+//    cells never merge.
+//  - A body whose box spans more than CellGrid::kMaxCells cells is not put in the grid but tested
 //    against every body: a few huge or very fast bodies cannot blow up the grid's memory.
 namespace vadop {
 namespace {
 
-constexpr size_t kMaxCellsPerBody = 256;
 // Cell size choice (computePairs, step 3): cost of one (body, cell) incidence in box tests
 // (measured with callgrind on the benchmark's scenes: ~120 instructions against ~15), and
 // how many bodies the estimate looks at.
 constexpr double kIncidenceCost = 8.0;
 constexpr size_t kSample = 1024;
-// The grid indexes its cells directly (an array over the occupied range) while that range
-// holds at most this many cells per body (4 bytes each), else through a hash table.
-constexpr double kDenseCellsPerBody = 8.0;
 // Cells with more bodies than this are swept along x rather than tested pair by pair.
 constexpr uint32_t kSweepMin = 8;
-constexpr uint32_t kEmpty = ~uint32_t{0};
 constexpr double kInf = std::numeric_limits<double>::infinity();
-// Cell coordinates stay well inside int32.
-constexpr double kMaxCellCoordinate = 1 << 29;
-
-uint64_t cellHash(int32_t x, int32_t y, int32_t z) {
-  return detail::mixCellKey((static_cast<uint64_t>(static_cast<uint32_t>(x)) * 0x9e3779b1u) ^
-                            (static_cast<uint64_t>(static_cast<uint32_t>(y)) << 21) ^
-                            (static_cast<uint64_t>(static_cast<uint32_t>(z)) << 42));
-}
-
+using detail::CellGrid;
 
 }  // namespace
 
@@ -70,6 +58,7 @@ VadopGridBroadPhase::~VadopGridBroadPhase() = default;
 
 void VadopGridBroadPhase::setOptions(double cell_size, double incremental) {
   fat_ = std::make_unique<FatBoxPairs>();
+  grid_ = std::make_unique<CellGrid>();
   if (!std::isfinite(cell_size) || cell_size < 0.0) {
     throw InvalidArgument("cell_size must be finite and >= 0 (0 = automatic), got " + formatNumber(cell_size));
   }
@@ -90,15 +79,9 @@ size_t VadopGridBroadPhase::memoryBytes() const {
                  dirty_.capacity() * sizeof(BodyId);
   bytes += (slot_body_.capacity() + slot_of_.capacity() + offset_.capacity()) * sizeof(uint32_t) +
            box_.capacity() * sizeof(double) + bits_.capacity() * sizeof(uint64_t) +
-           rank_.capacity() * sizeof(uint16_t) + intervals_.capacity() * sizeof(Interval) +
-           lo_cell_.capacity() * sizeof(int32_t);
+           rank_.capacity() * sizeof(uint16_t) + intervals_.capacity() * sizeof(Interval);
   bytes += fat_->memoryBytes() + fat_ids_.capacity() * sizeof(BodyId) + fat_boxes_.capacity() * sizeof(double);
-  bytes += table_key_.capacity() * sizeof(Cell) + table_cell_.capacity() * sizeof(uint32_t) +
-           cells_.capacity() * sizeof(Cell) + dense_cell_.capacity() * sizeof(uint32_t) +
-           cell_entries_.capacity() * sizeof(CellEntry) +
-           (cell_start_.capacity() + entry_cell_.capacity() + entry_slot_.capacity() +
-            large_.capacity()) *
-               sizeof(uint32_t);
+  bytes += grid_->memoryBytes() + large_.capacity() * sizeof(uint32_t);
   return bytes;
 }
 
@@ -174,21 +157,6 @@ void VadopGridBroadPhase::onRemove(BodyId id) {
   // A stale entry in dirty_ is harmless: the body is re-selected when the id is reused.
 }
 
-uint32_t VadopGridBroadPhase::cellIndex(const Cell& c) {
-  const uint64_t h = cellHash(c.x, c.y, c.z);
-  for (size_t i = h & table_mask_;; i = (i + 1) & table_mask_) {
-    const uint32_t cell = table_cell_[i];
-    if (cell == kEmpty) {
-      table_key_[i] = c;
-      table_cell_[i] = static_cast<uint32_t>(cells_.size());
-      cells_.push_back(c);
-      return table_cell_[i];
-    }
-    const Cell& k = table_key_[i];
-    if (k.x == c.x && k.y == c.y && k.z == c.z) return cell;
-  }
-}
-
 VADOP_POPCNT_CLONES
 bool VadopGridBroadPhase::overlapOnShared(uint32_t a, uint32_t b) {
   ++stats_.overlap_tests;
@@ -232,137 +200,6 @@ void VadopGridBroadPhase::testLargeAgainstAll(const std::vector<uint32_t>& large
   }
 }
 
-void VadopGridBroadPhase::buildGrid(double h) {
-  // The previous grid's dense lookup stays valid for queries until now: empty it.
-  if (dense_) {
-    for (const Cell& c : cells_) dense_cell_[denseIndex(c.x, c.y, c.z)] = kEmpty;
-    dense_ = false;
-  }
-  cells_ready_ = false;
-  grid_cell_size_ = h;
-  const size_t slots = slot_body_.size();
-  const double inv = 1.0 / h;
-  // Exact: |v * inv| < 2^29 by the choice of h (kMaxCellCoordinate).
-  auto cellOf = [inv](double v) { return detail::floorToInt(v * inv); };
-  lo_cell_.resize(3 * slots);
-  entry_cell_.clear();
-  entry_slot_.clear();
-  large_.clear();
-  cells_.clear();
-  // Size the table for the incidences first: one pass over the cell ranges, which also finds
-  // the range of cells occupied by the grid's bodies.
-  size_t incidences = 0;
-  int32_t cmin[3] = {INT32_MAX, INT32_MAX, INT32_MAX}, cmax[3] = {INT32_MIN, INT32_MIN, INT32_MIN};
-  for (uint32_t s = 0; s < slots; ++s) {
-    const double* b = &box_[6 * s];
-    size_t count = 1;
-    int32_t hi[3];
-    for (int k = 0; k < 3; ++k) {
-      lo_cell_[3 * s + k] = cellOf(b[k]);
-      hi[k] = cellOf(b[3 + k]);
-      count *= static_cast<size_t>(hi[k] - lo_cell_[3 * s + k] + 1);
-    }
-    if (count > kMaxCellsPerBody) {
-      large_.push_back(s);
-    } else {
-      incidences += count;
-      for (int k = 0; k < 3; ++k) {
-        cmin[k] = std::min(cmin[k], lo_cell_[3 * s + k]);
-        cmax[k] = std::max(cmax[k], hi[k]);
-      }
-    }
-  }
-  // Cells found by direct index into an array over that range when it is not much larger than
-  // the number of bodies (a bounded, filled world: one read, no hashing or probing), else by
-  // the hash table (sparse or unbounded worlds).
-  double range = 1.0;
-  for (int k = 0; k < 3; ++k) range *= cmax[k] >= cmin[k] ? static_cast<double>(cmax[k]) - cmin[k] + 1.0 : 0.0;
-  const bool dense = range <= kDenseCellsPerBody * static_cast<double>(slots) + 64.0;
-  if (dense) {
-    for (int k = 0; k < 3; ++k) {
-      dense_min_[k] = cmin[k];
-      dense_dim_[k] = cmax[k] >= cmin[k] ? cmax[k] - cmin[k] + 1 : 0;
-    }
-    if (dense_cell_.size() < static_cast<size_t>(range)) dense_cell_.resize(static_cast<size_t>(range), kEmpty);
-  } else {
-    size_t capacity = 16;
-    while (capacity < 2 * incidences) capacity *= 2;
-    table_key_.resize(capacity);
-    table_cell_.assign(capacity, kEmpty);
-    table_mask_ = capacity - 1;
-  }
-  auto cellAt = [&](int32_t x, int32_t y, int32_t z) -> uint32_t {
-    if (!dense) return cellIndex(Cell{x, y, z});
-    uint32_t& cell = dense_cell_[denseIndex(x, y, z)];
-    if (cell == kEmpty) {
-      cell = static_cast<uint32_t>(cells_.size());
-      cells_.push_back(Cell{x, y, z});
-    }
-    return cell;
-  };
-  entry_cell_.reserve(incidences);
-  entry_slot_.reserve(incidences);
-  size_t next_large = 0;
-  for (uint32_t s = 0; s < slots; ++s) {
-    if (next_large < large_.size() && large_[next_large] == s) {
-      ++next_large;
-      continue;
-    }
-    const double* b = &box_[6 * s];
-    const int32_t* lo = &lo_cell_[3 * s];
-    const int32_t hx = cellOf(b[3]), hy = cellOf(b[4]), hz = cellOf(b[5]);
-    for (int32_t z = lo[2]; z <= hz; ++z) {
-      for (int32_t y = lo[1]; y <= hy; ++y) {
-        for (int32_t x = lo[0]; x <= hx; ++x) {
-          entry_cell_.push_back(cellAt(x, y, z));
-          entry_slot_.push_back(s);
-        }
-      }
-    }
-  }
-  dense_ = dense;  // the lookup stays for queries; emptied by the next build
-  // Counting sort of the incidences by cell.
-  cell_start_.assign(cells_.size() + 1, 0);
-  for (uint32_t c : entry_cell_) ++cell_start_[c + 1];
-  for (size_t c = 0; c < cells_.size(); ++c) cell_start_[c + 1] += cell_start_[c];
-  // Each incidence carries a copy of its body's box and lo-corner cell, so the pair loops of a
-  // cell read one contiguous run of memory (at 10^5 bodies, random reads of the boxes cost more
-  // than the tests).
-  cell_entries_.resize(entry_cell_.size());
-  for (size_t e = 0; e < entry_slot_.size(); ++e) {
-    const uint32_t s = entry_slot_[e];
-    CellEntry& ce = cell_entries_[cell_start_[entry_cell_[e]]++];  // cell_start_ as write cursor
-    std::copy_n(&box_[6 * s], 6, ce.box);
-    std::copy_n(&lo_cell_[3 * s], 3, ce.lo_cell);
-    ce.slot = s;
-  }
-  // cell_start_[c] now holds the end of cell c: shift back.
-  for (size_t c = cells_.size(); c > 0; --c) cell_start_[c] = cell_start_[c - 1];
-  cell_start_[0] = 0;
-  stats_.cells = cells_.size();
-  stats_.cell_entries = cell_entries_.size();
-  stats_.large_bodies = large_.size();
-  cells_ready_ = true;
-}
-
-uint32_t VadopGridBroadPhase::findCell(int32_t x, int32_t y, int32_t z) const {
-  if (dense_) {
-    if (x < dense_min_[0] || y < dense_min_[1] || z < dense_min_[2] || x >= dense_min_[0] + dense_dim_[0] ||
-        y >= dense_min_[1] + dense_dim_[1] || z >= dense_min_[2] + dense_dim_[2]) {
-      return kEmpty;
-    }
-    return dense_cell_[denseIndex(x, y, z)];
-  }
-  if (table_cell_.empty()) return kEmpty;
-  const uint64_t h = cellHash(x, y, z);
-  for (size_t i = h & table_mask_;; i = (i + 1) & table_mask_) {
-    const uint32_t cell = table_cell_[i];
-    if (cell == kEmpty) return kEmpty;
-    const Cell& k = table_key_[i];
-    if (k.x == x && k.y == y && k.z == z) return cell;
-  }
-}
-
 bool VadopGridBroadPhase::queryFrame(const double* q, std::vector<BodyId>& out) {
   if (!framed_) return false;
   const size_t slots = slot_body_.size();
@@ -384,36 +221,7 @@ bool VadopGridBroadPhase::queryFrame(const double* q, std::vector<BodyId>& out) 
     for (BodyId id : fat_->large()) test(id);
     return true;
   }
-  const double inv = 1.0 / grid_cell_size_;
-  auto cellOf = [inv](double v) { return detail::floorToInt(v * inv); };
-  // A query box spanning many cells (or beyond the cell key range) scans the slots instead.
-  const double span = (1.0 + (q[3] - q[0]) * inv) * (1.0 + (q[4] - q[1]) * inv) * (1.0 + (q[5] - q[2]) * inv);
-  const double reach = std::max({std::abs(q[0]), std::abs(q[1]), std::abs(q[2]), std::abs(q[3]), std::abs(q[4]), std::abs(q[5])}) * inv;
-  if (!(span <= static_cast<double>(std::min<size_t>(kMaxCellsPerBody, slots))) || !(reach < kMaxCellCoordinate)) {
-    for (uint32_t s = 0; s < slots; ++s) {
-      if (boxesOverlap(&box_[6 * s])) push(s);
-    }
-    return true;
-  }
-  const int32_t lx = cellOf(q[0]), ly = cellOf(q[1]), lz = cellOf(q[2]);
-  const int32_t hx = cellOf(q[3]), hy = cellOf(q[4]), hz = cellOf(q[5]);
-  for (int32_t z = lz; z <= hz; ++z) {
-    for (int32_t y = ly; y <= hy; ++y) {
-      for (int32_t x = lx; x <= hx; ++x) {
-        const uint32_t c = findCell(x, y, z);
-        if (c == kEmpty) continue;
-        for (uint32_t e = cell_start_[c]; e < cell_start_[c + 1]; ++e) {
-          const CellEntry& ce = cell_entries_[e];
-          if (!boxesOverlap(ce.box)) continue;
-          // A box is listed in every cell it overlaps: report it once, from the cell holding
-          // the low corner of its overlap with the query (a cell both of them span).
-          if (std::max(ce.lo_cell[0], lx) == x && std::max(ce.lo_cell[1], ly) == y && std::max(ce.lo_cell[2], lz) == z) {
-            push(ce.slot);
-          }
-        }
-      }
-    }
-  }
+  grid_->forEachOverlap(q, push);
   for (uint32_t s : large_) {
     if (boxesOverlap(&box_[6 * s])) push(s);
   }
@@ -456,7 +264,7 @@ double VadopGridBroadPhase::chooseCellSize(const double* world_lo, const double*
   }
   double max_abs = 0.0;
   for (int k = 0; k < 3; ++k) max_abs = std::max({max_abs, std::abs(world_lo[k]), std::abs(world_hi[k])});
-  return std::max({h, max_abs / kMaxCellCoordinate, 1e-9});
+  return std::max({h, max_abs / CellGrid::kMaxCoordinate, 1e-9});
 }
 
 void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& out) {
@@ -527,8 +335,6 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
     next_interval += detail::axisCount(bits, rank, words_);
     ++s;
   }
-  std::copy_n(world_lo, 3, world_lo_);
-  std::copy_n(world_hi, 3, world_hi_);
   auto grid_from = Clock::now();
   stats_.update_seconds = std::chrono::duration<double>(grid_from - start).count();
   if (slots < 2) {
@@ -555,12 +361,18 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
   //    I(h) is estimated from at most kSample bodies.
   const double h = chooseCellSize(world_lo, world_hi);
   stats_.cell_size = h;
-  buildGrid(h);
+  grid_->build(box_.data(), slots, h);
+  large_ = grid_->large();
+  stats_.cells = grid_->cellCount();
+  stats_.cell_entries = grid_->entryCount();
+  stats_.large_bodies = large_.size();
+  cells_ready_ = true;
 
   // 4. Pairs of each cell, each reported in the cell of its boxes' common lo corner. A crowded
   //    cell is swept along x first (sorted by box lo x, a body meets only those that start
   //    before its box ends), a small one tested pair by pair.
-  auto test = [this, &out](const CellEntry& x, const CellEntry& y, const Cell& cell) {
+  using Entry = CellGrid::Entry;
+  auto test = [this, &out](const Entry& x, const Entry& y, const CellGrid::Cell& cell) {
     if (std::max(x.lo_cell[0], y.lo_cell[0]) != cell.x || std::max(x.lo_cell[1], y.lo_cell[1]) != cell.y ||
         std::max(x.lo_cell[2], y.lo_cell[2]) != cell.z) {
       return;  // tested in another cell they share
@@ -570,22 +382,22 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
         x.box[2] > y.box[5] || y.box[2] > x.box[5]) {
       return;
     }
-    if (overlapOnShared(x.slot, y.slot)) out.push_back(makePair(slot_body_[x.slot], slot_body_[y.slot]));
+    if (overlapOnShared(x.item, y.item)) out.push_back(makePair(slot_body_[x.item], slot_body_[y.item]));
   };
-  for (size_t c = 0; c < cells_.size(); ++c) {
-    CellEntry* first = cell_entries_.data() + cell_start_[c];
-    CellEntry* last = cell_entries_.data() + cell_start_[c + 1];
+  for (size_t c = 0; c < grid_->cellCount(); ++c) {
+    Entry* first = grid_->entriesBegin(c);
+    Entry* last = grid_->entriesEnd(c);
     if (last - first < 2) continue;
-    const Cell cell = cells_[c];
+    const CellGrid::Cell cell = grid_->cell(c);
     if (last - first <= kSweepMin) {
-      for (CellEntry* x = first; x + 1 < last; ++x) {
-        for (CellEntry* y = x + 1; y < last; ++y) test(*x, *y, cell);
+      for (Entry* x = first; x + 1 < last; ++x) {
+        for (Entry* y = x + 1; y < last; ++y) test(*x, *y, cell);
       }
       continue;
     }
-    std::sort(first, last, [](const CellEntry& x, const CellEntry& y) { return x.box[0] < y.box[0]; });
-    for (CellEntry* x = first; x + 1 < last; ++x) {
-      for (CellEntry* y = x + 1; y < last && y->box[0] <= x->box[3]; ++y) test(*x, *y, cell);
+    std::sort(first, last, [](const Entry& x, const Entry& y) { return x.box[0] < y.box[0]; });
+    for (Entry* x = first; x + 1 < last; ++x) {
+      for (Entry* y = x + 1; y < last && y->box[0] <= x->box[3]; ++y) test(*x, *y, cell);
     }
   }
   // 5. Bodies too large for the grid: against every other body.

@@ -16,7 +16,7 @@
 
 namespace vadop {
 namespace detail {
-class BoxGrid;  // src/box_grid.h
+class CellGrid;  // src/cell_grid.h
 }  // namespace detail
 
 class BroadPhase {
@@ -121,7 +121,7 @@ class BroadPhase {
   // Past a few changed bodies, their swept boxes over the rest of the frame from the query
   // that indexed them (the latest such t0: changed_t0_) in a hash grid, filled up to
   // changed_indexed_ entries of changed_.
-  std::unique_ptr<detail::BoxGrid> changed_grid_;
+  std::unique_ptr<detail::CellGrid> changed_grid_;
   size_t changed_indexed_ = 0;
   double changed_t0_ = 0.0;
   bool changed_grid_valid_ = false;

@@ -23,6 +23,9 @@
 namespace vadop {
 
 class FatBoxPairs;  // internal (src/fat_box_pairs.h)
+namespace detail {
+class CellGrid;  // internal (src/cell_grid.h)
+}
 
 class VadopGridBroadPhase : public BroadPhase {
  public:
@@ -102,12 +105,7 @@ class VadopGridBroadPhase : public BroadPhase {
   void setOptions(double cell_size, double incremental);
   // Cell size by the estimated cost of the frame's boxes (step 3 of computePairs).
   double chooseCellSize(const double* world_lo, const double* world_hi);
-  // Cell index of (x, y, z) in the frame's grid, or kEmpty: for queries after buildGrid.
-  uint32_t findCell(int32_t x, int32_t y, int32_t z) const;
   static constexpr uint32_t kNoSlot = ~uint32_t{0};
-  struct Cell {
-    int32_t x, y, z;
-  };
   void clearAxes(BodyId id);
   size_t countAliveAxes() const;  // total size of the alive bodies' axis sets
   // Each slot of `large` (ascending not required) against every other slot, each pair once.
@@ -115,8 +113,6 @@ class VadopGridBroadPhase : public BroadPhase {
   bool computeFromFatBoxes(double frame, std::vector<Pair>& out);
   void appendFatBox(uint32_t slot, double frame);
   double expectedEscapeRate(double frame) const;
-  void buildGrid(double cell_size);
-  uint32_t cellIndex(const Cell& c);  // find or insert in the hash table
   bool overlapOnShared(uint32_t a, uint32_t b);
   // f(axis, interval) for each pool axis of slot s: its body's swept volume over the last
   // update's frame, projected now (the body's motion must be the update's).
@@ -157,34 +153,8 @@ class VadopGridBroadPhase : public BroadPhase {
   std::vector<uint8_t> interval_ready_;
   double frame_t0_ = 0.0, frame_t1_ = 0.0;  // of the last update
   bool framed_ = false;      // an update has run (the slots and boxes describe its frame)
-  bool cells_ready_ = false; // cells_ and its lookup hold the grid of the last update's boxes
-  bool dense_ = false;       // that lookup is dense_cell_ (else the hash table)
-  double grid_cell_size_ = 1.0;  // of cells_
-  double world_lo_[3] = {0, 0, 0}, world_hi_[3] = {0, 0, 0};  // bounds of the frame's boxes
-  std::vector<int32_t> lo_cell_;       // 3 per slot: cell of the box's lo corner
-
-  // Grid of the frame: cells in a hash table, bodies per cell by counting sort.
-  std::vector<Cell> table_key_;
-  std::vector<uint32_t> table_cell_;  // cell index, or kEmpty
-  size_t table_mask_ = 0;
-  // ... or, when the occupied range of cells is small (a bounded, filled world), an array over
-  // that range: cell index or kEmpty (all kEmpty between frames).
-  std::vector<uint32_t> dense_cell_;
-  int32_t dense_min_[3] = {0, 0, 0}, dense_dim_[3] = {0, 0, 0};
-  size_t denseIndex(int32_t x, int32_t y, int32_t z) const {
-    return (static_cast<size_t>(z - dense_min_[2]) * static_cast<size_t>(dense_dim_[1]) +
-            static_cast<size_t>(y - dense_min_[1])) * static_cast<size_t>(dense_dim_[0]) +
-           static_cast<size_t>(x - dense_min_[0]);
-  }
-  std::vector<Cell> cells_;
-  std::vector<uint32_t> cell_start_;
-  struct CellEntry {  // one (body, cell) incidence, in cell order
-    double box[6];
-    int32_t lo_cell[3];
-    uint32_t slot;
-  };
-  std::vector<CellEntry> cell_entries_;
-  std::vector<uint32_t> entry_cell_, entry_slot_;
+  bool cells_ready_ = false; // grid_ holds the cells of the last update's boxes
+  std::unique_ptr<detail::CellGrid> grid_;  // the frame's cells (slots as items)
   std::vector<uint32_t> large_;      // slots of the bodies too large for the grid (either path)
   std::vector<double> scratch_extent_;
 

@@ -1,0 +1,189 @@
+// The uniform grid of axis-aligned boxes behind every grid of the broad phases: cells keyed by
+// exact integer coordinates (floor of a coordinate over the cell size), each box listed in
+// every cell it spans, a box spanning more than kMaxCells cells (or beyond the coordinate
+// range) kept apart as "large" for the caller to test. It is filled one of two ways:
+//  - build(): a batch of boxes at once, each cell's entries contiguous and carrying a copy of
+//    their box (the per-frame grid of VadopGridBroadPhase, whose pair loops walk the cells);
+//  - set() / remove(): one box at a time, entries chained per cell, a replaced box's entries
+//    left stale and skipped (the kept fat boxes of fat_box_pairs.h, the bodies a broad phase's
+//    queries see changed since its update).
+// Either way forEachOverlap answers which boxes overlap a query box, each once. It knows
+// nothing of motion or time, and it is not thread-safe.
+#pragma once
+
+#include "grid_cells.h"
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace vadop {
+namespace detail {
+
+class CellGrid {
+ public:
+  static constexpr size_t kMaxCells = 256;
+  // Cell coordinates of listed boxes stay within +-kMaxCoordinate (exact in int32).
+  static constexpr double kMaxCoordinate = 1 << 29;
+  static constexpr uint32_t kEmpty = ~uint32_t{0};
+
+  struct Cell {
+    int32_t x, y, z;
+  };
+  struct Entry {  // one (box, cell) incidence of build()
+    double box[6];      // lo x y z, hi x y z
+    int32_t lo_cell[3]; // cell of the box's lo corner
+    uint32_t item;
+  };
+
+  // Empties the grid for set(): cells of size h (> 0, finite; throws InvalidArgument
+  // otherwise), or coarser if box coordinates reach max_abs (their largest magnitude), so that
+  // boxes stay in the coordinate range instead of all becoming large.
+  void reset(double h, double max_abs = 0.0);
+  // Empties the grid and lists items 0 .. count-1 with `boxes` (6 doubles each) in cells of
+  // size h (> 0, finite; the caller keeps coordinates / h within kMaxCoordinate, boxes beyond
+  // it are large). set() and remove() need a reset() after it.
+  void build(const double* boxes, size_t count, double h);
+  double cellSize() const { return h_; }
+
+  // --- one box at a time (after reset()) ---
+  bool has(uint32_t item) const { return item < state_.size() && state_[item] != kNone; }
+  bool isLarge(uint32_t item) const { return item < state_.size() && state_[item] == kLarge; }
+  // The box of `item` (lo x y z, hi x y z); only while has(item).
+  const double* box(uint32_t item) const { return &box_[6 * static_cast<size_t>(item)]; }
+  void set(uint32_t item, const double* box);  // replaces any box it had
+  void remove(uint32_t item);                  // no-op without a box
+  size_t items() const { return items_; }
+  // Stale entries outnumber live ones 3 to 1: reset to give the memory back.
+  bool wasteful() const { return nodes_.size() > 4 * live_nodes_ + 4096; }
+
+  // --- either way ---
+  // Calls f(item) once for every item (large ones excluded) whose box overlaps `box` (closed
+  // intervals), reported from the cell holding the lo corner of the two boxes' intersection.
+  template <class F>
+  void forEachOverlap(const double* box, F&& f) const;
+  // The large items (build(): ascending).
+  const std::vector<uint32_t>& large() const { return large_; }
+
+  // --- the cells of build(), for pair loops ---
+  size_t cellCount() const { return cells_.size(); }
+  const Cell& cell(size_t c) const { return cells_[c]; }
+  // Entries of cell c, [first, last): the caller may reorder them within the cell.
+  Entry* entriesBegin(size_t c) { return entries_.data() + cell_start_[c]; }
+  Entry* entriesEnd(size_t c) { return entries_.data() + cell_start_[c + 1]; }
+  size_t entryCount() const { return entries_.size(); }
+
+  size_t memoryBytes() const;
+
+ private:
+  enum : uint8_t { kNone = 0, kGrid = 1, kLarge = 2 };
+  struct Node {  // one (box, cell) incidence of set()
+    uint32_t item;
+    uint32_t version;
+    int32_t next;
+  };
+  // Cell range of a box; false if it spans more than kMaxCells cells or leaves the
+  // coordinate range (also for NaN).
+  bool cellRange(const double* box, int32_t lo[3], int32_t hi[3]) const;
+  void clearLookup();
+  void resizeTable(size_t capacity);
+  uint32_t findCell(int32_t x, int32_t y, int32_t z) const;  // or kEmpty
+  uint32_t insertCell(int32_t x, int32_t y, int32_t z);      // find or add
+  static bool overlaps(const double* a, const double* b) {
+    return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
+  }
+  template <class F>
+  void scanAll(const double* box, F&& f) const;
+
+  double h_ = 1.0, inv_h_ = 1.0;
+  bool built_ = false;  // filled by build() (else by set())
+
+  // Cell lookup: an open-addressing hash table of cell coordinates, or (build() of a compact
+  // set of cells) an array over their range; cell index -> coordinates in cells_.
+  std::vector<Cell> table_key_;
+  std::vector<uint32_t> table_cell_;  // cell index, or kEmpty
+  size_t table_mask_ = 0;
+  bool dense_ = false;
+  std::vector<uint32_t> dense_cell_;  // cell index or kEmpty (all kEmpty while !dense_)
+  int32_t dense_min_[3] = {0, 0, 0}, dense_dim_[3] = {0, 0, 0};
+  size_t denseIndex(int32_t x, int32_t y, int32_t z) const {
+    return (static_cast<size_t>(z - dense_min_[2]) * static_cast<size_t>(dense_dim_[1]) +
+            static_cast<size_t>(y - dense_min_[1])) * static_cast<size_t>(dense_dim_[0]) +
+           static_cast<size_t>(x - dense_min_[0]);
+  }
+  std::vector<Cell> cells_;
+
+  // build(): entries sorted by cell (counting sort).
+  std::vector<uint32_t> cell_start_;
+  std::vector<Entry> entries_;
+  std::vector<int32_t> lo_scratch_;
+  std::vector<uint32_t> entry_cell_, entry_item_;
+
+  // set(): per cell the first node of its chain; per item its state, box, lo-corner cell and
+  // version (nodes of older versions are stale).
+  std::vector<int32_t> head_;
+  std::vector<Node> nodes_;
+  size_t live_nodes_ = 0, items_ = 0;
+  std::vector<uint8_t> state_;
+  std::vector<uint32_t> version_;
+  std::vector<double> box_;
+  std::vector<int32_t> lo_cell_;
+  std::vector<uint32_t> large_;
+};
+
+template <class F>
+void CellGrid::scanAll(const double* box, F&& f) const {
+  if (built_) {  // each item once: from the entry in its own lo-corner cell
+    for (size_t c = 0; c < cells_.size(); ++c) {
+      const Cell& k = cells_[c];
+      for (uint32_t e = cell_start_[c]; e < cell_start_[c + 1]; ++e) {
+        const Entry& en = entries_[e];
+        if (en.lo_cell[0] == k.x && en.lo_cell[1] == k.y && en.lo_cell[2] == k.z && overlaps(box, en.box)) f(en.item);
+      }
+    }
+    return;
+  }
+  for (uint32_t i = 0; i < state_.size(); ++i) {
+    if (state_[i] == kGrid && overlaps(box, this->box(i))) f(i);
+  }
+}
+
+template <class F>
+void CellGrid::forEachOverlap(const double* box, F&& f) const {
+  if (cells_.empty()) return;
+  int32_t lo[3], hi[3];
+  if (!cellRange(box, lo, hi)) {  // a query as large as that: every listed item, once
+    scanAll(box, f);
+    return;
+  }
+  for (int32_t z = lo[2]; z <= hi[2]; ++z) {
+    for (int32_t y = lo[1]; y <= hi[1]; ++y) {
+      for (int32_t x = lo[0]; x <= hi[0]; ++x) {
+        const uint32_t c = findCell(x, y, z);
+        if (c == kEmpty) continue;
+        // An item is listed in every cell it spans: it is reported from the cell holding the lo
+        // corner of its overlap with the query, a cell both span.
+        auto here = [&](const int32_t* item_lo) {
+          return std::max(item_lo[0], lo[0]) == x && std::max(item_lo[1], lo[1]) == y && std::max(item_lo[2], lo[2]) == z;
+        };
+        if (built_) {
+          for (uint32_t e = cell_start_[c]; e < cell_start_[c + 1]; ++e) {
+            const Entry& en = entries_[e];
+            if (overlaps(box, en.box) && here(en.lo_cell)) f(en.item);
+          }
+          continue;
+        }
+        for (int32_t k = head_[c]; k >= 0; k = nodes_[k].next) {
+          const Node& node = nodes_[k];
+          const uint32_t i = node.item;
+          if (node.version != version_[i]) continue;
+          if (overlaps(box, this->box(i)) && here(&lo_cell_[3 * static_cast<size_t>(i)])) f(i);
+        }
+      }
+    }
+  }
+}
+
+}  // namespace detail
+}  // namespace vadop
