@@ -13,35 +13,21 @@ namespace {
 // holds at most this many cells per item (4 bytes each), else through the hash table.
 constexpr double kDenseCellsPerItem = 8.0;
 
-uint64_t cellHash(int32_t x, int32_t y, int32_t z) {
-  return mixCellKey((static_cast<uint64_t>(static_cast<uint32_t>(x)) * 0x9e3779b1u) ^
-                    (static_cast<uint64_t>(static_cast<uint32_t>(y)) << 21) ^
-                    (static_cast<uint64_t>(static_cast<uint32_t>(z)) << 42));
-}
-
 }  // namespace
 
-bool CellGrid::cellRange(const double* box, int32_t lo[3], int32_t hi[3]) const {
-  size_t count = 1;
-  for (int k = 0; k < 3; ++k) {
-    const double a = box[k] * inv_h_, b = box[3 + k] * inv_h_;
-    if (!(a > -kMaxCoordinate && b < kMaxCoordinate)) return false;  // also NaN
-    lo[k] = floorToInt(a);
-    hi[k] = floorToInt(b);
-    if (hi[k] < lo[k]) return false;  // an inverted box: no cell
-    count *= static_cast<size_t>(hi[k] - lo[k] + 1);
-    if (count > kMaxCells) return false;
-  }
-  return true;
-}
-
-void CellGrid::clearLookup() {
+void CellGrid::clear() {
   if (dense_) {
     for (const Cell& c : cells_) dense_cell_[denseIndex(c.x, c.y, c.z)] = kEmpty;
     dense_ = false;
   }
   cells_.clear();
-  std::fill(table_cell_.begin(), table_cell_.end(), kEmpty);
+  built_ = false;
+  cell_start_.clear();  // entries_ keeps its size: build() overwrites it without zeroing it first
+  head_.clear();
+  nodes_.clear();
+  std::fill(state_.begin(), state_.end(), kNone);
+  large_.clear();
+  live_nodes_ = items_ = 0;
 }
 
 void CellGrid::resizeTable(size_t capacity) {
@@ -57,45 +43,8 @@ void CellGrid::resizeTable(size_t capacity) {
   }
 }
 
-uint32_t CellGrid::findCell(int32_t x, int32_t y, int32_t z) const {
-  if (dense_) {
-    if (x < dense_min_[0] || y < dense_min_[1] || z < dense_min_[2] || x >= dense_min_[0] + dense_dim_[0] ||
-        y >= dense_min_[1] + dense_dim_[1] || z >= dense_min_[2] + dense_dim_[2]) {
-      return kEmpty;
-    }
-    return dense_cell_[denseIndex(x, y, z)];
-  }
-  if (table_cell_.empty()) return kEmpty;
-  for (size_t i = cellHash(x, y, z) & table_mask_;; i = (i + 1) & table_mask_) {
-    const uint32_t cell = table_cell_[i];
-    if (cell == kEmpty) return kEmpty;
-    const Cell& k = table_key_[i];
-    if (k.x == x && k.y == y && k.z == z) return cell;
-  }
-}
 
-uint32_t CellGrid::insertCell(int32_t x, int32_t y, int32_t z) {
-  if (dense_) {
-    uint32_t& cell = dense_cell_[denseIndex(x, y, z)];
-    if (cell == kEmpty) {
-      cell = static_cast<uint32_t>(cells_.size());
-      cells_.push_back(Cell{x, y, z});
-    }
-    return cell;
-  }
-  if (2 * (cells_.size() + 1) > table_cell_.size()) resizeTable(std::max<size_t>(16, 2 * table_cell_.size()));
-  for (size_t i = cellHash(x, y, z) & table_mask_;; i = (i + 1) & table_mask_) {
-    const uint32_t cell = table_cell_[i];
-    if (cell == kEmpty) {
-      table_key_[i] = Cell{x, y, z};
-      table_cell_[i] = static_cast<uint32_t>(cells_.size());
-      cells_.push_back(Cell{x, y, z});
-      return table_cell_[i];
-    }
-    const Cell& k = table_key_[i];
-    if (k.x == x && k.y == y && k.z == z) return cell;
-  }
-}
+
 
 void CellGrid::reset(double h, double max_abs) {
   if (!(std::isfinite(h) && h > 0.0)) throw InvalidArgument("CellGrid: cell size must be finite and > 0, got " + formatNumber(h));
@@ -103,19 +52,15 @@ void CellGrid::reset(double h, double max_abs) {
   if (std::isfinite(max_abs)) h = std::max(h, 2.0 * std::abs(max_abs) / kMaxCoordinate);
   h_ = h;
   inv_h_ = 1.0 / h;
-  clearLookup();
-  built_ = false;
-  cell_start_.clear();
-  entries_.clear();
-  head_.clear();
-  nodes_.clear();
-  std::fill(state_.begin(), state_.end(), kNone);
-  large_.clear();
-  live_nodes_ = items_ = 0;
+  clear();
+  std::fill(table_cell_.begin(), table_cell_.end(), kEmpty);
 }
 
 void CellGrid::build(const double* boxes, size_t count, double h) {
-  reset(h);
+  if (!(std::isfinite(h) && h > 0.0)) throw InvalidArgument("CellGrid: cell size must be finite and > 0, got " + formatNumber(h));
+  h_ = h;
+  inv_h_ = 1.0 / h;
+  clear();  // the hash table is emptied below if used
   built_ = true;
   // Cell ranges first: they size the table and find the range of the occupied cells.
   lo_scratch_.resize(3 * count);
@@ -151,7 +96,9 @@ void CellGrid::build(const double* boxes, size_t count, double h) {
   } else {
     size_t capacity = 16;
     while (capacity < 2 * incidences) capacity *= 2;
-    if (capacity != table_cell_.size()) resizeTable(capacity);  // empty: clearLookup ran
+    table_key_.resize(capacity);
+    table_cell_.assign(capacity, kEmpty);
+    table_mask_ = capacity - 1;
   }
   entry_cell_.clear();
   entry_item_.clear();
@@ -170,7 +117,7 @@ void CellGrid::build(const double* boxes, size_t count, double h) {
     for (int32_t z = lo[2]; z <= hz; ++z) {
       for (int32_t y = lo[1]; y <= hy; ++y) {
         for (int32_t x = lo[0]; x <= hx; ++x) {
-          entry_cell_.push_back(insertCell(x, y, z));
+          entry_cell_.push_back(addCell(x, y, z));  // the table holds every cell
           entry_item_.push_back(s);
         }
       }

@@ -72,7 +72,7 @@ class CellGrid {
   // Entries of cell c, [first, last): the caller may reorder them within the cell.
   Entry* entriesBegin(size_t c) { return entries_.data() + cell_start_[c]; }
   Entry* entriesEnd(size_t c) { return entries_.data() + cell_start_[c + 1]; }
-  size_t entryCount() const { return entries_.size(); }
+  size_t entryCount() const { return built_ ? entries_.size() : 0; }
 
   size_t memoryBytes() const;
 
@@ -86,10 +86,11 @@ class CellGrid {
   // Cell range of a box; false if it spans more than kMaxCells cells or leaves the
   // coordinate range (also for NaN).
   bool cellRange(const double* box, int32_t lo[3], int32_t hi[3]) const;
-  void clearLookup();
+  void clear();  // all but the hash table's contents
   void resizeTable(size_t capacity);
   uint32_t findCell(int32_t x, int32_t y, int32_t z) const;  // or kEmpty
-  uint32_t insertCell(int32_t x, int32_t y, int32_t z);      // find or add
+  uint32_t insertCell(int32_t x, int32_t y, int32_t z);      // find or add, growing the table
+  uint32_t addCell(int32_t x, int32_t y, int32_t z);         // find or add, table large enough
   static bool overlaps(const double* a, const double* b) {
     return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
   }
@@ -131,6 +132,71 @@ class CellGrid {
   std::vector<int32_t> lo_cell_;
   std::vector<uint32_t> large_;
 };
+
+// Spreads a cell's coordinates over the hash table.
+inline uint64_t cellHash(int32_t x, int32_t y, int32_t z) {
+  return mixCellKey((static_cast<uint64_t>(static_cast<uint32_t>(x)) * 0x9e3779b1u) ^
+                    (static_cast<uint64_t>(static_cast<uint32_t>(y)) << 21) ^
+                    (static_cast<uint64_t>(static_cast<uint32_t>(z)) << 42));
+}
+
+inline bool CellGrid::cellRange(const double* box, int32_t lo[3], int32_t hi[3]) const {
+  size_t count = 1;
+  for (int k = 0; k < 3; ++k) {
+    const double a = box[k] * inv_h_, b = box[3 + k] * inv_h_;
+    if (!(a > -kMaxCoordinate && b < kMaxCoordinate)) return false;  // also NaN
+    lo[k] = floorToInt(a);
+    hi[k] = floorToInt(b);
+    if (hi[k] < lo[k]) return false;  // an inverted box: no cell
+    count *= static_cast<size_t>(hi[k] - lo[k] + 1);
+    if (count > kMaxCells) return false;
+  }
+  return true;
+}
+
+inline uint32_t CellGrid::findCell(int32_t x, int32_t y, int32_t z) const {
+  if (dense_) {
+    if (x < dense_min_[0] || y < dense_min_[1] || z < dense_min_[2] || x >= dense_min_[0] + dense_dim_[0] ||
+        y >= dense_min_[1] + dense_dim_[1] || z >= dense_min_[2] + dense_dim_[2]) {
+      return kEmpty;
+    }
+    return dense_cell_[denseIndex(x, y, z)];
+  }
+  if (table_cell_.empty()) return kEmpty;
+  for (size_t i = cellHash(x, y, z) & table_mask_;; i = (i + 1) & table_mask_) {
+    const uint32_t cell = table_cell_[i];
+    if (cell == kEmpty) return kEmpty;
+    const Cell& k = table_key_[i];
+    if (k.x == x && k.y == y && k.z == z) return cell;
+  }
+}
+
+inline uint32_t CellGrid::insertCell(int32_t x, int32_t y, int32_t z) {
+  if (2 * (cells_.size() + 1) > table_cell_.size()) resizeTable(std::max<size_t>(16, 2 * table_cell_.size()));
+  return addCell(x, y, z);
+}
+
+inline uint32_t CellGrid::addCell(int32_t x, int32_t y, int32_t z) {
+  if (dense_) {
+    uint32_t& cell = dense_cell_[denseIndex(x, y, z)];
+    if (cell == kEmpty) {
+      cell = static_cast<uint32_t>(cells_.size());
+      cells_.push_back(Cell{x, y, z});
+    }
+    return cell;
+  }
+  for (size_t i = cellHash(x, y, z) & table_mask_;; i = (i + 1) & table_mask_) {
+    const uint32_t cell = table_cell_[i];
+    if (cell == kEmpty) {
+      table_key_[i] = Cell{x, y, z};
+      table_cell_[i] = static_cast<uint32_t>(cells_.size());
+      cells_.push_back(Cell{x, y, z});
+      return table_cell_[i];
+    }
+    const Cell& k = table_key_[i];
+    if (k.x == x && k.y == y && k.z == z) return cell;
+  }
+}
 
 template <class F>
 void CellGrid::scanAll(const double* box, F&& f) const {

@@ -384,11 +384,12 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
     }
     if (overlapOnShared(x.item, y.item)) out.push_back(makePair(slot_body_[x.item], slot_body_[y.item]));
   };
-  for (size_t c = 0; c < grid_->cellCount(); ++c) {
-    Entry* first = grid_->entriesBegin(c);
-    Entry* last = grid_->entriesEnd(c);
+  CellGrid& grid = *grid_;
+  for (size_t c = 0, cells = grid.cellCount(); c < cells; ++c) {
+    Entry* first = grid.entriesBegin(c);
+    Entry* last = grid.entriesEnd(c);
     if (last - first < 2) continue;
-    const CellGrid::Cell cell = grid_->cell(c);
+    const CellGrid::Cell cell = grid.cell(c);
     if (last - first <= kSweepMin) {
       for (Entry* x = first; x + 1 < last; ++x) {
         for (Entry* y = x + 1; y < last; ++y) test(*x, *y, cell);
