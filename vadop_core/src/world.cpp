@@ -404,12 +404,13 @@ void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std
   auto in_only = [only](BodyId id) { return !only || std::binary_search(only->begin(), only->end(), id); };
   std::vector<BodyId> found;
   const size_t n = path_bodies_.size();
-  // Two path bodies touch at one time: their boxes over the slice of the window holding it
-  // overlap. Per body, 6 doubles for its box over the whole window, then 6 for each of kSlices
-  // equal slices of it.
-  constexpr size_t kSlices = 4;
-  constexpr size_t kStride = 6 * (kSlices + 1);
-  std::vector<double> boxes(kStride * n);
+  // Two path bodies touch at one time: their boxes over the part of the window holding it
+  // overlap (the time_slices parts of cullBySlices, which leaves path bodies to this test). Per
+  // body, 6 doubles for its box over the whole window, then 6 for each part when there are
+  // several.
+  const size_t slices = config_.time_slices > 1 ? static_cast<size_t>(config_.time_slices) : 0;
+  const size_t stride = 6 * (slices + 1);
+  std::vector<double> boxes(stride * n);
   for (size_t i = 0; i < n; ++i) {
     const BodyId p = path_bodies_[i];
     const TimedPath& path = records_[p].chain->base();
@@ -422,26 +423,26 @@ void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std
         if (!onPath(other) && (p_only || in_only(other))) out.push_back(makePair(p, other));
       }
     });
-    double* box = &boxes[kStride * i];
+    double* box = &boxes[stride * i];
     pathBox(p, t0, t1, box);
-    for (size_t k = 0; k < kSlices; ++k) {
-      const double s = t0 + (t1 - t0) * static_cast<double>(k) / kSlices;
-      const double e = k + 1 == kSlices ? t1 : t0 + (t1 - t0) * static_cast<double>(k + 1) / kSlices;
+    for (size_t k = 0; k < slices; ++k) {
+      const double s = t0 + (t1 - t0) * static_cast<double>(k) / static_cast<double>(slices);
+      const double e = k + 1 == slices ? t1 : t0 + (t1 - t0) * static_cast<double>(k + 1) / static_cast<double>(slices);
       pathBox(p, s, e, box + 6 * (k + 1));
     }
   }
-  // Sweep and prune on x of the whole-window boxes, then the slices: a fleet of arms or of
+  // Sweep and prune on x of the whole-window boxes, then the parts: a fleet of arms or of
   // robots on plans is not O(n^2).
   std::vector<uint32_t> order(n);
   for (uint32_t i = 0; i < n; ++i) order[i] = i;
-  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return boxes[kStride * a] < boxes[kStride * b]; });
+  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return boxes[stride * a] < boxes[stride * b]; });
   for (size_t a = 0; a < n; ++a) {
-    const double* box_a = &boxes[kStride * order[a]];
-    for (size_t b = a + 1; b < n && boxes[kStride * order[b]] <= box_a[3]; ++b) {
-      const double* box_b = &boxes[kStride * order[b]];
+    const double* box_a = &boxes[stride * order[a]];
+    for (size_t b = a + 1; b < n && boxes[stride * order[b]] <= box_a[3]; ++b) {
+      const double* box_b = &boxes[stride * order[b]];
       if (!boxesOverlap(box_a, box_b)) continue;
-      bool meet = false;
-      for (size_t k = 1; k <= kSlices && !meet; ++k) meet = boxesOverlap(box_a + 6 * k, box_b + 6 * k);
+      bool meet = slices == 0;
+      for (size_t k = 1; k <= slices && !meet; ++k) meet = boxesOverlap(box_a + 6 * k, box_b + 6 * k);
       if (!meet) continue;
       const BodyId pa = path_bodies_[order[a]], pb = path_bodies_[order[b]];
       if (in_only(pa) || in_only(pb)) out.push_back(makePair(pa, pb));

@@ -90,7 +90,8 @@ struct WorldConfig {
   // `time_slices` equal parts of the window overlap. Bodies whose paths cross at different
   // times (most candidates over a 2 s horizon) are dropped; the result is the same for every
   // value (each box bounds its body over its part, the parts cover the window). 1: no cull.
-  // Bodies on paths are not culled here (pathPairs tests their boxes over quarters).
+  // Two bodies on paths are tested over the same parts by pathPairs; a pair of a body on a
+  // path and another is not culled.
   // Memory: 6 doubles per body and slice. In [1, kMaxTimeSlices].
   int time_slices = 8;
 };
