@@ -1,5 +1,6 @@
 #include "vadop/world.h"
 
+#include "name_index.h"
 #include "pair_certificates.h"
 
 #include "vadop/error.h"
@@ -79,7 +80,7 @@ BroadPhaseKind parseBroadPhaseKind(const std::string& name) {
   throw InvalidArgument("unknown broad phase " + quoted(name) + " (expected vadop, vadop_sap, sap, grid or brute)");
 }
 
-World::World(const WorldConfig& config) : config_(config) {
+World::World(const WorldConfig& config) : config_(config), by_name_(std::make_unique<detail::NameIndex>()) {
   const ToiOptions& o = config.toi;
   if (!(std::isfinite(o.tolerance) && o.tolerance > 0.0)) {
     throw InvalidArgument("World: toi.tolerance must be finite and > 0, got " + formatNumber(o.tolerance));
@@ -121,7 +122,7 @@ World& World::operator=(World&&) noexcept = default;
 void World::add(const std::string& id, const Shape& shape, const Motion& motion) {
   const std::string what = "add body " + quoted(id);
   if (id.empty()) throw InvalidArgument("add: the body id must not be empty");
-  if (by_name_.count(id)) throw InvalidArgument(what + ": a body with this id already exists");
+  if (findBody(id) != kUnknownBody) throw InvalidArgument(what + ": a body with this id already exists");
   validateShape(shape, what + ": shape");
   validateMotion(motion, what + ": motion");
 
@@ -137,13 +138,7 @@ void World::add(const std::string& id, const Shape& shape, const Motion& motion)
   // Room for one more record and one more name, grown geometrically (reserve(size + 1) would
   // reallocate on every add): the insertions below then cannot allocate or rehash.
   if (records_.size() == records_.capacity()) records_.reserve(std::max<size_t>(16, 2 * records_.capacity()));
-  if (static_cast<double>(by_name_.size() + 1) >
-      by_name_.max_load_factor() * static_cast<double>(by_name_.bucket_count())) {
-    by_name_.reserve(2 * by_name_.size() + 16);
-  }
-  std::unordered_map<std::string, BodyId> scratch;
-  scratch.emplace(id, 0);
-  auto node = scratch.extract(scratch.begin());  // the map node, allocated up front
+  by_name_->reserve(by_name_->size() + 1);
 
   const BodyId bid = broad_phase_->add(padded, motion);  // strong guarantee
   // From here on nothing throws.
@@ -152,15 +147,14 @@ void World::add(const std::string& id, const Shape& shape, const Motion& motion)
   } else {
     records_[bid] = std::move(rec);
   }
-  node.mapped() = bid;
-  by_name_.insert(std::move(node));
+  by_name_->insert(id, bid);
   ++next_key_;
 }
 
 void World::remove(const std::string& id) {
   const BodyId bid = bodyId(id, "remove");
   broad_phase_->remove(bid);  // strong guarantee; nothing below throws
-  by_name_.erase(id);
+  by_name_->erase(id, [this](BodyId b) -> const std::string& { return records_[b].name; });
   if (records_[bid].chain) path_bodies_.erase(std::lower_bound(path_bodies_.begin(), path_bodies_.end(), bid));
   records_[bid] = Record{};
 }
@@ -205,8 +199,8 @@ void World::setFilter(const std::string& id, uint32_t group, uint32_t mask) {
 
 std::vector<std::string> World::ids() const {
   std::vector<const Record*> alive;
-  alive.reserve(by_name_.size());
-  for (const auto& kv : by_name_) alive.push_back(&records_[kv.second]);
+  alive.reserve(by_name_->size());
+  by_name_->forEach([&](BodyId b) { alive.push_back(&records_[b]); });
   std::sort(alive.begin(), alive.end(), [](const Record* x, const Record* y) { return x->key < y->key; });
   std::vector<std::string> out;
   out.reserve(alive.size());
@@ -214,10 +208,19 @@ std::vector<std::string> World::ids() const {
   return out;
 }
 
+bool World::contains(const std::string& id) const { return findBody(id) != kUnknownBody; }
+
+size_t World::size() const { return by_name_->size(); }
+
+BodyId World::findBody(const std::string& id) const {
+  static_assert(detail::NameIndex::kNone == kUnknownBody, "one value for no body");
+  return by_name_->find(id, [this](BodyId b) -> const std::string& { return records_[b].name; });
+}
+
 BodyId World::bodyId(const std::string& id, const char* operation) const {
-  const auto it = by_name_.find(id);
-  if (it == by_name_.end()) throw InvalidArgument(std::string(operation) + ": unknown body " + quoted(id));
-  return it->second;
+  const BodyId b = findBody(id);
+  if (b == kUnknownBody) throw InvalidArgument(std::string(operation) + ": unknown body " + quoted(id));
+  return b;
 }
 
 const World::Record& World::record(const std::string& id, const char* operation) const {
@@ -281,7 +284,7 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
     path->forEachPiece(t0, t1, [&](size_t k, double s, double e) { checkMotionReach(id, path->motion(k), s, e); });
   };
   if (!only) {
-    for (const auto& kv : by_name_) checkReach(kv.second);
+    by_name_->forEach(checkReach);
   }
 
   // The candidate pairs: the whole broad phase, or the queries of `only` (a pair of two of them

@@ -42,12 +42,12 @@
 #include <memory>
 #include <optional>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 namespace vadop {
 namespace detail {
 class PairCertificates;
+class NameIndex;
 }
 
 enum class BroadPhaseKind {
@@ -156,8 +156,8 @@ class World {
   using PairPredicate = std::function<bool(uint64_t a_key, uint64_t b_key)>;
   void setPairFilter(PairPredicate should_test) { pair_filter_ = std::move(should_test); }
 
-  bool contains(const std::string& id) const { return by_name_.count(id) != 0; }
-  size_t size() const { return by_name_.size(); }
+  bool contains(const std::string& id) const;
+  size_t size() const;
   // Ids in insertion order.
   std::vector<std::string> ids() const;
   const Shape& shape(const std::string& id) const;
@@ -272,13 +272,15 @@ class World {
   bool onPath(BodyId id) const { return records_[id].chain != nullptr; }
   const Record& record(const std::string& id, const char* operation) const;
   BodyId bodyId(const std::string& id, const char* operation) const;
+  static constexpr BodyId kUnknownBody = ~BodyId{0};
+  BodyId findBody(const std::string& id) const;  // or kUnknownBody
   std::vector<WorldImpact> run(double t0, double horizon, const std::vector<BodyId>* only);
 
   WorldConfig config_;
   int threads_ = 1;  // config_.threads resolved
   std::unique_ptr<BroadPhase> broad_phase_;
   std::vector<Record> records_;  // by BodyId of the broad phase
-  std::unordered_map<std::string, BodyId> by_name_;
+  std::unique_ptr<detail::NameIndex> by_name_;  // names live in records_
   std::vector<BodyId> path_bodies_;  // sorted
   uint64_t next_key_ = 0;
   size_t last_candidates_ = 0;
