@@ -407,12 +407,9 @@ void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std
   auto in_only = [only](BodyId id) { return !only || std::binary_search(only->begin(), only->end(), id); };
   std::vector<BodyId> found;
   const size_t n = path_bodies_.size();
-  // Two path bodies touch at one time: their boxes over the part of the window holding it
-  // overlap (the time_slices parts of cullBySlices, which leaves path bodies to this test). Per
-  // body, 6 doubles for its box over the whole window, then 6 for each part when there are
-  // several.
-  const size_t slices = config_.time_slices > 1 ? static_cast<size_t>(config_.time_slices) : 0;
-  const size_t stride = 6 * (slices + 1);
+  // Two path bodies are paired when their boxes over the window overlap (cullBySlices then
+  // tests their boxes over its parts, as for every pair).
+  constexpr size_t stride = 6;
   std::vector<double> boxes(stride * n);
   for (size_t i = 0; i < n; ++i) {
     const BodyId p = path_bodies_[i];
@@ -426,16 +423,9 @@ void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std
         if (!onPath(other) && (p_only || in_only(other))) out.push_back(makePair(p, other));
       }
     });
-    double* box = &boxes[stride * i];
-    pathBox(p, t0, t1, box);
-    for (size_t k = 0; k < slices; ++k) {
-      const double s = t0 + (t1 - t0) * static_cast<double>(k) / static_cast<double>(slices);
-      const double e = k + 1 == slices ? t1 : t0 + (t1 - t0) * static_cast<double>(k + 1) / static_cast<double>(slices);
-      pathBox(p, s, e, box + 6 * (k + 1));
-    }
+    pathBox(p, t0, t1, &boxes[stride * i]);
   }
-  // Sweep and prune on x of the whole-window boxes, then the parts: a fleet of arms or of
-  // robots on plans is not O(n^2).
+  // Sweep and prune on x: a fleet of arms or of robots on plans is not O(n^2).
   std::vector<uint32_t> order(n);
   for (uint32_t i = 0; i < n; ++i) order[i] = i;
   std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return boxes[stride * a] < boxes[stride * b]; });
@@ -444,9 +434,6 @@ void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std
     for (size_t b = a + 1; b < n && boxes[stride * order[b]] <= box_a[3]; ++b) {
       const double* box_b = &boxes[stride * order[b]];
       if (!boxesOverlap(box_a, box_b)) continue;
-      bool meet = slices == 0;
-      for (size_t k = 1; k <= slices && !meet; ++k) meet = boxesOverlap(box_a + 6 * k, box_b + 6 * k);
-      if (!meet) continue;
       const BodyId pa = path_bodies_[order[a]], pb = path_bodies_[order[b]];
       if (in_only(pa) || in_only(pb)) out.push_back(makePair(pa, pb));
     }
@@ -581,36 +568,37 @@ void World::cullBySlices(std::vector<std::pair<BodyId, BodyId>>& tests, double t
     slice_stamp_.resize(records_.size(), 0);
     slice_boxes_.resize(records_.size() * stride);
   }
-  // Each part's box bounds the padded shape over [s, e] (SweptBody is conservative in floating
-  // point); consecutive parts share their end times, so together they cover [t0, t1].
-  auto boxes = [&](BodyId id) -> const double* {
-    double* b = &slice_boxes_[id * stride];
-    if (slice_stamp_[id] != predict_count_) {
-      slice_stamp_[id] = predict_count_;
-      const Shape& shape = broad_phase_->shape(id);
-      const Motion& motion = broad_phase_->motion(id);
-      double s = t0;
-      for (int k = 0; k < slices; ++k) {
-        const double e = k + 1 == slices ? t1 : t0 + (t1 - t0) * (k + 1) / slices;
-        SweptBody(shape, motion, s, e).box(b + 6 * k);
-        s = e;
-      }
-    }
-    return b;
-  };
   size_t kept = 0;
   for (const auto& pair : tests) {
-    bool keep = onPath(pair.first) || onPath(pair.second);
-    if (!keep) {
-      const double* a = boxes(pair.first);
-      const double* b = boxes(pair.second);
-      for (int k = 0; k < slices && !keep; ++k, a += 6, b += 6) {
-        keep = a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
-      }
-    }
+    const double* a = partBoxes(pair.first, t0, t1);
+    const double* b = partBoxes(pair.second, t0, t1);
+    bool keep = false;
+    for (int k = 0; k < slices && !keep; ++k, a += 6, b += 6) keep = boxesOverlap(a, b);
     if (keep) tests[kept++] = pair;
   }
   tests.resize(kept);
+}
+
+const double* World::partBoxes(BodyId id, double t0, double t1) {
+  const int slices = config_.time_slices;
+  double* b = &slice_boxes_[id * 6 * static_cast<size_t>(slices)];
+  if (slice_stamp_[id] == predict_count_) return b;
+  slice_stamp_[id] = predict_count_;
+  // Each part's box bounds the padded shape over [s, e] (SweptBody is conservative in floating
+  // point; a path body's pathBox is the union of SweptBody boxes along its pieces);
+  // consecutive parts share their end times, so together they cover [t0, t1].
+  const bool path = onPath(id);
+  double s = t0;
+  for (int k = 0; k < slices; ++k) {
+    const double e = k + 1 == slices ? t1 : t0 + (t1 - t0) * (k + 1) / slices;
+    if (path) {
+      pathBox(id, s, e, b + 6 * k);
+    } else {
+      SweptBody(broad_phase_->shape(id), broad_phase_->motion(id), s, e).box(b + 6 * k);
+    }
+    s = e;
+  }
+  return b;
 }
 
 Impact World::narrow(BodyId a, BodyId b, double t0, double t1) const {

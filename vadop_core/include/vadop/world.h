@@ -90,8 +90,7 @@ struct WorldConfig {
   // `time_slices` equal parts of the window overlap. Bodies whose paths cross at different
   // times (most candidates over a 2 s horizon) are dropped; the result is the same for every
   // value (each box bounds its body over its part, the parts cover the window). 1: no cull.
-  // Two bodies on paths are tested over the same parts by pathPairs; a pair of a body on a
-  // path and another is not culled.
+  // A body on a path (or a link of a moving chain) takes the box along its path over each part.
   // Memory: 6 doubles per body and slice. In [1, kMaxTimeSlices].
   int time_slices = 8;
 };
@@ -258,9 +257,13 @@ class World {
   void pathBox(BodyId p, double t0, double t1, double* box) const;
   // pathBox of every path body (6 doubles each, in path_bodies_'s order).
   std::vector<double> pathBoxes(double t0, double t1) const;
-  // Drops from `tests` the pairs of two bodies moving with one Motion whose swept boxes over
-  // [t0, t1] cut into config_.time_slices parts overlap in none of them (WorldConfig::time_slices).
+  // Drops from `tests` the pairs whose boxes over the config_.time_slices parts of [t0, t1]
+  // (partBoxes) overlap in none of them (WorldConfig::time_slices).
   void cullBySlices(std::vector<std::pair<BodyId, BodyId>>& tests, double t0, double t1);
+  // The boxes of body `id` over the config_.time_slices parts of [t0, t1] (6 doubles each): its
+  // padded shape's swept boxes, or pathBox of each part for a body on a path. Computed once per
+  // predict (slice_stamp_; cullBySlices sizes the cache).
+  const double* partBoxes(BodyId id, double t0, double t1);
   Impact narrow(BodyId a, BodyId b, double t0, double t1) const;
   // narrow() on every pair of `tests` into `results` (same order), on threads_ threads when there
   // are enough pairs; rethrows the exception of the first pair (by index) that threw.
@@ -286,7 +289,7 @@ class World {
   size_t last_candidates_ = 0;
   size_t last_reused_ = 0;
   size_t last_slice_culled_ = 0;
-  // cullBySlices' boxes: time_slices boxes (lo x y z, hi x y z) per BodyId, valid for the
+  // partBoxes' cache: time_slices boxes (lo x y z, hi x y z) per BodyId, valid for the
   // predict whose number is in slice_stamp_ (computed for the bodies of candidate pairs only).
   std::vector<double> slice_boxes_;
   std::vector<uint64_t> slice_stamp_;
