@@ -43,23 +43,22 @@ void CellGrid::resizeTable(size_t capacity) {
   }
 }
 
-
-
-
-void CellGrid::reset(double h, double max_abs) {
+void CellGrid::setCellSize(double h) {
   if (!(std::isfinite(h) && h > 0.0)) throw InvalidArgument("CellGrid: cell size must be finite and > 0, got " + formatNumber(h));
-  // Coarser cells when coordinates reach that far (with a factor 2 to spare).
-  if (std::isfinite(max_abs)) h = std::max(h, 2.0 * std::abs(max_abs) / kMaxCoordinate);
   h_ = h;
   inv_h_ = 1.0 / h;
+}
+
+void CellGrid::reset(double h, double max_abs) {
+  setCellSize(h);
+  // Coarser cells when coordinates reach that far (with a factor 2 to spare).
+  if (std::isfinite(max_abs)) setCellSize(std::max(h, 2.0 * std::abs(max_abs) / kMaxCoordinate));
   clear();
   std::fill(table_cell_.begin(), table_cell_.end(), kEmpty);
 }
 
 void CellGrid::build(const double* boxes, size_t count, double h) {
-  if (!(std::isfinite(h) && h > 0.0)) throw InvalidArgument("CellGrid: cell size must be finite and > 0, got " + formatNumber(h));
-  h_ = h;
-  inv_h_ = 1.0 / h;
+  setCellSize(h);
   clear();  // the hash table is emptied below if used
   built_ = true;
   // Cell ranges first: they size the table and find the range of the occupied cells.

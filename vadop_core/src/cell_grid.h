@@ -87,6 +87,7 @@ class CellGrid {
   // coordinate range (also for NaN).
   bool cellRange(const double* box, int32_t lo[3], int32_t hi[3]) const;
   void clear();  // all but the hash table's contents
+  void setCellSize(double h);  // throws InvalidArgument unless finite and > 0 (nothing changed)
   void resizeTable(size_t capacity);
   uint32_t findCell(int32_t x, int32_t y, int32_t z) const;  // or kEmpty
   uint32_t insertCell(int32_t x, int32_t y, int32_t z);      // find or add, growing the table

@@ -81,7 +81,7 @@ size_t VadopGridBroadPhase::memoryBytes() const {
            box_.capacity() * sizeof(double) + bits_.capacity() * sizeof(uint64_t) +
            rank_.capacity() * sizeof(uint16_t) + intervals_.capacity() * sizeof(Interval);
   bytes += fat_->memoryBytes() + fat_ids_.capacity() * sizeof(BodyId) + fat_boxes_.capacity() * sizeof(double);
-  bytes += grid_->memoryBytes() + large_.capacity() * sizeof(uint32_t);
+  bytes += grid_->memoryBytes() + large_slots_.capacity() * sizeof(uint32_t);
   return bytes;
 }
 
@@ -222,7 +222,7 @@ bool VadopGridBroadPhase::queryFrame(const double* q, std::vector<BodyId>& out) 
     return true;
   }
   grid_->forEachOverlap(q, push);
-  for (uint32_t s : large_) {
+  for (uint32_t s : grid_->large()) {
     if (boxesOverlap(&box_[6 * s])) push(s);
   }
   return true;
@@ -362,10 +362,9 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
   const double h = chooseCellSize(world_lo, world_hi);
   stats_.cell_size = h;
   grid_->build(box_.data(), slots, h);
-  large_ = grid_->large();
   stats_.cells = grid_->cellCount();
   stats_.cell_entries = grid_->entryCount();
-  stats_.large_bodies = large_.size();
+  stats_.large_bodies = grid_->large().size();
   cells_ready_ = true;
 
   // 4. Pairs of each cell, each reported in the cell of its boxes' common lo corner. A crowded
@@ -402,7 +401,7 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
     }
   }
   // 5. Bodies too large for the grid: against every other body.
-  testLargeAgainstAll(large_, out);
+  testLargeAgainstAll(grid_->large(), out);
   stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
 }
 
@@ -518,9 +517,9 @@ bool VadopGridBroadPhase::computeFromFatBoxes(double frame, std::vector<Pair>& o
       if (j > id) testPair(s, slot_of_[j], out);
     }
   }
-  large_.clear();
-  for (BodyId l : fat_->large()) large_.push_back(slot_of_[l]);
-  testLargeAgainstAll(large_, out);
+  large_slots_.clear();
+  for (BodyId l : fat_->large()) large_slots_.push_back(slot_of_[l]);
+  testLargeAgainstAll(large_slots_, out);
   return true;
 }
 

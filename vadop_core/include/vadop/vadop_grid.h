@@ -155,7 +155,7 @@ class VadopGridBroadPhase : public BroadPhase {
   bool framed_ = false;      // an update has run (the slots and boxes describe its frame)
   bool cells_ready_ = false; // grid_ holds the cells of the last update's boxes
   std::unique_ptr<detail::CellGrid> grid_;  // the frame's cells (slots as items)
-  std::vector<uint32_t> large_;      // slots of the bodies too large for the grid (either path)
+  std::vector<uint32_t> large_slots_;  // the fat path's large bodies as slots (grid_ lists its own)
   std::vector<double> scratch_extent_;
 
   // Incremental mode: the fat boxes and their pairs, and when to (re)build them. After a
