@@ -29,14 +29,31 @@ class FlatMap {
   }
 
   Value* find(const Key& k) {
-    if (size_ == 0) return nullptr;
-    for (size_t i = home(k);; i = (i + 1) & mask_) {
-      Slot& s = slots_[i];
-      if (!s.used) return nullptr;
-      if (s.key == k) return &s.value;
-    }
+    return findIf(Hash{}(k), [&k](const Key& x) { return x == k; });
   }
   const Value* find(const Key& k) const { return const_cast<FlatMap*>(this)->find(k); }
+  // The member whose key satisfies `is`, looked up from `hash` (= Hash{}(key) of that key):
+  // for keys that stand for something kept elsewhere (a name behind an id).
+  template <class Is>
+  Value* findIf(size_t hash, const Is& is) {
+    if (size_ == 0) return nullptr;
+    for (size_t i = hash & mask_;; i = (i + 1) & mask_) {
+      Slot& s = slots_[i];
+      if (!s.used) return nullptr;
+      if (is(s.key)) return &s.value;
+    }
+  }
+  template <class Is>
+  const Value* findIf(size_t hash, const Is& is) const {
+    return const_cast<FlatMap*>(this)->findIf(hash, is);
+  }
+  // f(key, value) for every member, in table order.
+  template <class F>
+  void forEach(const F& f) const {
+    for (const Slot& s : slots_) {
+      if (s.used) f(s.key, s.value);
+    }
+  }
 
   // Inserts k with `value` if absent; returns the stored value (the old one if k was present).
   // Allocates when full: call reserve(size() + 1) first to make it non-throwing.
@@ -55,11 +72,17 @@ class FlatMap {
 
   // Removes k; returns whether it was present. Never allocates.
   bool erase(const Key& k) {
+    return eraseIf(Hash{}(k), [&k](const Key& x) { return x == k; });
+  }
+  // Removes the member whose key satisfies `is` (looked up as findIf); returns whether there
+  // was one. Never allocates.
+  template <class Is>
+  bool eraseIf(size_t hash, const Is& is) {
     if (size_ == 0) return false;
-    size_t i = home(k);
+    size_t i = hash & mask_;
     for (;; i = (i + 1) & mask_) {
       if (!slots_[i].used) return false;
-      if (slots_[i].key == k) break;
+      if (is(slots_[i].key)) break;
     }
     // Backward shift: move later members of the probe run into the hole when their home
     // position does not lie cyclically in (hole, j].
