@@ -198,7 +198,6 @@ void World::setFilter(const std::string& id, uint32_t group, uint32_t mask) {
 }
 
 std::vector<std::string> World::ids() const {
-  if (!by_name_) return {};  // moved from
   std::vector<const Record*> alive;
   alive.reserve(by_name_->size());
   by_name_->forEach([&](BodyId b) { alive.push_back(&records_[b]); });
@@ -211,12 +210,10 @@ std::vector<std::string> World::ids() const {
 
 bool World::contains(const std::string& id) const { return findBody(id) != kUnknownBody; }
 
-// A moved-from World holds no bodies (no name table): it answers as an empty one.
-size_t World::size() const { return by_name_ ? by_name_->size() : 0; }
+size_t World::size() const { return by_name_->size(); }
 
 BodyId World::findBody(const std::string& id) const {
   static_assert(detail::NameIndex::kNone == kUnknownBody, "one value for no body");
-  if (!by_name_) return kUnknownBody;
   return by_name_->find(id, [this](BodyId b) -> const std::string& { return records_[b].name; });
 }
 

@@ -595,20 +595,5 @@ TEST(World, PredictRestrictedToSomeBodiesIsTheFilteredFullPrediction) {
   EXPECT_TRUE(w.predict(0.0, scene.horizon, {}).empty());
 }
 
-// A moved-from World answers as an empty one for what is asked by name (it used to hold a
-// moved-from std::unordered_map; its name table now moves with the bodies).
-TEST(World, AMovedFromWorldHoldsNoBodies) {
-  World w;
-  w.add("a", makeSphere(0.5), Motion());
-  World to(std::move(w));
-  EXPECT_TRUE(to.contains("a"));
-  EXPECT_EQ(to.size(), 1u);
-  EXPECT_EQ(w.size(), 0u);  // NOLINT(bugprone-use-after-move): the state after a move is the point
-  EXPECT_FALSE(w.contains("a"));
-  EXPECT_TRUE(w.ids().empty());
-  EXPECT_THROW(w.motion("a"), InvalidArgument);
-  EXPECT_THROW(w.setMotion("a", Motion()), InvalidArgument);
-}
-
 }  // namespace
 }  // namespace vadop
