@@ -115,11 +115,22 @@ World::World(const WorldConfig& config) : config_(config), by_name_(std::make_un
   broad_phase_ = makeBroadPhase(config);
 }
 
+// by_name_ keeps no names: they live in the records.
+struct World::NameOf {
+  const std::vector<Record>& records;
+  const std::string& operator()(BodyId b) const { return records[b].name; }
+};
+
 World::~World() = default;
 World::World(World&&) noexcept = default;
 World& World::operator=(World&&) noexcept = default;
 
+void World::requireEngine(const char* operation) const {
+  if (!broad_phase_) throw InvalidArgument(std::string(operation) + ": this World was moved from");
+}
+
 void World::add(const std::string& id, const Shape& shape, const Motion& motion) {
+  requireEngine("add");
   const std::string what = "add body " + quoted(id);
   if (id.empty()) throw InvalidArgument("add: the body id must not be empty");
   if (findBody(id) != kUnknownBody) throw InvalidArgument(what + ": a body with this id already exists");
@@ -154,7 +165,7 @@ void World::add(const std::string& id, const Shape& shape, const Motion& motion)
 void World::remove(const std::string& id) {
   const BodyId bid = bodyId(id, "remove");
   broad_phase_->remove(bid);  // strong guarantee; nothing below throws
-  by_name_->erase(id, [this](BodyId b) -> const std::string& { return records_[b].name; });
+  by_name_->erase(id, NameOf{records_});
   if (records_[bid].chain) path_bodies_.erase(std::lower_bound(path_bodies_.begin(), path_bodies_.end(), bid));
   records_[bid] = Record{};
 }
@@ -198,6 +209,7 @@ void World::setFilter(const std::string& id, uint32_t group, uint32_t mask) {
 }
 
 std::vector<std::string> World::ids() const {
+  if (!by_name_) return {};  // moved from
   std::vector<const Record*> alive;
   alive.reserve(by_name_->size());
   by_name_->forEach([&](BodyId b) { alive.push_back(&records_[b]); });
@@ -210,11 +222,12 @@ std::vector<std::string> World::ids() const {
 
 bool World::contains(const std::string& id) const { return findBody(id) != kUnknownBody; }
 
-size_t World::size() const { return by_name_->size(); }
+size_t World::size() const { return by_name_ ? by_name_->size() : 0; }
 
 BodyId World::findBody(const std::string& id) const {
   static_assert(detail::NameIndex::kNone == kUnknownBody, "one value for no body");
-  return by_name_->find(id, [this](BodyId b) -> const std::string& { return records_[b].name; });
+  if (!by_name_) return kUnknownBody;  // moved from
+  return by_name_->find(id, NameOf{records_});
 }
 
 BodyId World::bodyId(const std::string& id, const char* operation) const {
@@ -230,7 +243,8 @@ const World::Record& World::record(const std::string& id, const char* operation)
 const Shape& World::shape(const std::string& id) const { return record(id, "shape").prepared->shape(); }
 
 const Motion& World::motion(const std::string& id) const {
-  return broad_phase_->motion(bodyId(id, "motion"));
+  const BodyId b = bodyId(id, "motion");  // first: a moved-from World has no broad phase
+  return broad_phase_->motion(b);
 }
 
 uint64_t World::key(const std::string& id) const { return record(id, "key").key; }
@@ -247,6 +261,7 @@ std::vector<WorldImpact> World::predict(double t0, double horizon, const std::ve
 }
 
 std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector<BodyId>* only) {
+  requireEngine("predict");
   if (!std::isfinite(t0)) throw InvalidArgument("predict: t0 must be finite, got " + formatNumber(t0));
   if (!std::isfinite(horizon) || horizon < 0.0) {
     throw InvalidArgument("predict: horizon must be finite and >= 0, got " + formatNumber(horizon));

@@ -595,5 +595,32 @@ TEST(World, PredictRestrictedToSomeBodiesIsTheFilteredFullPrediction) {
   EXPECT_TRUE(w.predict(0.0, scene.horizon, {}).empty());
 }
 
+// A moved-from World answers as an empty one when asked by name, and refuses work it has no
+// broad phase for with a clear error (no null dereference); assigned a World, it works again.
+TEST(World, AMovedFromWorldHoldsNoBodies) {
+  World w;
+  w.add("a", makeSphere(0.5), Motion());
+  World to(std::move(w));
+  EXPECT_TRUE(to.contains("a"));
+  EXPECT_EQ(to.size(), 1u);
+  // NOLINTBEGIN(bugprone-use-after-move): the state after a move is the point
+  EXPECT_EQ(w.size(), 0u);
+  EXPECT_FALSE(w.contains("a"));
+  EXPECT_TRUE(w.ids().empty());
+  EXPECT_THROW(w.motion("a"), InvalidArgument);
+  EXPECT_THROW(w.shape("a"), InvalidArgument);
+  EXPECT_THROW(w.setMotion("a", Motion()), InvalidArgument);
+  EXPECT_THROW(w.remove("a"), InvalidArgument);
+  EXPECT_THROW(w.add("b", makeSphere(0.5), Motion()), InvalidArgument);
+  EXPECT_THROW(w.predict(0.0, 1.0), InvalidArgument);
+  EXPECT_THROW(w.predict(0.0, 1.0, {"a"}), InvalidArgument);
+  w = std::move(to);
+  EXPECT_TRUE(w.contains("a"));
+  w.add("b", makeSphere(0.5), makeMotion(Eigen::Vector3d(3, 0, 0), Eigen::Quaterniond::Identity(),
+                                         Eigen::Vector3d(-2, 0, 0), Eigen::Vector3d::Zero(), 0.0));
+  EXPECT_EQ(w.predict(0.0, 2.0).size(), 1u);
+  // NOLINTEND(bugprone-use-after-move)
+}
+
 }  // namespace
 }  // namespace vadop

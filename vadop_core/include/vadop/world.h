@@ -113,6 +113,8 @@ class World {
   ~World();
   World(const World&) = delete;
   World& operator=(const World&) = delete;
+  // A moved-from World holds no bodies: asked by name it answers as an empty one (size 0, an
+  // id is unknown), and add or predict throw InvalidArgument; assign a World to it to use it again.
   World(World&&) noexcept;
   World& operator=(World&&) noexcept;
 
@@ -277,6 +279,9 @@ class World {
   BodyId bodyId(const std::string& id, const char* operation) const;
   static constexpr BodyId kUnknownBody = ~BodyId{0};
   BodyId findBody(const std::string& id) const;  // or kUnknownBody
+  struct NameOf;  // the name of a BodyId (in its record), for by_name_
+  // Throws InvalidArgument when this World was moved from (no broad phase).
+  void requireEngine(const char* operation) const;
   std::vector<WorldImpact> run(double t0, double horizon, const std::vector<BodyId>* only);
 
   WorldConfig config_;
