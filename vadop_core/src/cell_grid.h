@@ -224,28 +224,50 @@ void CellGrid::forEachOverlap(const double* box, F&& f) const {
     scanAll(box, f);
     return;
   }
+  // An item is listed in every cell it spans: it is reported from the cell holding the lo
+  // corner of its overlap with the query, a cell both span.
+  auto here = [&](const int32_t* item_lo, int32_t x, int32_t y, int32_t z) {
+    return std::max(item_lo[0], lo[0]) == x && std::max(item_lo[1], lo[1]) == y && std::max(item_lo[2], lo[2]) == z;
+  };
+  if (built_) {
+    // In three passes (the cells, their entry ranges, the entries), so that the memory loads of
+    // the cells overlap instead of each waiting for the previous cell's entries: a query of a
+    // random body is bound by these loads once the grid outgrows the caches. cellRange bounds
+    // the cells by kMaxCells.
+    struct Found {
+      int32_t x, y, z;
+      uint32_t cell;
+    };
+    Found found[kMaxCells];
+    size_t count = 0;
+    for (int32_t z = lo[2]; z <= hi[2]; ++z) {
+      for (int32_t y = lo[1]; y <= hi[1]; ++y) {
+        for (int32_t x = lo[0]; x <= hi[0]; ++x) {
+          const uint32_t c = findCell(x, y, z);
+          if (c != kEmpty) found[count++] = Found{x, y, z, c};
+        }
+      }
+    }
+    for (size_t i = 0; i < count; ++i) __builtin_prefetch(entries_.data() + cell_start_[found[i].cell]);
+    for (size_t i = 0; i < count; ++i) {
+      const Found& k = found[i];
+      for (uint32_t e = cell_start_[k.cell]; e < cell_start_[k.cell + 1]; ++e) {
+        const Entry& en = entries_[e];
+        if (overlaps(box, en.box) && here(en.lo_cell, k.x, k.y, k.z)) f(en.item);
+      }
+    }
+    return;
+  }
   for (int32_t z = lo[2]; z <= hi[2]; ++z) {
     for (int32_t y = lo[1]; y <= hi[1]; ++y) {
       for (int32_t x = lo[0]; x <= hi[0]; ++x) {
         const uint32_t c = findCell(x, y, z);
         if (c == kEmpty) continue;
-        // An item is listed in every cell it spans: it is reported from the cell holding the lo
-        // corner of its overlap with the query, a cell both span.
-        auto here = [&](const int32_t* item_lo) {
-          return std::max(item_lo[0], lo[0]) == x && std::max(item_lo[1], lo[1]) == y && std::max(item_lo[2], lo[2]) == z;
-        };
-        if (built_) {
-          for (uint32_t e = cell_start_[c]; e < cell_start_[c + 1]; ++e) {
-            const Entry& en = entries_[e];
-            if (overlaps(box, en.box) && here(en.lo_cell)) f(en.item);
-          }
-          continue;
-        }
         for (int32_t k = head_[c]; k >= 0; k = nodes_[k].next) {
           const Node& node = nodes_[k];
           const uint32_t i = node.item;
           if (node.version != version_[i]) continue;
-          if (overlaps(box, this->box(i)) && here(&lo_cell_[3 * static_cast<size_t>(i)])) f(i);
+          if (overlaps(box, this->box(i)) && here(&lo_cell_[3 * static_cast<size_t>(i)], x, y, z)) f(i);
         }
       }
     }

@@ -255,6 +255,7 @@ std::vector<WorldImpact> World::predict(double t0, double horizon, const std::ve
   std::vector<BodyId> ids;
   ids.reserve(only.size());
   for (const std::string& id : only) ids.push_back(bodyId(id, "predict"));
+  for (BodyId id : ids) broad_phase_->prefetch(id);  // the query's loads of several bodies overlap
   std::sort(ids.begin(), ids.end());
   ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
   return run(t0, horizon, &ids);
@@ -578,11 +579,12 @@ void World::cullBySlices(std::vector<std::pair<BodyId, BodyId>>& tests, double t
   const int slices = config_.time_slices;
   if (slices <= 1 || tests.empty() || !(t1 > t0)) return;
   ++predict_count_;
+  slice_used_ = 0;
+  if (slice_of_.size() < records_.size()) slice_of_.resize(records_.size());
+  // Room for every body the pairs name: partBoxes then never reallocates (its pointers stay valid).
+  const size_t bodies = std::min(records_.size(), 2 * tests.size());
   const size_t stride = 6 * static_cast<size_t>(slices);
-  if (slice_stamp_.size() < records_.size()) {
-    slice_stamp_.resize(records_.size(), 0);
-    slice_boxes_.resize(records_.size() * stride);
-  }
+  if (slice_boxes_.size() < bodies * stride) slice_boxes_.resize(bodies * stride);
   size_t kept = 0;
   for (const auto& pair : tests) {
     const double* a = partBoxes(pair.first, t0, t1);
@@ -595,10 +597,15 @@ void World::cullBySlices(std::vector<std::pair<BodyId, BodyId>>& tests, double t
 }
 
 const double* World::partBoxes(BodyId id, double t0, double t1) {
+  const size_t stride = 6 * static_cast<size_t>(config_.time_slices);
+  SliceSlot& slot = slice_of_[id];
+  if (slot.stamp == predict_count_) return &slice_boxes_[slot.index * stride];
+  // Packed in first-use order (cullBySlices made the room): a query touches a few bodies, whose
+  // boxes then share a few hot lines instead of lying far apart in an array indexed by id.
+  slot.stamp = predict_count_;
+  slot.index = slice_used_++;
   const int slices = config_.time_slices;
-  double* b = &slice_boxes_[id * 6 * static_cast<size_t>(slices)];
-  if (slice_stamp_[id] == predict_count_) return b;
-  slice_stamp_[id] = predict_count_;
+  double* b = &slice_boxes_[slot.index * stride];
   // Each part's box bounds the padded shape over [s, e] (SweptBody is conservative in floating
   // point; a path body's pathBox is the union of SweptBody boxes along its pieces);
   // consecutive parts share their end times, so together they cover [t0, t1].

@@ -264,7 +264,7 @@ class World {
   void cullBySlices(std::vector<std::pair<BodyId, BodyId>>& tests, double t0, double t1);
   // The boxes of body `id` over the config_.time_slices parts of [t0, t1] (6 doubles each): its
   // padded shape's swept boxes, or pathBox of each part for a body on a path. Computed once per
-  // predict (slice_stamp_; cullBySlices sizes the cache).
+  // predict (slice_of_; cullBySlices sizes the cache).
   const double* partBoxes(BodyId id, double t0, double t1);
   Impact narrow(BodyId a, BodyId b, double t0, double t1) const;
   // narrow() on every pair of `tests` into `results` (same order), on threads_ threads when there
@@ -294,10 +294,16 @@ class World {
   size_t last_candidates_ = 0;
   size_t last_reused_ = 0;
   size_t last_slice_culled_ = 0;
-  // partBoxes' cache: time_slices boxes (lo x y z, hi x y z) per BodyId, valid for the
-  // predict whose number is in slice_stamp_ (computed for the bodies of candidate pairs only).
+  // partBoxes' cache: time_slices boxes (lo x y z, hi x y z) per body, packed in the order
+  // the predict whose number is in the body's stamp first asked for them (computed for the
+  // bodies of candidate pairs only).
+  struct SliceSlot {
+    uint64_t stamp = 0;
+    size_t index = 0;  // into slice_boxes_, in units of time_slices boxes
+  };
+  std::vector<SliceSlot> slice_of_;  // by BodyId
   std::vector<double> slice_boxes_;
-  std::vector<uint64_t> slice_stamp_;
+  size_t slice_used_ = 0;
   uint64_t predict_count_ = 0;
   std::unique_ptr<detail::PairCertificates> certificates_;  // WorldConfig::coherence
   std::vector<WorldImpact> last_undecided_;
