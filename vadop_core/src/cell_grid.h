@@ -12,6 +12,7 @@
 #pragma once
 
 #include "grid_cells.h"
+#include "vadop/detail/large_array.h"
 
 #include <algorithm>
 #include <cstddef>
@@ -107,7 +108,7 @@ class CellGrid {
   std::vector<uint32_t> table_cell_;  // cell index, or kEmpty
   size_t table_mask_ = 0;
   bool dense_ = false;
-  std::vector<uint32_t> dense_cell_;  // cell index or kEmpty (all kEmpty while !dense_)
+  LargeArray<uint32_t> dense_cell_;  // cell index or kEmpty (all kEmpty while !dense_)
   int32_t dense_min_[3] = {0, 0, 0}, dense_dim_[3] = {0, 0, 0};
   size_t denseIndex(int32_t x, int32_t y, int32_t z) const {
     return (static_cast<size_t>(z - dense_min_[2]) * static_cast<size_t>(dense_dim_[1]) +
@@ -117,8 +118,8 @@ class CellGrid {
   std::vector<Cell> cells_;
 
   // build(): entries sorted by cell (counting sort).
-  std::vector<uint32_t> cell_start_;
-  std::vector<Entry> entries_;
+  LargeArray<uint32_t> cell_start_;
+  LargeArray<Entry> entries_;
   std::vector<int32_t> lo_scratch_;
   std::vector<uint32_t> entry_cell_, entry_item_;
 

@@ -117,7 +117,7 @@ World::World(const WorldConfig& config) : config_(config), by_name_(std::make_un
 
 // by_name_ keeps no names: they live in the records.
 struct World::NameOf {
-  const std::vector<Record>& records;
+  const detail::LargeArray<Record>& records;
   const std::string& operator()(BodyId b) const { return records[b].name; }
 };
 

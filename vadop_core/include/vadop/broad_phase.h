@@ -5,6 +5,7 @@
 // phase. Bad input throws vadop::InvalidArgument and leaves the broad phase unchanged.
 #pragma once
 
+#include "vadop/detail/large_array.h"
 #include "vadop/motion.h"
 #include "vadop/pair_set.h"
 #include "vadop/shapes.h"
@@ -101,7 +102,7 @@ class BroadPhase {
     return false;
   }
 
-  const std::vector<Body>& bodies() const { return bodies_; }
+  const detail::LargeArray<Body>& bodies() const { return bodies_; }
   void requireKnown(BodyId id, const char* operation) const {
     if (!contains(id)) throwUnknown(id, operation);
   }
@@ -116,7 +117,7 @@ class BroadPhase {
   void queryChanged(const double* box, BodyId self, double t0, double t1, std::vector<BodyId>& out);
   void markChanged(BodyId id);
 
-  std::vector<Body> bodies_;
+  detail::LargeArray<Body> bodies_;  // read at random by queries
   std::vector<BodyId> free_ids_;  // min-heap
   size_t alive_count_ = 0;
   std::vector<Pair> pairs_;

@@ -29,6 +29,7 @@
 #pragma once
 
 #include "vadop/broad_phase.h"
+#include "vadop/detail/large_array.h"
 #include "vadop/distance.h"
 #include "vadop/motion.h"
 #include "vadop/shapes.h"
@@ -236,16 +237,18 @@ class World {
   const std::vector<WorldImpact>& lastUndecided() const { return last_undecided_; }
 
  private:
-  struct Record {
+  // What a query reads of each body it meets (name, key, filter, chain) fills the first line
+  // of a line-aligned record: one memory load per body once the records outgrow the caches.
+  struct alignas(64) Record {
     std::string name;
     uint64_t key = 0;
-    // The shape as given, prepared for the narrow phase (the broad phase holds it padded).
-    std::optional<PreparedShape> prepared;
     uint32_t group = kDefaultGroup;  // setFilter
     uint32_t mask = kDefaultMask;
     // setPath / setChain (a path is a chain without joints); the broad phase holds the first
     // piece of its base's path.
     std::shared_ptr<const LinkChain> chain;
+    // The shape as given, prepared for the narrow phase (the broad phase holds it padded).
+    std::optional<PreparedShape> prepared;
   };
   // The pairs of the path bodies in [t0, t1] (the caller sorts and dedups): each piece's query
   // against the other bodies, and the pairs of two path bodies whose pathBoxes overlap; with
@@ -287,7 +290,7 @@ class World {
   WorldConfig config_;
   int threads_ = 1;  // config_.threads resolved
   std::unique_ptr<BroadPhase> broad_phase_;
-  std::vector<Record> records_;  // by BodyId of the broad phase
+  detail::LargeArray<Record> records_;  // by BodyId of the broad phase; read at random by queries
   std::unique_ptr<detail::NameIndex> by_name_;  // names live in records_
   std::vector<BodyId> path_bodies_;  // sorted
   uint64_t next_key_ = 0;

@@ -5,6 +5,8 @@
 // beyond "reserve() first, then insert() cannot throw". Not thread-safe.
 #pragma once
 
+#include "vadop/detail/large_array.h"
+
 #include <cstddef>
 #include <cstdint>
 #include <utility>
@@ -124,7 +126,7 @@ class FlatMap {
   size_t home(const Key& k) const { return Hash{}(k) & mask_; }
 
   void rehash(size_t cap) {
-    std::vector<Slot> old(cap, Slot{Key{}, Value{}, false});
+    LargeArray<Slot> old(cap, Slot{Key{}, Value{}, false});
     old.swap(slots_);
     mask_ = cap - 1;
     for (const Slot& s : old) {
@@ -135,7 +137,7 @@ class FlatMap {
     }
   }
 
-  std::vector<Slot> slots_;
+  LargeArray<Slot> slots_;
   size_t size_ = 0;
   size_t mask_ = 0;
 };
