@@ -28,8 +28,7 @@ struct Capsule {
   double r;
 };
 Capsule sweptCapsule(const Shape& shape, const Motion& m, double t0, double t1) {
-  const double r = shape.bounding_radius + (m.hasPivot() ? m.pivot_offset.norm() : 0.0);
-  return {m.pivotAt(t0), m.pivotAt(t1), r};
+  return {m.centreAt(t0), m.centreAt(t1), shape.bounding_radius + m.pivotArm()};
 }
 bool capsulesMayTouch(const Capsule& a, const Capsule& b) {
   // The relative widening keeps the test conservative under rounding.

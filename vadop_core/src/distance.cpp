@@ -113,7 +113,13 @@ struct Convex {
     return R * coreSupportBody(*shape, R.transpose() * d) + p + shift;
   }
   // Support value of the padded convex about p: max over x of (x - p).u (u need not be unit).
-  double h(const Eigen::Vector3d& u) const { return (support(u) - p).dot(u) + rounding * u.norm(); }
+  // For a primitive, in its body frame: (R c + shift).u = c.(R^T u) + shift.u, one rotation
+  // fewer than through support(); the certified steps evaluate it dozens of times per step.
+  double h(const Eigen::Vector3d& u) const {
+    if (shape == nullptr) return (support(u) - p).dot(u) + rounding * u.norm();
+    const Eigen::Vector3d ub = R.transpose() * u;
+    return coreSupportBody(*shape, ub).dot(ub) + shift.dot(u) + rounding * u.norm();
+  }
 };
 
 // p: the rotation centre; shift: the body origin relative to it (Motion::pivot_offset turned).
@@ -507,19 +513,12 @@ struct Kin {
   Eigen::Vector3d w = Eigen::Vector3d::Zero();  // angular velocity (fixed frame)
 };
 
-// First root of a concave f with f(0) > 0 on [0, horizon]: the largest certified step
-// (f > 0 on [0, step)); `clear` when f > 0 on the whole horizon. For concave f the chord
-// root never passes the root, and any point with f > 0 is safe (f > 0 between 0 and it).
+// Refines a bracket [lo, hi] of the first root of a concave f on [0, horizon] with f(0) > 0,
+// f(lo) = flo > 0 and f(hi) = fhi <= 0, and returns the largest certified step found (f > 0
+// on [0, step)). For concave f the chord root never passes the root (f lies above its chords),
+// and any point with f > 0 is safe (f > 0 between 0 and it).
 template <class F>
-double concaveStep(const F& f, double f0, double horizon, bool* clear) {
-  *clear = false;
-  if (!(f0 > 0.0)) return 0.0;
-  const double fT = f(horizon);
-  if (fT > 0.0) {
-    *clear = true;
-    return horizon;
-  }
-  double lo = 0.0, flo = f0, hi = horizon, fhi = fT;
+double refineConcaveRoot(const F& f, double lo, double flo, double hi, double fhi) {
   for (int k = 0; k < 16; ++k) {
     double x = lo + (hi - lo) * (flo / (flo - fhi));
     if (k % 3 == 2) x = 0.5 * (lo + hi);  // bisection keeps hi moving too
@@ -532,7 +531,7 @@ double concaveStep(const F& f, double f0, double horizon, bool* clear) {
       hi = x;
       fhi = fx;
     }
-    if (hi - lo <= 0.02 * lo) break;
+    if (hi - lo <= 0.1 * lo) break;
   }
   return lo;
 }
@@ -580,49 +579,60 @@ double separationStep(const Convex& A, const Kin& ka, const Convex& B, const Kin
   }
   if (kA == 0.0 && kB == 0.0) return step_lin;  // translation: the exact linear law
   if (step_lin >= cap) return step_lin;
-  double best = step_lin;
   const double wa = ka.w.norm(), wb = kb.w.norm();
-  // (1) fixed axis.
-  {
-    const double q = 0.5 * (A.lever * wa * kA + B.lever * wb * kB);
-    auto L = [&](double D) { return base + D * n.dot(V) - A.h(n - D * ua) - B.h(-n + D * ub) - q * D * D - adv; };
-    bool c = false;
-    best = std::max(best, concaveStep(L, f0, horizon, &c));
-    if (c) {
-      *clear = true;
-      return horizon;
-    }
-    if (best >= cap) return best;
-  }
   const Eigen::Vector3d rel = (kb.w - ka.w).cross(n);
   const double wsum2 = (wa + wb) * (wa + wb);
   const double Pn = P.norm(), Vn = V.norm();
-  // (2) attached to b.
-  if (kB > 0.0) {
-    const double r1 = ub.dot(P) + n.dot(V);
-    const double c2 = std::max(0.0, -ub.dot(V)) + 0.5 * wb * kB * Pn + 0.5 * A.lever * wsum2;
-    const double c3 = 0.5 * wb * kB * Vn;
-    auto L = [&](double D) { return base + D * r1 - (c2 + c3 * D) * D * D - hB0 - A.h(n + D * rel) - adv; };
-    bool c = false;
-    best = std::max(best, concaveStep(L, f0, horizon, &c));
-    if (c) {
+  const double nV = n.dot(V);
+  // (1) fixed axis; (2) attached to b; (3) attached to a (the axis -n turns with a).
+  const double q = 0.5 * (A.lever * wa * kA + B.lever * wb * kB);
+  const double r1b = ub.dot(P) + nV, r1a = ua.dot(P) + nV;
+  const double c2b = std::max(0.0, -ub.dot(V)) + 0.5 * wb * kB * Pn + 0.5 * A.lever * wsum2;
+  const double c2a = std::max(0.0, -ua.dot(V)) + 0.5 * wa * kA * Pn + 0.5 * B.lever * wsum2;
+  const double c3b = 0.5 * wb * kB * Vn, c3a = 0.5 * wa * kA * Vn;
+  auto bound = [&](int which, double D) {
+    switch (which) {
+      case 0: return base + D * nV - A.h(n - D * ua) - B.h(-n + D * ub) - q * D * D - adv;
+      case 1: return base + D * r1b - (c2b + c3b * D) * D * D - hB0 - A.h(n + D * rel) - adv;
+      default: return base + D * r1a - (c2a + c3a * D) * D * D - hA0 - B.h(-n + D * rel) - adv;
+    }
+  };
+  // Each bound at the horizon: one still positive there certifies it all. Otherwise the bound
+  // whose chord from (0, f0) to (horizon, f(horizon)) crosses zero last is refined first (the
+  // chord root is where its refinement starts); another is refined only if it is still positive
+  // where the best step so far ends (then its root lies beyond; one evaluation rules it out
+  // otherwise), instead of refining all three in full.
+  struct Candidate {
+    int which;
+    double at_horizon;
+    double chord_root;
+  };
+  std::array<Candidate, 3> cand;
+  int m = 0;
+  for (int which = 0; which < 3; ++which) {
+    if ((which == 1 && kB == 0.0) || (which == 2 && kA == 0.0)) continue;
+    const double fT = bound(which, horizon);
+    if (fT > 0.0) {
       *clear = true;
       return horizon;
     }
-    if (best >= cap) return best;
+    cand[m++] = {which, fT, horizon * (f0 / (f0 - fT))};
   }
-  // (3) attached to a: the axis -n turns with a.
-  if (kA > 0.0) {
-    const double r1 = ua.dot(P) + n.dot(V);
-    const double c2 = std::max(0.0, -ua.dot(V)) + 0.5 * wa * kA * Pn + 0.5 * B.lever * wsum2;
-    const double c3 = 0.5 * wa * kA * Vn;
-    auto L = [&](double D) { return base + D * r1 - (c2 + c3 * D) * D * D - hA0 - B.h(-n + D * rel) - adv; };
-    bool c = false;
-    best = std::max(best, concaveStep(L, f0, horizon, &c));
-    if (c) {
-      *clear = true;
-      return horizon;
+  for (int i = 1; i < m; ++i) {  // by chord root, largest first (insertion sort of <= 3)
+    for (int j = i; j > 0 && cand[j].chord_root > cand[j - 1].chord_root; --j) std::swap(cand[j], cand[j - 1]);
+  }
+  double best = step_lin;
+  for (int k = 0; k < m; ++k) {
+    auto f = [&](double D) { return bound(cand[k].which, D); };
+    double lo = 0.0, flo = f0;
+    if (k > 0) {
+      // Positive at the best step: positive up to it (concave), its root lies beyond.
+      flo = f(best);
+      if (!(flo > 0.0)) continue;
+      lo = best;
     }
+    best = std::max(best, refineConcaveRoot(f, lo, flo, horizon, cand[k].at_horizon));
+    if (best >= cap) return std::min(best, horizon);
   }
   return std::min(best, horizon);
 }
@@ -1029,7 +1039,7 @@ Swept sweptVolume(const PreparedShapeData& d, const Motion& m, double ta, double
     return s;
   }
   const Eigen::Matrix3d R = m.orientationAt(ta).toRotationMatrix();
-  s.p = m.hasPivot() ? m.pivotAt(ta) : m.positionAt(ta);
+  s.p = m.centreAt(ta);
   const Eigen::Vector3d shift = m.hasPivot() ? Eigen::Vector3d(m.positionAt(ta) - s.p) : Eigen::Vector3d::Zero();
   const double turn = m.angular_velocity.norm() * (tb - ta);
   if (turn <= kSmallTurn) {

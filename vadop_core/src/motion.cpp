@@ -83,9 +83,8 @@ Eigen::Matrix3d Motion::spin(double t) const {
 // The terms linear in s are convex in s (largest at s = 0 or T); the others grow with s.
 double maxDisplacement(const Motion& m, const Motion& n, double radius, double t0, double t1) {
   const double T = t1 - t0;
-  auto turnPoint = [](const Motion& x, double t) { return x.hasPivot() ? x.pivotAt(t) : x.positionAt(t); };
   const Eigen::Vector3d om = m.positionAt(t0), on = n.positionAt(t0);
-  const Eigen::Vector3d cm = turnPoint(m, t0), cn = turnPoint(n, t0);
+  const Eigen::Vector3d cm = m.centreAt(t0), cn = n.centreAt(t0);
   const Eigen::Vector3d um = om - cm, un = on - cn;
   const Eigen::Vector3d d_origin = om - on;
   const double dw = (m.angular_velocity - n.angular_velocity).norm();

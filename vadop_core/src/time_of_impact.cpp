@@ -117,11 +117,8 @@ Impact sphereSphere(const Shape& a, const Motion& ma, const Shape& b, const Moti
 // the closest approach of two linearly moving centres, with an allowance for rounding.
 bool spheresClear(const Shape& a, const Motion& ma, const Shape& b, const Motion& mb, double ta, double tb,
                   double adv) {
-  auto centre = [](const Motion& m, double t) { return m.hasPivot() ? m.pivotAt(t) : m.positionAt(t); };
-  auto radius = [](const Shape& s, const Motion& m) {
-    return s.bounding_radius + (m.hasPivot() ? m.pivot_offset.norm() : 0.0);
-  };
-  const Eigen::Vector3d d0 = centre(mb, ta) - centre(ma, ta);
+  auto radius = [](const Shape& s, const Motion& m) { return s.bounding_radius + m.pivotArm(); };
+  const Eigen::Vector3d d0 = mb.centreAt(ta) - ma.centreAt(ta);
   const Eigen::Vector3d dv = mb.linear_velocity - ma.linear_velocity;
   const double T = tb - ta;
   const double vv = dv.squaredNorm();

@@ -120,12 +120,11 @@ SweptBody::SweptBody(const Shape& shape, const Motion& motion, double t0, double
   // Everything turns about the pivot, which moves in a straight line: the sweep is that of
   // the pivot, and the shape is seen from the pivot (shifted by origin - pivot at mid-frame,
   // its lever arm grown by the offset).
-  p0_ = motion.pivotAt(t0);
-  p1_ = motion.pivotAt(t1);
-  core_radius_ = std::max(0.0, shape.bounding_radius - shape.margin);
+  p0_ = motion.centreAt(t0);
+  p1_ = motion.centreAt(t1);
+  core_radius_ = std::max(0.0, shape.bounding_radius - shape.margin) + motion.pivotArm();
   if (motion.hasPivot()) {
     shift_mid_ = motion.positionAt(tm) - motion.pivotAt(tm);
-    core_radius_ += motion.pivot_offset.norm();
   } else {
     shift_mid_.setZero();
   }
@@ -141,6 +140,50 @@ SweptBody::SweptBody(const Shape& shape, const Motion& motion, double t0, double
   }
   translating_sphere_ = shape.type == ShapeType::kSphere && !motion.hasPivot() && chord_ == 0.0;
   radius_ = shape.radius + shape.margin;
+}
+
+void SweptBody::partBoxes(const Shape& shape, const Motion& motion, double t0, double t1, int parts, double* out) {
+  SweptBody part;
+  part.shape_ = &shape;
+  part.core_radius_ = std::max(0.0, shape.bounding_radius - shape.margin) + motion.pivotArm();
+  const bool pivot = motion.hasPivot();
+  part.radius_ = shape.radius + shape.margin;
+  part.shift_mid_.setZero();
+  part.spin_axis_.setZero();
+  const Eigen::Matrix3d orientation = motion.orientation.toRotationMatrix();
+  Eigen::Matrix3d spin = Eigen::Matrix3d::Identity();  // exp([w] (t_mid - t_ref)) of the part
+  Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();  // from one part's mid-frame to the next
+  const double w = motion.angular_velocity.norm();
+  const double length = (t1 - t0) / parts;
+  if (w > 0.0) {
+    part.spin_axis_ = motion.angular_velocity / w;
+    // The parts' lengths and mid-times differ from `length` and from the stepped rotation's
+    // times by rounding: the angle gets a margin of 1e-12 s of turning (far above those
+    // rounding errors) and 1e-12 rad (the rounding of the products of `parts` rotations).
+    double longest = 0.0, s = t0;
+    for (int k = 0; k < parts; ++k) {
+      const double e = k + 1 == parts ? t1 : t0 + (t1 - t0) * (k + 1) / parts;
+      longest = std::max(longest, e - s);
+      s = e;
+    }
+    const double angle = std::min(w * (0.5 * longest + 1e-12 * (1.0 + std::abs(t0) + std::abs(t1))) + 1e-12, kPi);
+    part.chord_ = 2.0 * std::sin(0.5 * angle);
+    const double first_mid = 0.5 * (t0 + (parts == 1 ? t1 : t0 + (t1 - t0) / parts));
+    spin = motion.spin(first_mid);
+    turn = Eigen::AngleAxisd(w * length, part.spin_axis_).toRotationMatrix();
+  }
+  part.translating_sphere_ = shape.type == ShapeType::kSphere && !pivot && part.chord_ == 0.0;
+  double s = t0;
+  for (int k = 0; k < parts; ++k, out += 6) {
+    const double e = k + 1 == parts ? t1 : t0 + (t1 - t0) * (k + 1) / parts;
+    if (shape.type != ShapeType::kSphere) part.rotation_mid_t_ = (spin * orientation).transpose();
+    part.p0_ = motion.centreAt(s);
+    part.p1_ = motion.centreAt(e);
+    if (pivot) part.shift_mid_ = -(spin * motion.pivot_offset);  // origin - pivot at mid-frame
+    part.box(out);
+    spin = turn * spin;
+    s = e;
+  }
 }
 
 Interval SweptBody::projectGeneral(const Eigen::Vector3d& a) const {

@@ -278,9 +278,8 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
   // |pivot_offset| of it. Motions are within range (validateMotion), so nothing overflows.
   // Every body for a full predict; for a query, the bodies it involves (before anything runs).
   auto checkMotionReach = [&](BodyId id, const Motion& m, double s, double e) {
-    const Eigen::Vector3d c0 = m.hasPivot() ? m.pivotAt(s) : m.positionAt(s);
-    const Eigen::Vector3d c1 = m.hasPivot() ? m.pivotAt(e) : m.positionAt(e);
-    const double arm = m.hasPivot() ? m.pivot_offset.norm() : 0.0;
+    const Eigen::Vector3d c0 = m.centreAt(s), c1 = m.centreAt(e);
+    const double arm = m.pivotArm();
     for (int k = 0; k < 3; ++k) {
       const double reach = std::max(std::abs(c0[k]), std::abs(c1[k])) + arm;
       if (reach <= kMaxReach) continue;  // the message (two formatted numbers) only on failure
@@ -609,15 +608,14 @@ const double* World::partBoxes(BodyId id, double t0, double t1) {
   // Each part's box bounds the padded shape over [s, e] (SweptBody is conservative in floating
   // point; a path body's pathBox is the union of SweptBody boxes along its pieces);
   // consecutive parts share their end times, so together they cover [t0, t1].
-  const bool path = onPath(id);
+  if (!onPath(id)) {
+    SweptBody::partBoxes(broad_phase_->shape(id), broad_phase_->motion(id), t0, t1, slices, b);
+    return b;
+  }
   double s = t0;
   for (int k = 0; k < slices; ++k) {
     const double e = k + 1 == slices ? t1 : t0 + (t1 - t0) * (k + 1) / slices;
-    if (path) {
-      pathBox(id, s, e, b + 6 * k);
-    } else {
-      SweptBody(broad_phase_->shape(id), broad_phase_->motion(id), s, e).box(b + 6 * k);
-    }
+    pathBox(id, s, e, b + 6 * k);
     s = e;
   }
   return b;

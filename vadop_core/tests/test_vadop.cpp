@@ -97,6 +97,59 @@ TEST(SweptInterval, BoundsSampledPosesOfEveryShape) {
   }
 }
 
+// SweptBody::partBoxes (the world's time-slice cull) against one SweptBody per part (the same
+// bounds up to rounding) and against densely sampled poses, over long windows, fast spins (more
+// than half a turn per part), pivots off the origin and counts of parts from 1 to 64.
+TEST(SweptInterval, PartBoxesMatchOneSweptBodyPerPartAndBoundSampledPoses) {
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> g;
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  auto unit = [&] { return Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized(); };
+  const std::vector<Shape> shapes = {
+      makeSphere(0.3), makeBox(Eigen::Vector3d(0.2, 0.5, 1.1)), makeCapsule(0.2, 0.9), makeCylinder(0.4, 0.3),
+      makeConvex({Eigen::Vector3d(0.5, 0, 0), Eigen::Vector3d(0, 0.7, 0.1), Eigen::Vector3d(0.1, 0.2, 0.9),
+                  Eigen::Vector3d(-0.3, -0.3, -0.2)})};
+  const int part_counts[] = {1, 2, 3, 8, 64};
+  size_t samples = 0;
+  for (const Shape& base : shapes) {
+    const Shape s = inflate(base, 0.05);
+    for (int trial = 0; trial < 200; ++trial) {
+      Motion m = makeMotion(Eigen::Vector3d::Random() * 10.0,
+                            Eigen::Quaterniond(Eigen::AngleAxisd(3.0 * g(rng), unit())),
+                            unit() * 3.0 * std::abs(g(rng)), unit() * 8.0 * std::abs(g(rng)), 0.5 * g(rng));
+      if (trial % 2 == 1) m.pivot_offset = Eigen::Vector3d::Random() * 1.5;
+      if (trial % 7 == 3) m.angular_velocity.setZero();
+      const double t0 = 4.0 * u(rng) - 1.0, t1 = t0 + 3.0 * u(rng);
+      const int parts = part_counts[trial % 5];
+      std::vector<double> boxes(6 * parts);
+      SweptBody::partBoxes(s, m, t0, t1, parts, boxes.data());
+      double start = t0;
+      for (int k = 0; k < parts; ++k) {
+        const double end = k + 1 == parts ? t1 : t0 + (t1 - t0) * (k + 1) / parts;
+        const double* b = &boxes[6 * k];
+        double one[6];
+        SweptBody(s, m, start, end).box(one);
+        for (int c = 0; c < 6; ++c) {
+          ASSERT_NEAR(b[c], one[c], 1e-9 * (1.0 + std::abs(one[c]))) << toString(s.type) << " trial " << trial << " part " << k;
+        }
+        for (int j = 0; j <= 16; ++j) {
+          const double t = start + (end - start) * j / 16.0;
+          const Eigen::Matrix3d R = m.orientationAt(t).toRotationMatrix();
+          const Eigen::Vector3d o = m.positionAt(t);
+          for (int c = 0; c < 3; ++c) {
+            const Eigen::Vector3d a = Eigen::Vector3d::Unit(c);
+            ASSERT_LE(o[c] + support(s, R.transpose() * a), b[3 + c]) << toString(s.type) << " trial " << trial << " part " << k;
+            ASSERT_GE(o[c] - support(s, -(R.transpose() * a)), b[c]) << toString(s.type) << " trial " << trial << " part " << k;
+          }
+          ++samples;
+        }
+        start = end;
+      }
+    }
+  }
+  EXPECT_GT(samples, 50000u);
+}
+
 TEST(AxisSelection, ZoneHysteresisAndSlowRules) {
   const AxisPool pool(32);
   VadopConfig c;  // m = 32, phi = 25 deg

@@ -63,6 +63,30 @@ TEST(World, HeadOnSpheres) {
   EXPECT_NEAR(later[0].impact.time, t, 1e-12);
 }
 
+// A motion that does not turn moves its origin whatever its pivot_offset (Motion::centreAt):
+// every broad phase, with and without the time-slice cull, bounds the body where it is, not
+// about the unused pivot (the swept boxes once were centred on position + pivot_offset and
+// this contact was culled).
+TEST(World, AMotionThatDoesNotTurnIgnoresItsPivotOffset) {
+  for (const BroadPhaseKind kind : {BroadPhaseKind::kVadop, BroadPhaseKind::kVadopSap, BroadPhaseKind::kSap,
+                                    BroadPhaseKind::kGrid, BroadPhaseKind::kBrute}) {
+    for (const int slices : {1, 8}) {
+      WorldConfig c;
+      c.broad_phase = kind;
+      c.time_slices = slices;
+      World w(c);
+      Motion left = moving({0, 0, 0}, {1, 0, 0});
+      left.pivot_offset = Eigen::Vector3d(0, 30, 0);  // ignored: no angular velocity
+      w.add("left", makeBox({1, 1, 1}), left);
+      w.add("right", makeSphere(0.25), moving({4, 0, 0}, {-2, 0, 0}));
+      const auto out = w.predict(0.0, 2.0);
+      ASSERT_EQ(out.size(), 1u) << toString(kind) << " slices " << slices;
+      // Gap 4 - 0.5 - 0.25 = 3.25 closing at 3 m/s, as HeadOnSpheres.
+      EXPECT_NEAR(out[0].impact.time, 13.0 / 12.0 - kTol / 6.0, 1e-9) << toString(kind) << " slices " << slices;
+    }
+  }
+}
+
 TEST(World, PairsTouchingAtTheStartHaveTimeT0) {
   World w;
   w.add("a", makeBox({1, 1, 1}), still({0, 0, 0}));

@@ -350,9 +350,9 @@ std::string BodyRegistry::motionRangeError(const vadop::Motion& m, double t0, do
   }
   // The origin stays within |pivot(t)| + |pivot offset| of zero; the pivot moves on a line, so
   // its largest distance over [t0, t1] is at an end.
-  const double spin_radius = m.hasPivot() ? m.pivot_offset.norm() : 0.0;
+  const double spin_radius = m.pivotArm();
   for (const double t : {t0, t1}) {
-    const double reach = (m.hasPivot() ? m.pivotAt(t) : m.positionAt(t)).norm() + spin_radius;
+    const double reach = m.centreAt(t).norm() + spin_radius;
     if (!(reach <= kMaxReach)) {
       return "its position at t = " + number(t) + " s (" + number(reach) + " m from the origin) is beyond " +
              number(kMaxReach) + " m";

@@ -29,6 +29,11 @@ struct Motion {
     return hasPivot() ? Eigen::Vector3d(p + pivot_offset - spin(t) * pivot_offset) : p;
   }
   Eigen::Vector3d pivotAt(double t) const { return position + pivot_offset + linear_velocity * (t - t_ref); }
+  // The point the body turns about and that moves in a straight line: the pivot when hasPivot(),
+  // else the origin (a motion that does not turn moves its origin, whatever its pivot_offset).
+  Eigen::Vector3d centreAt(double t) const { return hasPivot() ? pivotAt(t) : positionAt(t); }
+  // How far the origin stays from centreAt: |pivot_offset| when hasPivot(), else 0.
+  double pivotArm() const { return hasPivot() ? pivot_offset.norm() : 0.0; }
   Eigen::Quaterniond orientationAt(double t) const;
   Eigen::Isometry3d poseAt(double t) const;
   bool isRotating() const { return angular_velocity.squaredNorm() > 0.0; }

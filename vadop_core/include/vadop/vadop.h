@@ -94,6 +94,10 @@ class SweptBody {
                                             std::max(axis.dot(p0_), axis.dot(p1_)) + radius_);
     return projectGeneral(axis);
   }
+  // The boxes of `parts` consecutive parts of [t0, t1] (part k ends at t0 + (t1 - t0) (k + 1) /
+  // parts, the last at t1), 6 doubles each as box(): the bounds of one SweptBody per part, the
+  // parts' mid-frame rotations stepped by one turn increment instead of evaluated one by one.
+  static void partBoxes(const Shape& shape, const Motion& motion, double t0, double t1, int parts, double* out);
   // Its axis-aligned box: the intervals on x, y, z as (lo x y z, hi x y z).
   void box(double* out) const {
     for (int k = 0; k < 3; ++k) {
@@ -114,10 +118,11 @@ class SweptBody {
     return Interval{lo - widen, hi + widen};
   }
   Interval projectGeneral(const Eigen::Vector3d& axis) const;
+  SweptBody() = default;  // partBoxes fills the fields part by part
 
   bool translating_sphere_ = false;  // sphere, no pivot, no rotation
   double radius_ = 0.0;              // radius + margin, when translating_sphere_
-  const Shape* shape_;
+  const Shape* shape_ = nullptr;
   Eigen::Matrix3d rotation_mid_t_;  // R(t_mid)^T: fixed frame -> body frame
   Eigen::Vector3d p0_, p1_;         // pivot (the body origin unless Motion::pivot_offset) at t0, t1
   Eigen::Vector3d shift_mid_;       // body origin - pivot at t_mid
