@@ -580,14 +580,32 @@ void World::cullBySlices(std::vector<std::pair<BodyId, BodyId>>& tests, double t
   ++predict_count_;
   slice_used_ = 0;
   if (slice_of_.size() < records_.size()) slice_of_.resize(records_.size());
-  // Room for every body the pairs name: partBoxes then never reallocates (its pointers stay valid).
-  const size_t bodies = std::min(records_.size(), 2 * tests.size());
   const size_t stride = 6 * static_cast<size_t>(slices);
-  if (slice_boxes_.size() < bodies * stride) slice_boxes_.resize(bodies * stride);
+  // Slots in first-use order: a query touches a few bodies, whose boxes then share a few hot
+  // lines instead of lying far apart in an array indexed by id.
+  slice_fill_.clear();
+  auto slot = [&](BodyId id) {
+    SliceSlot& s = slice_of_[id];
+    if (s.stamp != predict_count_) {
+      s.stamp = predict_count_;
+      s.index = slice_used_++;
+      slice_fill_.push_back(id);
+    }
+    return s.index * stride;
+  };
+  for (const auto& pair : tests) {
+    slot(pair.first);
+    slot(pair.second);
+  }
+  if (slice_boxes_.size() < slice_used_ * stride) slice_boxes_.resize(slice_used_ * stride);
+  parallelFor(slice_fill_.size(), [&](size_t i) {
+    const BodyId id = slice_fill_[i];
+    fillPartBoxes(id, t0, t1, &slice_boxes_[slice_of_[id].index * stride]);
+  });
   size_t kept = 0;
   for (const auto& pair : tests) {
-    const double* a = partBoxes(pair.first, t0, t1);
-    const double* b = partBoxes(pair.second, t0, t1);
+    const double* a = &slice_boxes_[slice_of_[pair.first].index * stride];
+    const double* b = &slice_boxes_[slice_of_[pair.second].index * stride];
     bool keep = false;
     for (int k = 0; k < slices && !keep; ++k, a += 6, b += 6) keep = boxesOverlap(a, b);
     if (keep) tests[kept++] = pair;
@@ -595,30 +613,21 @@ void World::cullBySlices(std::vector<std::pair<BodyId, BodyId>>& tests, double t
   tests.resize(kept);
 }
 
-const double* World::partBoxes(BodyId id, double t0, double t1) {
-  const size_t stride = 6 * static_cast<size_t>(config_.time_slices);
-  SliceSlot& slot = slice_of_[id];
-  if (slot.stamp == predict_count_) return &slice_boxes_[slot.index * stride];
-  // Packed in first-use order (cullBySlices made the room): a query touches a few bodies, whose
-  // boxes then share a few hot lines instead of lying far apart in an array indexed by id.
-  slot.stamp = predict_count_;
-  slot.index = slice_used_++;
+void World::fillPartBoxes(BodyId id, double t0, double t1, double* out) const {
   const int slices = config_.time_slices;
-  double* b = &slice_boxes_[slot.index * stride];
   // Each part's box bounds the padded shape over [s, e] (SweptBody is conservative in floating
   // point; a path body's pathBox is the union of SweptBody boxes along its pieces);
   // consecutive parts share their end times, so together they cover [t0, t1].
   if (!onPath(id)) {
-    SweptBody::partBoxes(broad_phase_->shape(id), broad_phase_->motion(id), t0, t1, slices, b);
-    return b;
+    SweptBody::partBoxes(broad_phase_->shape(id), broad_phase_->motion(id), t0, t1, slices, out);
+    return;
   }
   double s = t0;
   for (int k = 0; k < slices; ++k) {
     const double e = k + 1 == slices ? t1 : t0 + (t1 - t0) * (k + 1) / slices;
-    pathBox(id, s, e, b + 6 * k);
+    pathBox(id, s, e, out + 6 * k);
     s = e;
   }
-  return b;
 }
 
 Impact World::narrow(BodyId a, BodyId b, double t0, double t1) const {

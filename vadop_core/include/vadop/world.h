@@ -265,10 +265,10 @@ class World {
   // Drops from `tests` the pairs whose boxes over the config_.time_slices parts of [t0, t1]
   // (partBoxes) overlap in none of them (WorldConfig::time_slices).
   void cullBySlices(std::vector<std::pair<BodyId, BodyId>>& tests, double t0, double t1);
-  // The boxes of body `id` over the config_.time_slices parts of [t0, t1] (6 doubles each): its
-  // padded shape's swept boxes, or pathBox of each part for a body on a path. Computed once per
-  // predict (slice_of_; cullBySlices sizes the cache).
-  const double* partBoxes(BodyId id, double t0, double t1);
+  // The boxes of body `id` over the config_.time_slices parts of [t0, t1] (6 doubles each) into
+  // `out`: its padded shape's swept boxes, or pathBox of each part for a body on a path. Bodies
+  // are independent: cullBySlices fills them on the threads when there are many.
+  void fillPartBoxes(BodyId id, double t0, double t1, double* out) const;
   Impact narrow(BodyId a, BodyId b, double t0, double t1) const;
   // narrow() on every pair of `tests` into `results` (same order), on threads_ threads when there
   // are enough pairs; rethrows the exception of the first pair (by index) that threw.
@@ -297,9 +297,9 @@ class World {
   size_t last_candidates_ = 0;
   size_t last_reused_ = 0;
   size_t last_slice_culled_ = 0;
-  // partBoxes' cache: time_slices boxes (lo x y z, hi x y z) per body, packed in the order
+  // cullBySlices' boxes: time_slices boxes (lo x y z, hi x y z) per body, packed in the order
   // the predict whose number is in the body's stamp first asked for them (computed for the
-  // bodies of candidate pairs only).
+  // bodies of candidate pairs only; slice_fill_ lists those bodies in slot order).
   struct SliceSlot {
     uint64_t stamp = 0;
     size_t index = 0;  // into slice_boxes_, in units of time_slices boxes
@@ -307,6 +307,7 @@ class World {
   std::vector<SliceSlot> slice_of_;  // by BodyId
   std::vector<double> slice_boxes_;
   size_t slice_used_ = 0;
+  std::vector<BodyId> slice_fill_;
   uint64_t predict_count_ = 0;
   std::unique_ptr<detail::PairCertificates> certificates_;  // WorldConfig::coherence
   std::vector<WorldImpact> last_undecided_;
