@@ -515,23 +515,30 @@ struct Kin {
 
 // Refines a bracket [lo, hi] of the first root of a concave f on [0, horizon] with f(0) > 0,
 // f(lo) = flo > 0 and f(hi) = fhi <= 0, and returns the largest certified step found (f > 0
-// on [0, step)). For concave f the chord root never passes the root (f lies above its chords),
-// and any point with f > 0 is safe (f > 0 between 0 and it).
+// on [0, step)): any point where f was evaluated > 0 is safe (f > 0 between 0 and it). For
+// concave f the chord root never passes the root (f lies above its chords), so plain regula
+// falsi only ever moves lo, slowly when f bends sharply (a root far below the horizon); the
+// Illinois rule halves the weight of an end kept twice in a row, which brings hi down too.
 template <class F>
 double refineConcaveRoot(const F& f, double lo, double flo, double hi, double fhi) {
+  double wlo = flo, whi = fhi;  // the ends' weights in the secant
+  int kept = 0;                 // +1: lo moved last, -1: hi moved last
   for (int k = 0; k < 16; ++k) {
-    double x = lo + (hi - lo) * (flo / (flo - fhi));
-    if (k % 3 == 2) x = 0.5 * (lo + hi);  // bisection keeps hi moving too
+    const double x = lo + (hi - lo) * (wlo / (wlo - whi));
     if (!(x > lo && x < hi)) break;
     const double fx = f(x);
     if (fx > 0.0) {
       lo = x;
-      flo = fx;
+      wlo = fx;
+      if (kept > 0) whi *= 0.5;
+      kept = 1;
     } else {
       hi = x;
-      fhi = fx;
+      whi = fx;
+      if (kept < 0) wlo *= 0.5;
+      kept = -1;
     }
-    if (hi - lo <= 0.1 * lo) break;
+    if (hi - lo <= 0.02 * lo) break;
   }
   return lo;
 }
