@@ -209,6 +209,30 @@ Interval SweptBody::projectGeneral(const Eigen::Vector3d& a) const {
   return widened(std::min(c0, c1) - down - rot, std::max(c0, c1) + up + rot);
 }
 
+void SweptBody::boxGeneral(double* out) const {
+  const bool sphere = shape_->type == ShapeType::kSphere;
+  const bool symmetric = shape_->type != ShapeType::kConvex && shape_->type != ShapeType::kMesh;
+  for (int k = 0; k < 3; ++k) {
+    double up, down;
+    if (sphere) {
+      up = down = shape_->radius + shape_->margin;
+    } else {
+      const Eigen::Vector3d a_body = rotation_mid_t_.col(k);  // R(t_mid)^T e_k
+      up = support(*shape_, a_body);
+      down = symmetric ? up : support(*shape_, -a_body);
+    }
+    up += shift_mid_[k];
+    down -= shift_mid_[k];
+    const double c0 = p0_[k], c1 = p1_[k];
+    // |e_k x w_hat|: the norm of the other two components of the spin axis.
+    const double i = spin_axis_[(k + 1) % 3], j = spin_axis_[(k + 2) % 3];
+    const double rot = chord_ > 0.0 ? core_radius_ * chord_ * std::sqrt(i * i + j * j) : 0.0;
+    const Interval iv = widened(std::min(c0, c1) - down - rot, std::max(c0, c1) + up + rot);
+    out[k] = iv.lo;
+    out[3 + k] = iv.hi;
+  }
+}
+
 Interval sweptInterval(const Shape& shape, const Motion& motion, double t0, double t1,
                        const Eigen::Vector3d& axis) {
   return SweptBody(shape, motion, t0, t1).project(axis);

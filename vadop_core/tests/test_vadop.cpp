@@ -98,7 +98,8 @@ TEST(SweptInterval, BoundsSampledPosesOfEveryShape) {
 }
 
 // SweptBody::partBoxes (the world's time-slice cull) against one SweptBody per part (the same
-// bounds up to rounding) and against densely sampled poses, over long windows, fast spins (more
+// bounds up to rounding; its box() equal to project() on the unit axes) and against densely
+// sampled poses, over long windows, fast spins (more
 // than half a turn per part), pivots off the origin and counts of parts from 1 to 64.
 TEST(SweptInterval, PartBoxesMatchOneSweptBodyPerPartAndBoundSampledPoses) {
   std::mt19937_64 rng(11);
@@ -128,7 +129,13 @@ TEST(SweptInterval, PartBoxesMatchOneSweptBodyPerPartAndBoundSampledPoses) {
         const double end = k + 1 == parts ? t1 : t0 + (t1 - t0) * (k + 1) / parts;
         const double* b = &boxes[6 * k];
         double one[6];
-        SweptBody(s, m, start, end).box(one);
+        const SweptBody body(s, m, start, end);
+        body.box(one);
+        for (int c = 0; c < 3; ++c) {  // box() is project() on the unit axes, to the bit
+          const Interval iv = body.project(Eigen::Vector3d::Unit(c));
+          ASSERT_EQ(one[c], iv.lo);
+          ASSERT_EQ(one[3 + c], iv.hi);
+        }
         for (int c = 0; c < 6; ++c) {
           ASSERT_NEAR(b[c], one[c], 1e-9 * (1.0 + std::abs(one[c]))) << toString(s.type) << " trial " << trial << " part " << k;
         }

@@ -100,6 +100,7 @@ class SweptBody {
   static void partBoxes(const Shape& shape, const Motion& motion, double t0, double t1, int parts, double* out);
   // Its axis-aligned box: the intervals on x, y, z as (lo x y z, hi x y z).
   void box(double* out) const {
+    if (!translating_sphere_) return boxGeneral(out);
     for (int k = 0; k < 3; ++k) {
       const Interval iv = project(Eigen::Vector3d::Unit(k));
       out[k] = iv.lo;
@@ -118,6 +119,8 @@ class SweptBody {
     return Interval{lo - widen, hi + widen};
   }
   Interval projectGeneral(const Eigen::Vector3d& axis) const;
+  // projectGeneral on x, y and z, the products with the unit axes written out (the same values).
+  void boxGeneral(double* out) const;
   SweptBody() = default;  // partBoxes fills the fields part by part
 
   bool translating_sphere_ = false;  // sphere, no pivot, no rotation
