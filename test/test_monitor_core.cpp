@@ -713,3 +713,49 @@ static_obstacles:
   std::printf("two-joint arm: predicted %.6f s, truth %.6f s, error %.2e s\n", out.impacts[0].time_to_impact, hi,
               out.impacts[0].time_to_impact - hi);
 }
+
+// Two links of one body that overlap at their joint, no ~ignore_pairs and no self_collision:
+// their pair is ruled out before the narrow phase (pairIgnored's same-body rules) even though
+// no pair filter is configured, and the other body still meets the robot.
+TEST(MonitorCore, LinksOfOneBodyAreNeverPairedWithoutIgnorePairs) {
+  const std::string urdf = R"(<robot name="two_links">
+  <link name="base_link"><collision><geometry><box size="0.6 0.6 0.2"/></geometry></collision></link>
+  <link name="mast"><collision><origin xyz="0 0 0.2"/><geometry><cylinder radius="0.1" length="0.6"/></geometry></collision></link>
+  <joint name="turn" type="continuous"><parent link="base_link"/><child link="mast"/><axis xyz="0 0 1"/></joint>
+</robot>)";
+  MonitorCore core = makeCore(R"(
+horizon: 3.0
+bodies:
+  - {name: robot, odom_topic: /robot/odom, robot_description: /robot_description, joint_states_topic: /robot/joint_states}
+  - {name: cart, odom_topic: /cart/odom, shape: {type: sphere, radius: 0.2}}
+)",
+                              [&](const std::string&, std::string& v) {
+                                v = urdf;
+                                return true;
+                              });
+  FakeTf tf;
+  nav_msgs::Odometry o = odom(100.0, 0.0, 0.0, 0.5);
+  o.child_frame_id = "base_link";
+  core.registry().onOdometry(0, o, ros::Time(100.0));
+  core.registry().onOdometry(1, odom(100.0, 1.5, 0.0, 0.0), ros::Time(100.0));
+  sensor_msgs::JointState js;
+  js.header.stamp = ros::Time(100.0);
+  js.name = {"turn"};
+  js.position = {0.0};
+  js.velocity = {0.5};
+  ASSERT_EQ(core.registry().onJointState(0, js, ros::Time(100.0)), vadop_ros::InputResult::kAccepted);
+  const auto& out = core.cycle(ros::Time(100.0), tf);
+  EXPECT_EQ(core.lastStats().elements_in_world, 3u);
+  // The links overlap from the start and are never reported; the robot (front face at x = 0.3,
+  // 0.5 m/s) meets the cart (back at x = 1.3) 2 s later.
+  ASSERT_EQ(out.impacts.size(), 2u);  // each link with the cart, the base first
+  for (const auto& i : out.impacts) {
+    EXPECT_EQ(i.body_a, "robot");
+    EXPECT_EQ(i.body_b, "cart") << i.link_a << " / " << i.link_b;
+  }
+  EXPECT_EQ(out.impacts[0].link_a, "base_link");
+  EXPECT_NEAR(out.impacts[0].time_to_impact, 2.0, 1e-2);
+  // Left out before the narrow phase, not filtered from its results.
+  EXPECT_EQ(core.lastStats().ignored_tested, 0u);
+  EXPECT_EQ(core.lastStats().raw_impacts, 2u);
+}

@@ -111,6 +111,7 @@ void MonitorCore::syncGateWorld() {
       gate_predictor_.unset(i);  // the cycle's world took it: cannot happen but for memory
     }
   }
+  gate_predictor_.enableIgnored(pair_rules_needed_);
   gate_world_current_ = true;
 }
 
@@ -362,6 +363,7 @@ void MonitorCore::syncWorld(const ros::Time& now) {
   const auto& elements = registry_.elements();
   size_t moving = 0;
   std::string error;
+  elements_in_world_of_body_.assign(registry_.bodies().size(), 0);
   for (size_t i = 0; i < elements.size(); ++i) {
     const Element& e = elements[i];
     if (refused_[i] && !(e.active && sameMotion(e.motion, refused_motion_[i]))) refused_[i] = 0;
@@ -382,11 +384,19 @@ void MonitorCore::syncWorld(const ros::Time& now) {
     if (!ok) {
       predictor_.unset(i);
       registry_.markElementBad(i, "refused by the world: " + error, now);  // throttled per body
+    } else if (elements_in_world_of_body_[e.body] < 2) {
+      ++elements_in_world_of_body_[e.body];
     }
   }
   stats_.moving_elements = moving;
   syncTracks(now);
   stats_.elements_in_world = predictor_.size();
+  // pairIgnored can ignore a pair the groups let through only by ~ignore_pairs or between two
+  // elements of one body.
+  pair_rules_needed_ = !filter_.empty() || std::any_of(elements_in_world_of_body_.begin(),
+                                                       elements_in_world_of_body_.end(),
+                                                       [](uint8_t n) { return n >= 2; });
+  predictor_.enableIgnored(pair_rules_needed_);
 }
 
 bool MonitorCore::pairIgnored(size_t ea, size_t eb) const {

@@ -48,6 +48,8 @@ struct Predictor::Impl {
   vadop::World world;
   std::vector<Slot> slots;
   std::unordered_map<uint64_t, size_t> by_key;
+  vadop::World::PairPredicate ignored;  // setIgnored's, as the world's pair filter
+  bool ignored_on = true;               // enableIgnored
   std::vector<RawImpact> undecided;  // of the last predict
   std::optional<vadop::World::Reachable> reach;  // beginReach .. endReach
 };
@@ -87,16 +89,22 @@ bool Predictor::set(size_t i, const std::string& id, const vadop::Shape& shape, 
 }
 
 void Predictor::setIgnored(std::function<bool(size_t a, size_t b)> ignored) {
-  if (!ignored) {
-    impl_->world.setPairFilter(nullptr);
-    return;
+  impl_->ignored = nullptr;
+  if (ignored) {
+    impl_->ignored = [impl = impl_.get(), ignored = std::move(ignored)](uint64_t ka, uint64_t kb) {
+      const auto ia = impl->by_key.find(ka);
+      const auto ib = impl->by_key.find(kb);
+      if (ia == impl->by_key.end() || ib == impl->by_key.end()) return true;  // not ours: tested
+      return !ignored(ia->second, ib->second);
+    };
   }
-  impl_->world.setPairFilter([impl = impl_.get(), ignored = std::move(ignored)](uint64_t ka, uint64_t kb) {
-    const auto ia = impl->by_key.find(ka);
-    const auto ib = impl->by_key.find(kb);
-    if (ia == impl->by_key.end() || ib == impl->by_key.end()) return true;  // not ours: tested
-    return !ignored(ia->second, ib->second);
-  });
+  impl_->world.setPairFilter(impl_->ignored_on ? impl_->ignored : nullptr);
+}
+
+void Predictor::enableIgnored(bool on) {
+  if (on == impl_->ignored_on) return;
+  impl_->ignored_on = on;
+  impl_->world.setPairFilter(on ? impl_->ignored : nullptr);
 }
 
 void Predictor::unset(size_t i) {

@@ -183,8 +183,11 @@ class MonitorCore {
   // with each other, self-collision rules, adjacent links, ~ignore_pairs). The world calls it
   // before the narrow phase (Predictor::setIgnored); static elements also get a group of their
   // own that does not collide with itself (kStaticGroup), which leaves static-static pairs out
-  // before even this call.
+  // before even this call. Asked only while it can ignore a pair the groups do not
+  // (pair_rules_needed_: ~ignore_pairs set, or some body with two elements in the world).
   bool pairIgnored(size_t ea, size_t eb) const;
+  bool pair_rules_needed_ = true;
+  std::vector<uint8_t> elements_in_world_of_body_;  // syncWorld's count (saturated at 2)
   static constexpr uint32_t kMovingGroup = 1u;
   static constexpr uint32_t kStaticGroup = 2u;
   void syncWorld(const ros::Time& now);

@@ -92,6 +92,10 @@ class Predictor {
   // each candidate pair that passes the groups and masks, before the narrow phase
   // (vadop::World::setPairFilter). Must depend only on its arguments. Empty: none.
   void setIgnored(std::function<bool(size_t a, size_t b)> ignored);
+  // Whether that predicate is asked at all (default true). Off where it could only answer "test"
+  // (no pair filter, no two elements of one body in the world): it costs two lookups and a call
+  // per candidate pair.
+  void enableIgnored(bool on);
 
   // Contacts over [t0, t0 + horizon], sorted by time. Throws vadop::InvalidArgument.
   std::vector<RawImpact> predict(double t0, double horizon);

@@ -1,0 +1,12 @@
+#!/bin/bash
+export PATH=/usr/bin:$PATH
+B=/work/b/ros/devel/lib/vadop/vadop_monitor_bench
+out=/tmp/abbp.csv; : > $out
+for r in 1 2 3; do
+  for cfg in "--bodies 1000 --threads 1 --cycles 100 --warmup 15" "--bodies 5000 --threads 1 --cycles 40 --warmup 10" "--bodies 1000 --threads 1 --cycles 100 --warmup 15 --fast 0.1"; do
+    if [ $((r % 2)) = 1 ]; then order="vadop grid"; else order="grid vadop"; fi
+    for bp in $order; do
+      $B $cfg --broadphase $bp 2>&1 | grep -E "^ +[0-9]+ " | while read -r line; do echo "r$r|$bp|$cfg|$line" >> $out; done
+    done
+  done
+done
