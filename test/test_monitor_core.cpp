@@ -38,6 +38,21 @@ MonitorCore makeCore(const std::string& yaml_text, const vadop_ros::ParamReader&
   return MonitorCore(vadop_ros::parseParams(vadop_test::yaml(yaml_text)), reader);
 }
 
+// A parameter server whose every robot_description is `urdf`.
+vadop_ros::ParamReader urdfParams(const std::string& urdf) {
+  return [urdf](const std::string&, std::string& v) {
+    v = urdf;
+    return true;
+  };
+}
+
+// The odometry of a URDF body's base_link: at (x, 0), moving along x at vx.
+nav_msgs::Odometry baseOdom(double stamp, double x, double vx) {
+  nav_msgs::Odometry o = odom(stamp, x, 0.0, vx);
+  o.child_frame_id = "base_link";
+  return o;
+}
+
 const char* kFour = R"(
 horizon: 3.0
 bodies:
@@ -320,8 +335,7 @@ static_obstacles:
   - {name: post, shape: {type: sphere, radius: 0.1}, pose: {position: [0.0, 2.0, 0.0]}}
 )");
   FakeTf tf;
-  nav_msgs::Odometry m = odom(10.0, 0.0, 0.0, 1.0);
-  m.child_frame_id = "base_link";
+  nav_msgs::Odometry m = baseOdom(10.0, 0.0, 1.0);
   m.twist.twist.angular.z = 1.0;
   ASSERT_EQ(core.registry().onOdometry(0, m, ros::Time(10.0)), vadop_ros::InputResult::kAccepted);
   const vadop::ImpactArray& out = core.cycle(ros::Time(10.0), tf);
@@ -691,14 +705,9 @@ static_obstacles:
   - {name: post, shape: {type: sphere, radius: 0.1}, pose: {position: [%.12f, %.12f, 0.0]}}
 )",
                 post.x(), post.y());
-  MonitorCore core = makeCore(yaml_text, [&](const std::string&, std::string& v) {
-    v = urdf;
-    return true;
-  });
+  MonitorCore core = makeCore(yaml_text, urdfParams(urdf));
   FakeTf tf;
-  nav_msgs::Odometry o = odom(100.0, 0.0, 0.0, 0.0);
-  o.child_frame_id = "base_link";
-  core.registry().onOdometry(0, o, ros::Time(100.0));
+  core.registry().onOdometry(0, baseOdom(100.0, 0.0, 0.0), ros::Time(100.0));
   sensor_msgs::JointState js;
   js.header.stamp = ros::Time(100.0);
   js.name = {"shoulder", "elbow"};
@@ -729,14 +738,9 @@ bodies:
   - {name: robot, odom_topic: /robot/odom, robot_description: /robot_description, joint_states_topic: /robot/joint_states}
   - {name: cart, odom_topic: /cart/odom, shape: {type: sphere, radius: 0.2}}
 )",
-                              [&](const std::string&, std::string& v) {
-                                v = urdf;
-                                return true;
-                              });
+                              urdfParams(urdf));
   FakeTf tf;
-  nav_msgs::Odometry o = odom(100.0, 0.0, 0.0, 0.5);
-  o.child_frame_id = "base_link";
-  core.registry().onOdometry(0, o, ros::Time(100.0));
+  core.registry().onOdometry(0, baseOdom(100.0, 0.0, 0.5), ros::Time(100.0));
   core.registry().onOdometry(1, odom(100.0, 1.5, 0.0, 0.0), ros::Time(100.0));
   sensor_msgs::JointState js;
   js.header.stamp = ros::Time(100.0);
