@@ -584,18 +584,16 @@ void World::cullBySlices(std::vector<std::pair<BodyId, BodyId>>& tests, double t
   // Slots in first-use order: a query touches a few bodies, whose boxes then share a few hot
   // lines instead of lying far apart in an array indexed by id.
   slice_fill_.clear();
-  auto slot = [&](BodyId id) {
+  auto assignSlot = [&](BodyId id) {
     SliceSlot& s = slice_of_[id];
-    if (s.stamp != predict_count_) {
-      s.stamp = predict_count_;
-      s.index = slice_used_++;
-      slice_fill_.push_back(id);
-    }
-    return s.index * stride;
+    if (s.stamp == predict_count_) return;
+    s.stamp = predict_count_;
+    s.index = slice_used_++;
+    slice_fill_.push_back(id);
   };
   for (const auto& pair : tests) {
-    slot(pair.first);
-    slot(pair.second);
+    assignSlot(pair.first);
+    assignSlot(pair.second);
   }
   if (slice_boxes_.size() < slice_used_ * stride) slice_boxes_.resize(slice_used_ * stride);
   parallelFor(slice_fill_.size(), [&](size_t i) {
