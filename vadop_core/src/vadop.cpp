@@ -162,20 +162,20 @@ void SweptBody::partBoxes(const Shape& shape, const Motion& motion, double t0, d
     // rounding errors) and 1e-12 rad (the rounding of the products of `parts` rotations).
     double longest = 0.0, s = t0;
     for (int k = 0; k < parts; ++k) {
-      const double e = k + 1 == parts ? t1 : t0 + (t1 - t0) * (k + 1) / parts;
+      const double e = partEnd(t0, t1, k, parts);
       longest = std::max(longest, e - s);
       s = e;
     }
     const double angle = std::min(w * (0.5 * longest + 1e-12 * (1.0 + std::abs(t0) + std::abs(t1))) + 1e-12, kPi);
     part.chord_ = 2.0 * std::sin(0.5 * angle);
-    const double first_mid = 0.5 * (t0 + (parts == 1 ? t1 : t0 + (t1 - t0) / parts));
+    const double first_mid = 0.5 * (t0 + partEnd(t0, t1, 0, parts));
     spin = motion.spin(first_mid);
     turn = Eigen::AngleAxisd(w * length, part.spin_axis_).toRotationMatrix();
   }
   part.translating_sphere_ = shape.type == ShapeType::kSphere && !pivot && part.chord_ == 0.0;
   double s = t0;
   for (int k = 0; k < parts; ++k, out += 6) {
-    const double e = k + 1 == parts ? t1 : t0 + (t1 - t0) * (k + 1) / parts;
+    const double e = partEnd(t0, t1, k, parts);
     if (shape.type != ShapeType::kSphere) part.rotation_mid_t_ = (spin * orientation).transpose();
     part.p0_ = motion.centreAt(s);
     part.p1_ = motion.centreAt(e);

@@ -622,7 +622,7 @@ void World::fillPartBoxes(BodyId id, double t0, double t1, double* out) const {
   }
   double s = t0;
   for (int k = 0; k < slices; ++k) {
-    const double e = k + 1 == slices ? t1 : t0 + (t1 - t0) * (k + 1) / slices;
+    const double e = SweptBody::partEnd(t0, t1, k, slices);
     pathBox(id, s, e, out + 6 * k);
     s = e;
   }

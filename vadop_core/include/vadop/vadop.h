@@ -98,6 +98,10 @@ class SweptBody {
   // parts, the last at t1), 6 doubles each as box(): the bounds of one SweptBody per part, the
   // parts' mid-frame rotations stepped by one turn increment instead of evaluated one by one.
   static void partBoxes(const Shape& shape, const Motion& motion, double t0, double t1, int parts, double* out);
+  // Where part k (from 0) of those parts ends.
+  static double partEnd(double t0, double t1, int k, int parts) {
+    return k + 1 == parts ? t1 : t0 + (t1 - t0) * (k + 1) / parts;
+  }
   // Its axis-aligned box: the intervals on x, y, z as (lo x y z, hi x y z).
   void box(double* out) const {
     if (!translating_sphere_) return boxGeneral(out);
