@@ -101,6 +101,11 @@ void BroadPhase::markChanged(BodyId id) {
   changed_.push_back(id);
 }
 
+void BroadPhase::setThreads(int threads) {
+  if (threads < 1) throw InvalidArgument("setThreads: threads must be >= 1, got " + std::to_string(threads));
+  threads_ = threads;
+}
+
 void BroadPhase::update(double t0, double t1) {
   requireInterval(t0, t1, "update");
   pairs_.clear();

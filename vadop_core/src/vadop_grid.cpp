@@ -5,9 +5,11 @@
 #include "cell_grid.h"
 #include "fat_box_pairs.h"
 #include "grid_cells.h"
+#include "parallel_for.h"
 #include "popcount.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -31,6 +33,11 @@ constexpr double kIncidenceCost = 8.0;
 constexpr size_t kSample = 1024;
 // Cells with more bodies than this are swept along x rather than tested pair by pair.
 constexpr uint32_t kSweepMin = 8;
+// Threads for worlds of at least this many bodies; bodies taken a few at a time, and blocks of
+// cells (or of slots) per thread: cell loads vary, a few blocks each balance them.
+constexpr size_t kParallelBodies = 512;
+constexpr size_t kBodyChunk = 32;
+constexpr size_t kBlocksPerThread = 8;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 using detail::CellGrid;
 
@@ -75,13 +82,14 @@ const AxisPool& VadopGridBroadPhase::pool() const {
 }
 
 size_t VadopGridBroadPhase::memoryBytes() const {
-  size_t bytes = axis_bits_.capacity() * sizeof(uint64_t) + scratch_axes_.capacity() * sizeof(uint32_t) + dirty_flag_.capacity() +
-                 dirty_.capacity() * sizeof(BodyId);
+  size_t bytes = axis_bits_.capacity() * sizeof(uint64_t) + dirty_flag_.capacity() +
+                 (dirty_.capacity() + scratch_changed_.capacity()) * sizeof(BodyId);
   bytes += (slot_body_.capacity() + slot_of_.capacity() + offset_.capacity()) * sizeof(uint32_t) +
            box_.capacity() * sizeof(double) + bits_.capacity() * sizeof(uint64_t) +
            rank_.capacity() * sizeof(uint16_t) + intervals_.capacity() * sizeof(Interval);
   bytes += fat_->memoryBytes() + fat_ids_.capacity() * sizeof(BodyId) + fat_boxes_.capacity() * sizeof(double);
-  bytes += grid_->memoryBytes() + large_slots_.capacity() * sizeof(uint32_t);
+  bytes += grid_->memoryBytes() + (large_slots_.capacity() + scratch_slots_.capacity()) * sizeof(uint32_t);
+  for (const SlotPairs& h : hits_) bytes += h.pairs.capacity() * sizeof(SlotPair);
   return bytes;
 }
 
@@ -158,35 +166,19 @@ void VadopGridBroadPhase::onRemove(BodyId id) {
 }
 
 VADOP_POPCNT_CLONES
-bool VadopGridBroadPhase::overlapOnShared(uint32_t a, uint32_t b) {
-  ++stats_.overlap_tests;
+bool VadopGridBroadPhase::overlapOnShared(uint32_t a, uint32_t b) const {
   // No shared axis cannot happen with rho <= phi; if it did, the boxes alone decide.
   return detail::overlapOnSharedAxes(&bits_[a * words_], &rank_[a * words_], intervals_.data() + offset_[a],
                                      &bits_[b * words_], &rank_[b * words_], intervals_.data() + offset_[b], words_);
 }
 
-void VadopGridBroadPhase::testPair(uint32_t a, uint32_t b, std::vector<Pair>& out) {
-  ++stats_.box_tests;
+bool VadopGridBroadPhase::boxesOverlap(uint32_t a, uint32_t b) const {
   const double* x = &box_[6 * a];
   const double* y = &box_[6 * b];
-  if (x[0] > y[3] || y[0] > x[3] || x[1] > y[4] || y[1] > x[4] || x[2] > y[5] || y[2] > x[5]) return;
-  requireIntervals(a);
-  requireIntervals(b);
-  if (overlapOnShared(a, b)) out.push_back(makePair(slot_body_[a], slot_body_[b]));
+  return !(x[0] > y[3] || y[0] > x[3] || x[1] > y[4] || y[1] > x[4] || x[2] > y[5] || y[2] > x[5]);
 }
 
-VADOP_POPCNT_CLONES
-size_t VadopGridBroadPhase::countAliveAxes() const {
-  const auto& b = bodies();
-  size_t n = 0;
-  for (BodyId id = 0; id < b.size(); ++id) {
-    if (!b[id].alive) continue;
-    for (size_t w = 0; w < words_; ++w) n += static_cast<size_t>(__builtin_popcountll(axis_bits_[id * words_ + w]));
-  }
-  return n;
-}
-
-void VadopGridBroadPhase::testLargeAgainstAll(const std::vector<uint32_t>& large, std::vector<Pair>& out) {
+void VadopGridBroadPhase::testLargeAgainstAll(const std::vector<uint32_t>& large, SlotPairs& hits) {
   if (large.empty()) return;
   const uint32_t slots = static_cast<uint32_t>(slot_body_.size());
   std::vector<uint8_t>& is_large = scratch_large_;
@@ -195,7 +187,8 @@ void VadopGridBroadPhase::testLargeAgainstAll(const std::vector<uint32_t>& large
   for (uint32_t l : large) {
     for (uint32_t s = 0; s < slots; ++s) {
       if (s == l || (is_large[s] && s < l)) continue;  // a pair of two large bodies once
-      testPair(l, s, out);
+      ++hits.box_tests;
+      if (boxesOverlap(l, s)) hits.pairs.push_back({l, s});
     }
   }
 }
@@ -273,92 +266,94 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
   const auto start = Clock::now();
   const auto& b = bodies();
   const double frame = t1 - t0;
+  const size_t slots = size();
+  // Small worlds on this thread: below this, starting threads costs more than the work.
+  const int threads = slots >= kParallelBodies ? this->threads() : 1;
 
   // 1. New axis sets for the bodies whose motion changed (kept under the hysteresis rule).
+  std::vector<BodyId>& changed = scratch_changed_;
+  changed.clear();
   for (BodyId id : dirty_) {
     if (id >= b.size() || !dirty_flag_[id]) continue;
     dirty_flag_[id] = 0;
-    if (!b[id].alive || !pool_) continue;
-    std::vector<uint32_t>& axes = scratch_axes_;
+    if (b[id].alive && pool_) changed.push_back(id);
+  }
+  dirty_.clear();
+  std::atomic<size_t> reinserted{0};
+  detail::parallelFor(threads, changed.size(), kParallelBodies / 2, kBodyChunk, [&](size_t i) {
+    const BodyId id = changed[i];
+    thread_local std::vector<uint32_t> axes;
     axes.clear();
     uint64_t* bits = &axis_bits_[id * words_];
     detail::forEachSetBit(bits, words_, [&](uint32_t k) { axes.push_back(k); });
     if (updateAxes(b[id].motion, b[id].shape->bounding_radius, frame, *pool_, config_, zones_, axes)) {
-      ++stats_.reinserted;
+      reinserted.fetch_add(1, std::memory_order_relaxed);
       std::fill_n(bits, words_, 0);
       for (uint32_t k : axes) bits[k / 64] |= uint64_t{1} << (k % 64);
     }
-  }
-  dirty_.clear();
+  });
+  stats_.reinserted = reinserted.load();
 
-  // 2. Per alive body, in id order: swept AABB and intervals on its pool axes. Sized first and
-  //    written in place: this loop runs over every body every frame.
-  const size_t slots = size();
-  const size_t total_axes = countAliveAxes();
+  // 2. Per alive body, in id order: its slot and where its pool-axis intervals go (here), then
+  //    its swept AABB and axis ranks (on the threads). The intervals are computed later, for
+  //    the slots of pairs whose boxes overlap only (testSharedAxes).
   slot_body_.resize(slots);
   offset_.resize(slots);
   box_.resize(6 * slots);
-  intervals_.resize(total_axes);
+  bits_.resize(words_ * slots);
+  rank_.resize(words_ * slots);
+  interval_ready_.assign(slots, 0);
+  std::fill(slot_of_.begin(), slot_of_.end(), kNoSlot);
   frame_t0_ = t0;
   frame_t1_ = t1;
   framed_ = true;
   cells_ready_ = false;
-  // Lazy intervals when the incremental mode will be tried (filled for all if it declines).
-  const bool lazy = incremental_ > 0.0 && (fat_valid_ || retry_wait_ == 0);
-  interval_ready_.assign(slots, lazy ? 0 : 1);
-  bits_.resize(words_ * slots);
-  rank_.assign(words_ * slots, 0);
-  std::fill(slot_of_.begin(), slot_of_.end(), kNoSlot);
-  // Bounds of all boxes: the grid's extent (cell size choice, coordinate range).
-  double world_lo[3] = {kInf, kInf, kInf}, world_hi[3] = {-kInf, -kInf, -kInf};
-  uint32_t s = 0, next_interval = 0;
+  uint32_t next_slot = 0, next_interval = 0;
   for (BodyId id = 0; id < b.size(); ++id) {
     if (!b[id].alive) continue;
-    slot_of_[id] = s;
-    slot_body_[s] = id;
-    const SweptBody swept(*b[id].shape, b[id].motion, t0, t1);
-    double* box = &box_[6 * s];
-    swept.box(box);
-    for (int k = 0; k < 3; ++k) {
-      world_lo[k] = std::min(world_lo[k], box[k]);
-      world_hi[k] = std::max(world_hi[k], box[3 + k]);
-    }
-    offset_[s] = next_interval;
+    slot_of_[id] = next_slot;
+    slot_body_[next_slot] = id;
+    offset_[next_slot++] = next_interval;
+    for (size_t w = 0; w < words_; ++w) next_interval += static_cast<uint32_t>(__builtin_popcountll(axis_bits_[id * words_ + w]));
+  }
+  intervals_.resize(next_interval);
+  detail::parallelFor(threads, slots, kParallelBodies / 2, kBodyChunk, [&](size_t s) {
+    const BodyId id = slot_body_[s];
+    SweptBody(*b[id].shape, b[id].motion, t0, t1).box(&box_[6 * s]);
     uint64_t* bits = &bits_[words_ * s];
     std::copy_n(&axis_bits_[id * words_], words_, bits);
-    uint16_t* rank = &rank_[words_ * s];
-    detail::buildAxisRanks(bits, words_, rank);
-    if (!lazy) {
-      Interval* iv = intervals_.data() + next_interval;
-      detail::forEachSetBit(bits, words_, [&](uint32_t k) { *iv++ = swept.project(pool_->axis(static_cast<int>(k))); });
-    }
-    next_interval += detail::axisCount(bits, rank, words_);
-    ++s;
-  }
+    detail::buildAxisRanks(bits, words_, &rank_[words_ * s]);
+  });
   auto grid_from = Clock::now();
   stats_.update_seconds = std::chrono::duration<double>(grid_from - start).count();
   if (slots < 2) {
     stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
     return;
   }
+  // The pairs whose boxes overlap, per block of cells (or of slots), then on every shared axis.
+  const size_t blocks = threads > 1 ? kBlocksPerThread * static_cast<size_t>(threads) : 1;
+  hits_.resize(blocks + 1);  // the last for the large bodies
+  for (SlotPairs& h : hits_) h.clear();
 
   // 2b. Incremental mode, while the scene is slow enough.
-  if (incremental_ > 0.0 && computeFromFatBoxes(frame, out)) {
+  if (incremental_ > 0.0 && computeFromFatBoxes(frame, threads, blocks)) {
+    testSharedAxes(threads, out);
     stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
     return;
-  }
-  if (lazy) {  // declined: the full path tests most slots
-    const auto project_from = Clock::now();
-    for (uint32_t slot = 0; slot < slots; ++slot) requireIntervals(slot);
-    grid_from = Clock::now();
-    stats_.update_seconds += std::chrono::duration<double>(grid_from - project_from).count();
   }
 
   // 3. Cell size, unless configured: the candidate (a multiple of the median box extent) with
   //    the least estimated cost, kIncidenceCost per (body, cell) incidence I(h) plus one per
   //    box test, about I^2 / (2 C) for C = min(I, volume / h^3) occupied cells. Large cells
   //    suit slow bodies (few incidences), small ones fast bodies (long boxes crowd a big cell).
-  //    I(h) is estimated from at most kSample bodies.
+  //    I(h) is estimated from at most kSample bodies. The boxes' bounds give the grid's extent.
+  double world_lo[3] = {kInf, kInf, kInf}, world_hi[3] = {-kInf, -kInf, -kInf};
+  for (size_t s = 0; s < slots; ++s) {
+    for (int k = 0; k < 3; ++k) {
+      world_lo[k] = std::min(world_lo[k], box_[6 * s + k]);
+      world_hi[k] = std::max(world_hi[k], box_[6 * s + 3 + k]);
+    }
+  }
   const double h = chooseCellSize(world_lo, world_hi);
   stats_.cell_size = h;
   grid_->build(box_.data(), slots, h);
@@ -369,40 +364,77 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
 
   // 4. Pairs of each cell, each reported in the cell of its boxes' common lo corner. A crowded
   //    cell is swept along x first (sorted by box lo x, a body meets only those that start
-  //    before its box ends), a small one tested pair by pair.
+  //    before its box ends), a small one tested pair by pair. Blocks of cells on the threads.
   using Entry = CellGrid::Entry;
-  auto test = [this, &out](const Entry& x, const Entry& y, const CellGrid::Cell& cell) {
-    if (std::max(x.lo_cell[0], y.lo_cell[0]) != cell.x || std::max(x.lo_cell[1], y.lo_cell[1]) != cell.y ||
-        std::max(x.lo_cell[2], y.lo_cell[2]) != cell.z) {
-      return;  // tested in another cell they share
-    }
-    ++stats_.box_tests;
-    if (x.box[0] > y.box[3] || y.box[0] > x.box[3] || x.box[1] > y.box[4] || y.box[1] > x.box[4] ||
-        x.box[2] > y.box[5] || y.box[2] > x.box[5]) {
-      return;
-    }
-    if (overlapOnShared(x.item, y.item)) out.push_back(makePair(slot_body_[x.item], slot_body_[y.item]));
-  };
   CellGrid& grid = *grid_;
-  for (size_t c = 0, cells = grid.cellCount(); c < cells; ++c) {
-    Entry* first = grid.entriesBegin(c);
-    Entry* last = grid.entriesEnd(c);
-    if (last - first < 2) continue;
-    const CellGrid::Cell cell = grid.cell(c);
-    if (last - first <= kSweepMin) {
-      for (Entry* x = first; x + 1 < last; ++x) {
-        for (Entry* y = x + 1; y < last; ++y) test(*x, *y, cell);
+  const size_t cells = grid.cellCount();
+  detail::parallelFor(threads, blocks, 1, 1, [&](size_t block) {
+    SlotPairs& hits = hits_[block];
+    auto test = [&](const Entry& x, const Entry& y, const CellGrid::Cell& cell) {
+      if (std::max(x.lo_cell[0], y.lo_cell[0]) != cell.x || std::max(x.lo_cell[1], y.lo_cell[1]) != cell.y ||
+          std::max(x.lo_cell[2], y.lo_cell[2]) != cell.z) {
+        return;  // tested in another cell they share
       }
-      continue;
+      ++hits.box_tests;
+      if (x.box[0] > y.box[3] || y.box[0] > x.box[3] || x.box[1] > y.box[4] || y.box[1] > x.box[4] ||
+          x.box[2] > y.box[5] || y.box[2] > x.box[5]) {
+        return;
+      }
+      hits.pairs.push_back({x.item, y.item});
+    };
+    for (size_t c = detail::blockBegin(cells, blocks, block), end = detail::blockBegin(cells, blocks, block + 1);
+         c < end; ++c) {
+      Entry* first = grid.entriesBegin(c);
+      Entry* last = grid.entriesEnd(c);
+      if (last - first < 2) continue;
+      const CellGrid::Cell cell = grid.cell(c);
+      if (last - first <= kSweepMin) {
+        for (Entry* x = first; x + 1 < last; ++x) {
+          for (Entry* y = x + 1; y < last; ++y) test(*x, *y, cell);
+        }
+        continue;
+      }
+      std::sort(first, last, [](const Entry& x, const Entry& y) { return x.box[0] < y.box[0]; });
+      for (Entry* x = first; x + 1 < last; ++x) {
+        for (Entry* y = x + 1; y < last && y->box[0] <= x->box[3]; ++y) test(*x, *y, cell);
+      }
     }
-    std::sort(first, last, [](const Entry& x, const Entry& y) { return x.box[0] < y.box[0]; });
-    for (Entry* x = first; x + 1 < last; ++x) {
-      for (Entry* y = x + 1; y < last && y->box[0] <= x->box[3]; ++y) test(*x, *y, cell);
-    }
-  }
+  });
   // 5. Bodies too large for the grid: against every other body.
-  testLargeAgainstAll(grid_->large(), out);
+  testLargeAgainstAll(grid_->large(), hits_.back());
+  testSharedAxes(threads, out);
   stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
+}
+
+void VadopGridBroadPhase::testSharedAxes(int threads, std::vector<Pair>& out) {
+  for (const SlotPairs& h : hits_) {
+    stats_.box_tests += h.box_tests;
+    stats_.overlap_tests += h.pairs.size();
+  }
+  if (pool_) {
+    // The intervals of the slots that need them (each once), then the shared-axis tests; both
+    // on the threads, each writing its own slots or its own block.
+    std::vector<uint32_t>& need = scratch_slots_;
+    need.clear();
+    for (const SlotPairs& h : hits_) {
+      for (const SlotPair& p : h.pairs) {
+        for (uint32_t s : {p.a, p.b}) {
+          if (interval_ready_[s]) continue;
+          interval_ready_[s] = 1;  // set below, before anything reads it
+          need.push_back(s);
+        }
+      }
+    }
+    detail::parallelFor(threads, need.size(), kParallelBodies / 2, kBodyChunk, [&](size_t i) { projectSlot(need[i]); });
+    detail::parallelFor(threads, hits_.size(), 1, 1, [&](size_t block) {
+      std::vector<SlotPair>& pairs = hits_[block].pairs;
+      pairs.erase(std::remove_if(pairs.begin(), pairs.end(), [&](const SlotPair& p) { return !overlapOnShared(p.a, p.b); }),
+                  pairs.end());
+    });
+  }
+  for (const SlotPairs& h : hits_) {
+    for (const SlotPair& p : h.pairs) out.push_back(makePair(slot_body_[p.a], slot_body_[p.b]));
+  }
 }
 
 // Incremental mode. A body's fat box holds its swept box of this frame and, at constant velocity,
@@ -449,7 +481,7 @@ void VadopGridBroadPhase::appendFatBox(uint32_t s, double frame) {
   for (int k = 0; k < 3; ++k) fat_boxes_.push_back(t[3 + k] + std::max(0.0, v[k] * ahead) + pad);
 }
 
-bool VadopGridBroadPhase::computeFromFatBoxes(double frame, std::vector<Pair>& out) {
+bool VadopGridBroadPhase::computeFromFatBoxes(double frame, int threads, size_t blocks) {
   const size_t slots = slot_body_.size();
   fat_ids_.clear();
   fat_boxes_.clear();
@@ -511,15 +543,23 @@ bool VadopGridBroadPhase::computeFromFatBoxes(double frame, std::vector<Pair>& o
   stats_.fat_pairs = fat_->pairs();
   stats_.large_bodies = fat_->large().size();
 
-  for (uint32_t s = 0; s < slots; ++s) {
-    const BodyId id = slot_body_[s];
-    for (const BodyId j : fat_->partners(id)) {
-      if (j > id) testPair(s, slot_of_[j], out);
+  detail::parallelFor(threads, blocks, 1, 1, [&](size_t block) {
+    SlotPairs& hits = hits_[block];
+    for (uint32_t s = static_cast<uint32_t>(detail::blockBegin(slots, blocks, block)),
+                  end = static_cast<uint32_t>(detail::blockBegin(slots, blocks, block + 1));
+         s < end; ++s) {
+      const BodyId id = slot_body_[s];
+      for (const BodyId j : fat_->partners(id)) {
+        if (j <= id) continue;
+        const uint32_t t = slot_of_[j];
+        ++hits.box_tests;
+        if (boxesOverlap(s, t)) hits.pairs.push_back({s, t});
+      }
     }
-  }
+  });
   large_slots_.clear();
   for (BodyId l : fat_->large()) large_slots_.push_back(slot_of_[l]);
-  testLargeAgainstAll(large_slots_, out);
+  testLargeAgainstAll(large_slots_, hits_.back());
   return true;
 }
 

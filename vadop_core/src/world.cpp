@@ -2,6 +2,7 @@
 
 #include "name_index.h"
 #include "pair_certificates.h"
+#include "parallel_for.h"
 
 #include "vadop/error.h"
 #include "vadop/limits.h"
@@ -9,12 +10,9 @@
 #include "vadop/vadop_grid.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <cstdio>
-#include <exception>
 #include <limits>
-#include <mutex>
 #include <thread>
 #include <sstream>
 #include <utility>
@@ -113,6 +111,7 @@ World::World(const WorldConfig& config) : config_(config), by_name_(std::make_un
   }
   threads_ = config.threads > 0 ? config.threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   broad_phase_ = makeBroadPhase(config);
+  broad_phase_->setThreads(threads_);
 }
 
 // by_name_ keeps no names: they live in the records.
@@ -456,46 +455,11 @@ void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std
 }
 
 void World::parallelFor(size_t n, const std::function<void(size_t)>& f) const {
-  // Below this many pairs per thread, starting threads costs more than it saves.
+  // Below this many pairs per thread, starting threads costs more than it saves; pairs are
+  // taken a few at a time: narrow-phase costs vary by orders of magnitude.
   constexpr size_t kPairsPerThread = 32;
-  constexpr size_t kChunk = 8;  // pairs taken at a time: narrow-phase costs vary by orders of magnitude
-  const size_t threads = std::min(static_cast<size_t>(threads_), n / kPairsPerThread);
-  if (threads <= 1) {
-    for (size_t k = 0; k < n; ++k) f(k);
-    return;
-  }
-  std::atomic<size_t> next{0};
-  std::mutex error_lock;
-  size_t error_at = n;
-  std::exception_ptr error;
-  auto work = [&]() {
-    for (;;) {
-      const size_t begin = next.fetch_add(kChunk);
-      if (begin >= n) return;
-      const size_t end = std::min(begin + kChunk, n);
-      for (size_t k = begin; k < end; ++k) {
-        try {
-          f(k);
-        } catch (...) {
-          const std::lock_guard<std::mutex> lock(error_lock);
-          if (k < error_at) {
-            error_at = k;
-            error = std::current_exception();
-          }
-        }
-      }
-    }
-  };
-  std::vector<std::thread> pool;
-  pool.reserve(threads - 1);
-  try {
-    for (size_t i = 1; i < threads; ++i) pool.emplace_back(work);
-  } catch (...) {
-    // No thread to be had: this one does the rest.
-  }
-  work();
-  for (std::thread& t : pool) t.join();
-  if (error) std::rethrow_exception(error);
+  constexpr size_t kChunk = 8;
+  detail::parallelFor(threads_, n, kPairsPerThread, kChunk, f);
 }
 
 void World::narrowAll(const std::vector<std::pair<BodyId, BodyId>>& tests, double t0, double t1,

@@ -187,6 +187,7 @@ struct RunConfig {
   std::function<std::unique_ptr<SweepPruneBroadPhase>()> make;  // one of the two
   std::function<std::unique_ptr<VadopGridBroadPhase>()> make_grid;
   SceneParams scene;
+  double frame_share = 1.0;  // of the soak's frames per configuration (large scenes cost more)
 };
 
 struct RunTotals {
@@ -315,13 +316,15 @@ std::vector<RunConfig> configs() {
   crowded.n = 120;
   crowded.box = 4.0;
   auto grid = [](int m, double phi_deg, SlowAxisRule rule, double cell,
-                 double incremental = VadopGridBroadPhase::kDefaultIncremental) {
+                 double incremental = VadopGridBroadPhase::kDefaultIncremental, int threads = 1) {
     return [=] {
       VadopConfig c;
       c.axes = m;
       c.phi_deg = phi_deg;
       c.slow_rule = rule;
-      return std::make_unique<VadopGridBroadPhase>(c, cell, incremental);
+      auto bp = std::make_unique<VadopGridBroadPhase>(c, cell, incremental);
+      bp->setThreads(threads);
+      return bp;
     };
   };
   // A slow scene (no fast bodies): the incremental mode keeps its fat boxes for many frames.
@@ -352,17 +355,35 @@ std::vector<RunConfig> configs() {
                  grid(16, 0, SlowAxisRule::kFixedZone, 0.0, 1.0), spheres});
   out.push_back({"grid m=16 incremental off", nullptr, grid(16, 25, SlowAxisRule::kFixedZone, 0.0, 0.0), mixed});
   out.push_back({"grid m=16 slow scene", nullptr, grid(16, 25, SlowAxisRule::kFixedZone, 0.0), slow});
+  // On threads (worlds large enough to split): bodies, cells or slots in blocks, intervals of
+  // the slots that need them; each path as above.
+  SceneParams large;
+  large.n = 540;
+  large.box = 20.0;
+  SceneParams large_slow = large;
+  large_slow.fast_fraction = 0.0;
+  const double share = 0.3;
+  out.push_back({"grid m=32 threads 2", nullptr, grid(32, 25, SlowAxisRule::kFixedZone, 0.0, 0.0, 2), large, share});
+  out.push_back({"grid m=16 tiny cells threads 3", nullptr, grid(16, 25, SlowAxisRule::kFixedZone, 0.05, 0.0, 3), large,
+                 share});
+  out.push_back({"grid m=16 incremental always threads 2", nullptr,
+                 grid(16, 25, SlowAxisRule::kFixedZone, 0.0, 1.0, 2), large, share});
+  out.push_back({"grid m=16 slow scene threads 2", nullptr,
+                 grid(16, 25, SlowAxisRule::kFixedZone, 0.0, VadopGridBroadPhase::kDefaultIncremental, 2), large_slow,
+                 share});
   return out;
 }
 
 TEST(BroadPhaseProperty, CandidatesEqualOracleAndAreComplete) {
   const auto cs = configs();
   const int total = soakFrames(1800);
-  const int configs_n = static_cast<int>(cs.size());
-  const int per_config = std::max(1, (total + configs_n - 1) / configs_n);  // at least `total` in all
+  double shares = 0.0;
+  for (const RunConfig& c : cs) shares += c.frame_share;
+  const double per_share = static_cast<double>(total) / shares;  // at least `total` in all
   size_t frames = 0;
   for (size_t c = 0; c < cs.size(); ++c) {
     // Several seeds, each a short life of its own scene.
+    const int per_config = std::max(1, static_cast<int>(std::ceil(per_share * cs[c].frame_share)));
     int done = 0;
     size_t config_frames = 0, incremental_frames = 0;
     for (uint64_t seed = 1; done < per_config; ++seed) {
@@ -646,6 +667,61 @@ TEST(VadopGrid, BadInputThrowsAndChangesNothing) {
   } catch (const InvalidArgument& e) {
     EXPECT_NE(std::string(e.what()).find("cell_size"), std::string::npos) << e.what();
   }
+}
+
+TEST(VadopGrid, ThreadsGiveTheSamePairsAndCounts) {
+  // The same calls on engines that split their update over 1, 2 and 4 threads: the same pairs
+  // and the same statistics every frame, for the velocity-aligned grid (incremental mode on
+  // and off) and the box-only grid. The world is large enough to be split.
+  SceneParams p;
+  p.n = 900;
+  p.box = 9.0;
+  p.fast_fraction = 0.05;
+  using Make = std::function<std::unique_ptr<VadopGridBroadPhase>()>;
+  const std::vector<std::pair<std::string, Make>> engines = {
+      {"vadop", [] { return std::make_unique<VadopGridBroadPhase>(VadopConfig{}); }},
+      {"vadop incremental off", [] { return std::make_unique<VadopGridBroadPhase>(VadopConfig{}, 0.0, 0.0); }},
+      {"grid", [] { return VadopGridBroadPhase::makeBoxOnly(); }},
+  };
+  for (const auto& [label, make] : engines) {
+    std::vector<std::unique_ptr<VadopGridBroadPhase>> bps;
+    for (int threads : {1, 2, 4}) {
+      bps.push_back(make());
+      bps.back()->setThreads(threads);
+    }
+    RandomScene scene(11, p);
+    for (int i = 0; i < p.n; ++i) {
+      const Shape shape = scene.randomShape();
+      const Motion m = scene.randomMotion(0.0);
+      for (auto& bp : bps) bp->add(shape, m);
+    }
+    const double dt = 1.0 / 30.0;
+    size_t incremental = 0;
+    for (int f = 0; f < 24; ++f) {
+      const double t = f * dt;
+      for (BodyId id = 0; id < static_cast<BodyId>(p.n); ++id) {
+        if (std::uniform_real_distribution<double>(0.0, 1.0)(scene.rng()) >= 0.1) continue;
+        const Motion m = scene.turned(bps[0]->motion(id), t);
+        for (auto& bp : bps) bp->setMotion(id, m);
+      }
+      for (auto& bp : bps) bp->update(t, t + dt);
+      const VadopGridBroadPhase::Stats& one = bps[0]->stats();
+      incremental += one.incremental ? 1 : 0;
+      for (size_t k = 1; k < bps.size(); ++k) {
+        const VadopGridBroadPhase::Stats& many = bps[k]->stats();
+        ASSERT_EQ(bps[k]->pairs(), bps[0]->pairs()) << label << " frame " << f << ", threads " << bps[k]->threads();
+        EXPECT_EQ(many.box_tests, one.box_tests) << label << " frame " << f;
+        EXPECT_EQ(many.overlap_tests, one.overlap_tests) << label << " frame " << f;
+        EXPECT_EQ(many.reinserted, one.reinserted) << label << " frame " << f;
+        EXPECT_EQ(many.incremental, one.incremental) << label << " frame " << f;
+      }
+    }
+    EXPECT_GT(bps[0]->pairs().size(), 100u) << label;
+    if (label == "vadop") EXPECT_GT(incremental, 0u) << "the incremental path was not exercised";
+  }
+  VadopGridBroadPhase bp(VadopConfig{});
+  EXPECT_THROW(bp.setThreads(0), InvalidArgument);
+  EXPECT_EQ(bp.threads(), 1);
 }
 
 TEST(VadopGrid, IdsAreReusedAndRemovedBodiesVanish) {

@@ -39,6 +39,12 @@ class BroadPhase {
   // Candidate pairs of the last update, sorted, a < b in each.
   const std::vector<Pair>& pairs() const { return pairs_; }
 
+  // Threads an update may use (1, the default: the caller's only; engines that do not split
+  // their update ignore it). The pairs are the same whatever the count. Throws
+  // vadop::InvalidArgument below 1.
+  void setThreads(int threads);
+  int threads() const { return threads_; }
+
   // Single-body queries (the gate's "what does this body reach if it moves so?"): the bodies
   // whose swept volumes over [t0, t1] (finite, t0 <= t1) may intersect that of body `id`, with
   // every motion as currently set (a setMotion since the last update counts at once). Complete
@@ -120,6 +126,7 @@ class BroadPhase {
   detail::LargeArray<Body> bodies_;  // read at random by queries
   std::vector<BodyId> free_ids_;  // min-heap
   size_t alive_count_ = 0;
+  int threads_ = 1;
   std::vector<Pair> pairs_;
   // The last update's frame, and the bodies added, removed or given a new motion since (in
   // order, with repeats: a body changed twice is listed twice).

@@ -8,7 +8,8 @@
 // The grid finds the O(n) nearby pairs in O(n) per frame; VADOP then prunes them. The grid is
 // rebuilt each frame, except in slow scenes: there the pairs of overlapping "fat" boxes
 // (fat_box_pairs.h) are kept from frame to frame and only bodies that leave their fat boxes are
-// re-gridded (incremental mode; same candidates). It does not compute contacts, not thread-safe.
+// re-gridded (incremental mode; same candidates). Its update splits bodies and cells over
+// setThreads() threads (same candidates). It does not compute contacts; not thread-safe.
 #pragma once
 
 #include "vadop/axis_pool.h"
@@ -106,24 +107,41 @@ class VadopGridBroadPhase : public BroadPhase {
   // Cell size by the estimated cost of the frame's boxes (step 3 of computePairs).
   double chooseCellSize(const double* world_lo, const double* world_hi);
   static constexpr uint32_t kNoSlot = ~uint32_t{0};
+  // Pairs of slots whose boxes overlap, found in one block of the work (cells, or slots in the
+  // incremental mode), and the box tests that found them.
+  struct SlotPair {
+    uint32_t a, b;
+  };
+  struct SlotPairs {
+    std::vector<SlotPair> pairs;
+    size_t box_tests = 0;
+    void clear() {
+      pairs.clear();
+      box_tests = 0;
+    }
+  };
   void clearAxes(BodyId id);
-  size_t countAliveAxes() const;  // total size of the alive bodies' axis sets
   // Each slot of `large` (ascending not required) against every other slot, each pair once.
-  void testLargeAgainstAll(const std::vector<uint32_t>& large, std::vector<Pair>& out);
-  bool computeFromFatBoxes(double frame, std::vector<Pair>& out);
+  void testLargeAgainstAll(const std::vector<uint32_t>& large, SlotPairs& hits);
+  // The incremental mode's pairs of overlapping boxes into hits_ (blocks of slots on `threads`
+  // threads); false when it declines (the full path then runs).
+  bool computeFromFatBoxes(double frame, int threads, size_t blocks);
   void appendFatBox(uint32_t slot, double frame);
   double expectedEscapeRate(double frame) const;
-  bool overlapOnShared(uint32_t a, uint32_t b);
+  bool boxesOverlap(uint32_t a, uint32_t b) const;
+  bool overlapOnShared(uint32_t a, uint32_t b) const;  // needs both slots' intervals
+  // The pairs of hits_ whose intervals overlap on every shared pool axis, into `out`; the
+  // intervals of their slots first (each once). Counts the tests in stats_.
+  void testSharedAxes(int threads, std::vector<Pair>& out);
   // f(axis, interval) for each pool axis of slot s: its body's swept volume over the last
   // update's frame, projected now (the body's motion must be the update's).
   template <class F>
   void forEachProjected(uint32_t s, F&& f) const;
-  // The slot's pool-axis intervals, computed on first use in a lazy frame (see intervals_).
+  // The slot's pool-axis intervals (see intervals_); slots are independent.
   void projectSlot(uint32_t s);
   void requireIntervals(uint32_t s) {
     if (!interval_ready_[s]) projectSlot(s);
   }
-  void testPair(uint32_t a, uint32_t b, std::vector<Pair>& out);
 
   std::unique_ptr<AxisPool> pool_;
   VadopConfig config_;
@@ -135,9 +153,9 @@ class VadopGridBroadPhase : public BroadPhase {
   // Persistent per body (indexed by BodyId): its axis set as a bitset (words_ per body, flat:
   // the per-frame pass reads it sequentially), and whether its motion changed.
   std::vector<uint64_t> axis_bits_;
-  std::vector<uint32_t> scratch_axes_;  // updateAxes works on a list
   std::vector<uint8_t> dirty_flag_;
   std::vector<BodyId> dirty_;
+  std::vector<BodyId> scratch_changed_;  // the dirty bodies of an update, each once
 
   // Per frame, per slot (the alive bodies in id order), contiguous for the pair loops.
   std::vector<BodyId> slot_body_;
@@ -146,11 +164,13 @@ class VadopGridBroadPhase : public BroadPhase {
   std::vector<uint64_t> bits_;         // words_ per slot
   std::vector<uint16_t> rank_;         // words_ per slot: entries before each word
   std::vector<uint32_t> offset_;       // first interval of the slot
-  // All slots' pool-axis intervals. When the incremental mode may run, a frame computes them
-  // lazily: only the slots of kept pairs whose boxes overlap need them; interval_ready_ says
-  // which are set (all of them, in a frame of the full path).
+  // All slots' pool-axis intervals, computed for the slots of pairs whose boxes overlap only
+  // (testSharedAxes; most slots in a crowded frame, few in a sparse one); interval_ready_ says
+  // which are set.
   std::vector<Interval> intervals_;
   std::vector<uint8_t> interval_ready_;
+  std::vector<SlotPairs> hits_;          // per block of the last update, the large bodies' last
+  std::vector<uint32_t> scratch_slots_;  // the slots whose intervals an update computes
   double frame_t0_ = 0.0, frame_t1_ = 0.0;  // of the last update
   bool framed_ = false;      // an update has run (the slots and boxes describe its frame)
   bool cells_ready_ = false; // grid_ holds the cells of the last update's boxes

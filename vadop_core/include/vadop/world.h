@@ -67,8 +67,9 @@ struct WorldConfig {
   BroadPhaseKind broad_phase = BroadPhaseKind::kVadop;
   VadopConfig vadop;  // axes, phi_deg, ...: used (and validated) by kVadop and kVadopSap
   ToiOptions toi;
-  // Threads of predict's narrow phase (its candidate pairs shared out among them; the result is
-  // the same for every count): 1 runs it on the caller's thread; 0 means one per hardware
+  // Threads of predict (the broad phase's bodies and cells, the part boxes and the narrow
+  // phase's candidate pairs shared out among them; the result is the same for every count):
+  // 1 runs it on the caller's thread; 0 means one per hardware
   // thread (std::thread::hardware_concurrency). In [0, kMaxThreads].
   int threads = 1;
   // Temporal coherence of the narrow phase (0: off). With clearance > 0, a pair that predict

@@ -1,0 +1,22 @@
+// Runs independent iterations on a few threads started for the call (this one included): the
+// narrow phase's pairs, the broad phase's bodies and cells. Nothing is shared between
+// iterations but what the caller shares; no pool is kept between calls (a call costs the
+// start of its threads, tens of microseconds, against milliseconds of work).
+#pragma once
+
+#include <cstddef>
+#include <functional>
+
+namespace vadop::detail {
+
+// f(k) for k in [0, n) on up to `threads` threads, `chunk` consecutive k at a time (costs that
+// vary by orders of magnitude balance out); on this thread alone when n < 2 * min_per_thread.
+// Every k runs even when some throw; then the exception of the smallest k that threw is
+// rethrown. A thread that cannot be started leaves its share to the others.
+void parallelFor(int threads, size_t n, size_t min_per_thread, size_t chunk, const std::function<void(size_t)>& f);
+
+// The blocks [begin, end) that split [0, n) into at most `blocks` parts of nearly equal size,
+// in order (for work whose per-block results are merged in block order).
+inline size_t blockBegin(size_t n, size_t blocks, size_t b) { return n * b / blocks; }
+
+}  // namespace vadop::detail
