@@ -266,6 +266,10 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
   const auto start = Clock::now();
   const auto& b = bodies();
   const double frame = t1 - t0;
+  // How far the frames advance: the frame itself when they follow each other (the paper's
+  // scene), less when they overlap (the monitor: 2 s windows every 1/30 s). The incremental
+  // mode counts its fat boxes' lifetimes in these steps.
+  const double step = framed_ && t0 > frame_t0_ && t0 - frame_t0_ < frame ? t0 - frame_t0_ : frame;
   const size_t slots = size();
   // Small worlds on this thread: below this, starting threads costs more than the work.
   const int threads = slots >= kParallelBodies ? this->threads() : 1;
@@ -336,7 +340,7 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
   for (SlotPairs& h : hits_) h.clear();
 
   // 2b. Incremental mode, while the scene is slow enough.
-  if (incremental_ > 0.0 && computeFromFatBoxes(frame, threads, blocks)) {
+  if (incremental_ > 0.0 && computeFromFatBoxes(step, threads, blocks)) {
     testSharedAxes(threads, out);
     stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
     return;
@@ -437,9 +441,10 @@ void VadopGridBroadPhase::testSharedAxes(int threads, std::vector<Pair>& out) {
   }
 }
 
-// Incremental mode. A body's fat box holds its swept box of this frame and, at constant velocity,
-// those of the frames to come up to kFatFrames frames or kFatReach times its half-extent ahead,
-// padded by kFatPad of its half-extent. While a body's swept box stays inside its fat box, its
+// Incremental mode. A body's fat box holds its swept box of this frame and, while its motion
+// stays the same, those of the frames to come up to kFatFrames steps (how far the frames
+// advance) or kFatReach times its half-extent of travel ahead, padded by kFatPad of its
+// half-extent. While a body's swept box stays inside its fat box, its
 // pairs of overlapping fat boxes (FatBoxPairs) stay valid, and every pair of overlapping swept
 // boxes is among them (swept inside fat on both sides): the candidates are exactly those of the
 // full path, found by testing the kept pairs. Bodies that left their fat boxes (new velocity,
@@ -453,35 +458,47 @@ constexpr double kFatPad = 0.1;
 // Half the largest extent of a slot's swept box, and how far ahead in time (s) its fat box
 // reaches at `speed`.
 double halfExtent(const double* box) { return 0.5 * std::max({box[3] - box[0], box[4] - box[1], box[5] - box[2]}); }
-double fatLead(double half, double speed, double frame) {
-  return speed > 0.0 ? std::min(kFatFrames * frame, kFatReach * half / speed) : kFatFrames * frame;
+double fatLead(double half, double speed, double step) {
+  return speed > 0.0 ? std::min(kFatFrames * step, kFatReach * half / speed) : kFatFrames * step;
 }
+// A bound of the origin's speed: a body turning about a pivot at rest (a robot on an arc, as the
+// monitor predicts it) travels though its linear velocity is zero.
+double travelSpeed(const Motion& m) { return m.linear_velocity.norm() + m.angular_velocity.norm() * m.pivotArm(); }
 }  // namespace
 
-double VadopGridBroadPhase::expectedEscapeRate(double frame) const {
+double VadopGridBroadPhase::expectedEscapeRate(double step) const {
   const size_t slots = slot_body_.size();
-  if (slots == 0 || !(frame > 0.0)) return 0.0;
+  if (slots == 0 || !(step > 0.0)) return 0.0;
   const size_t stride = std::max<size_t>(1, slots / kSample);
   double rate = 0.0;
   size_t sampled = 0;
   for (size_t s = 0; s < slots; s += stride, ++sampled) {
-    const double speed = bodies()[slot_body_[s]].motion.linear_velocity.norm();
-    rate += 1.0 / std::max(1.0, fatLead(halfExtent(&box_[6 * s]), speed, frame) / frame);
+    const double speed = travelSpeed(bodies()[slot_body_[s]].motion);
+    rate += 1.0 / std::max(1.0, fatLead(halfExtent(&box_[6 * s]), speed, step) / step);
   }
   return rate / static_cast<double>(sampled);
 }
 
-void VadopGridBroadPhase::appendFatBox(uint32_t s, double frame) {
+void VadopGridBroadPhase::appendFatBox(uint32_t s, double step) {
+  // The body's swept box over the frame extended by its lead: it holds the swept box of every
+  // later frame ending within the lead while the motion stays the same (re-referenced along
+  // the same path included), turning bodies as well as straight ones.
+  const Body& body = bodies()[slot_body_[s]];
   const double* t = &box_[6 * s];
-  const Eigen::Vector3d& v = bodies()[slot_body_[s]].motion.linear_velocity;
   const double half = halfExtent(t);
-  const double ahead = fatLead(half, v.norm(), frame);  // v = 0: no lead to add
+  const double speed = travelSpeed(body.motion);
+  double box[6];
+  if (speed > 0.0) {
+    SweptBody(*body.shape, body.motion, frame_t0_, frame_t1_ + fatLead(half, speed, step)).box(box);
+  } else {
+    std::copy_n(t, 6, box);
+  }
   const double pad = kFatPad * half;
-  for (int k = 0; k < 3; ++k) fat_boxes_.push_back(t[k] + std::min(0.0, v[k] * ahead) - pad);
-  for (int k = 0; k < 3; ++k) fat_boxes_.push_back(t[3 + k] + std::max(0.0, v[k] * ahead) + pad);
+  for (int k = 0; k < 3; ++k) fat_boxes_.push_back(std::min(box[k], t[k]) - pad);
+  for (int k = 0; k < 3; ++k) fat_boxes_.push_back(std::max(box[3 + k], t[3 + k]) + pad);
 }
 
-bool VadopGridBroadPhase::computeFromFatBoxes(double frame, int threads, size_t blocks) {
+bool VadopGridBroadPhase::computeFromFatBoxes(double step, int threads, size_t blocks) {
   const size_t slots = slot_body_.size();
   fat_ids_.clear();
   fat_boxes_.clear();
@@ -491,9 +508,9 @@ bool VadopGridBroadPhase::computeFromFatBoxes(double frame, int threads, size_t 
       return false;
     }
     // Worth building? At constant velocity a body leaves its fat box after about its lead time
-    // in frames: estimate the share of bodies leaving per frame on a sample, and stay with the
+    // in steps: estimate the share of bodies leaving per step on a sample, and stay with the
     // full path (asking again in a few frames) while it is over half the allowed fraction.
-    if (incremental_ < 1.0 && expectedEscapeRate(frame) > 0.5 * incremental_) {
+    if (incremental_ < 1.0 && expectedEscapeRate(step) > 0.5 * incremental_) {
       retry_wait_ = 8;
       return false;
     }
@@ -504,7 +521,7 @@ bool VadopGridBroadPhase::computeFromFatBoxes(double frame, int threads, size_t 
     double max_abs = 0.0;
     for (uint32_t s = 0; s < slots; ++s) {
       fat_ids_.push_back(slot_body_[s]);
-      appendFatBox(s, frame);
+      appendFatBox(s, step);
       const double* f = &fat_boxes_[6 * static_cast<size_t>(s)];
       extent[s] = std::max({f[3] - f[0], f[4] - f[1], f[5] - f[2]});
       for (int k = 0; k < 6; ++k) max_abs = std::max(max_abs, std::abs(f[k]));
@@ -521,7 +538,7 @@ bool VadopGridBroadPhase::computeFromFatBoxes(double frame, int threads, size_t 
     for (uint32_t s = 0; s < slots; ++s) {
       if (!fat_->contains(slot_body_[s], &box_[6 * s])) {
         fat_ids_.push_back(slot_body_[s]);
-        appendFatBox(s, frame);
+        appendFatBox(s, step);
       }
     }
     if (static_cast<double>(fat_ids_.size()) > incremental_ * static_cast<double>(slots)) {

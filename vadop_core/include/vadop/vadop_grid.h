@@ -125,9 +125,9 @@ class VadopGridBroadPhase : public BroadPhase {
   void testLargeAgainstAll(const std::vector<uint32_t>& large, SlotPairs& hits);
   // The incremental mode's pairs of overlapping boxes into hits_ (blocks of slots on `threads`
   // threads); false when it declines (the full path then runs).
-  bool computeFromFatBoxes(double frame, int threads, size_t blocks);
-  void appendFatBox(uint32_t slot, double frame);
-  double expectedEscapeRate(double frame) const;
+  bool computeFromFatBoxes(double step, int threads, size_t blocks);
+  void appendFatBox(uint32_t slot, double step);
+  double expectedEscapeRate(double step) const;
   bool boxesOverlap(uint32_t a, uint32_t b) const;
   bool overlapOnShared(uint32_t a, uint32_t b) const;  // needs both slots' intervals
   // The pairs of hits_ whose intervals overlap on every shared pool axis, into `out`; the
