@@ -1,6 +1,6 @@
 // vadop_monitor_bench: cycle time of the monitor's core (MonitorCore: registry update, world
 // sync, VADOP broad phase + narrow phase, ImpactArray message) with N moving bodies, without
-// ROS transport and without a ROS master. The cycle runs on one thread, its narrow phase on
+// ROS transport and without a ROS master. The cycle runs on one thread, its prediction on
 // --threads threads (default 1).
 //
 // Scene: N primitive bodies (spheres, boxes, cylinders, capsules of 0.3-0.6 m) wandering a
@@ -46,8 +46,9 @@
 // L s (default: the node's, off; L default 0.5). --paired: a second core
 // without coherence is fed the same messages and cycled each cycle, before or after the first in
 // turn: the per-cycle CPU ratio, robust to the machine's drift (same impacts checked).
-// --threads T: the narrow phase on T threads (~threads; default 1; 0: all cores). With T > 1 the
-// thread's CPU time no longer covers the cycle: read the wall clock.
+// --threads T: the prediction (broad phase, part boxes, narrow phase) on T threads (~threads;
+// default 1; 0: all cores). With T > 1 the thread's CPU time no longer covers the cycle: read
+// the wall clock.
 //
 // Prints one line per N and, for N = 1000, whether the mean cycle uses under a third of the
 // period at the given rate.
@@ -542,7 +543,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   const double period_ms = 1e3 / rate;
-  std::printf("vadop_monitor_bench: MonitorCore cycle (odometry in + registry + world + ImpactArray), narrow phase on "
+  std::printf("vadop_monitor_bench: MonitorCore cycle (odometry in + registry + world + ImpactArray), prediction on "
               "%d thread(s)%s\n", threads, threads == 1 ? "" : " (cpu = the cycle thread's only: read wall)");
   std::printf("  %d cycles after %d warm-up, %.0f Hz (period %.2f ms), horizon %.1f s, %.1f m^2 per body, "
               "0.3-1.5 m/s, turning at up to %.2f rad/s%s\n",

@@ -32,7 +32,7 @@ struct PredictorConfig {
   int axes = 32;         // VADOP pool size
   double phi_deg = 25.0; // VADOP zone half-width
   int max_iterations = 10000;  // the narrow phase's budget per pair (vadop::ToiOptions)
-  int threads = 1;             // of predict's narrow phase (vadop::WorldConfig::threads; 0: all cores)
+  int threads = 1;             // of predict (vadop::WorldConfig::threads; 0: all cores)
   std::string broad_phase = "vadop";  // vadop::parseBroadPhaseKind's names
   int time_slices = 8;                // vadop::WorldConfig::time_slices (1: no cull)
   // vadop::WorldConfig::coherence (0: off).
