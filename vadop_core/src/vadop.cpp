@@ -112,51 +112,54 @@ std::vector<uint32_t> selectAxes(const Motion& motion, double bounding_radius, d
   return axes;
 }
 
-SweptBody::SweptBody(const Shape& shape, const Motion& motion, double t0, double t1)
-    : shape_(&shape) {
+double SweptBody::setBody(const Shape& shape, const Motion& motion) {
+  shape_ = &shape;
+  radius_ = shape.radius + shape.margin;
+  // Everything turns about the pivot: the shape is seen from it, its lever arm grown by the
+  // offset.
+  core_radius_ = std::max(0.0, shape.bounding_radius - shape.margin) + motion.pivotArm();
+  const double w = motion.angular_velocity.norm();
+  if (w > 0.0) {
+    spin_axis_ = motion.angular_velocity / w;
+  } else {
+    spin_axis_.setZero();
+  }
+  return w;
+}
+
+SweptBody::SweptBody(const Shape& shape, const Motion& motion, double t0, double t1) {
+  const double w = setBody(shape, motion);
   const double tm = 0.5 * (t0 + t1);
   // A sphere's projection does not depend on its orientation (see project).
   if (shape.type != ShapeType::kSphere) rotation_mid_t_ = motion.orientationAt(tm).toRotationMatrix().transpose();
-  // Everything turns about the pivot, which moves in a straight line: the sweep is that of
-  // the pivot, and the shape is seen from the pivot (shifted by origin - pivot at mid-frame,
-  // its lever arm grown by the offset).
+  // The pivot moves in a straight line: the sweep is that of the pivot, the shape shifted by
+  // origin - pivot at mid-frame.
   p0_ = motion.centreAt(t0);
   p1_ = motion.centreAt(t1);
-  core_radius_ = std::max(0.0, shape.bounding_radius - shape.margin) + motion.pivotArm();
   if (motion.hasPivot()) {
     shift_mid_ = motion.positionAt(tm) - motion.pivotAt(tm);
   } else {
     shift_mid_.setZero();
   }
-  const double w = motion.angular_velocity.norm();
   if (w > 0.0) {
-    spin_axis_ = motion.angular_velocity / w;
     // Largest rotation angle away from the mid-frame orientation; a point at radius r on the
     // spin plane moves along a chord of 2 r sin(angle / 2), never more than 2 r.
     const double angle = std::min(w * 0.5 * (t1 - t0), kPi);
     chord_ = 2.0 * std::sin(0.5 * angle);
-  } else {
-    spin_axis_.setZero();
   }
   translating_sphere_ = shape.type == ShapeType::kSphere && !motion.hasPivot() && chord_ == 0.0;
-  radius_ = shape.radius + shape.margin;
 }
 
 void SweptBody::partBoxes(const Shape& shape, const Motion& motion, double t0, double t1, int parts, double* out) {
   SweptBody part;
-  part.shape_ = &shape;
-  part.core_radius_ = std::max(0.0, shape.bounding_radius - shape.margin) + motion.pivotArm();
+  const double w = part.setBody(shape, motion);
   const bool pivot = motion.hasPivot();
-  part.radius_ = shape.radius + shape.margin;
   part.shift_mid_.setZero();
-  part.spin_axis_.setZero();
   const Eigen::Matrix3d orientation = motion.orientation.toRotationMatrix();
   Eigen::Matrix3d spin = Eigen::Matrix3d::Identity();  // exp([w] (t_mid - t_ref)) of the part
   Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();  // from one part's mid-frame to the next
-  const double w = motion.angular_velocity.norm();
   const double length = (t1 - t0) / parts;
   if (w > 0.0) {
-    part.spin_axis_ = motion.angular_velocity / w;
     // The parts' lengths and mid-times differ from `length` and from the stepped rotation's
     // times by rounding: the angle gets a margin of 1e-12 s of turning (far above those
     // rounding errors) and 1e-12 rad (the rounding of the products of `parts` rotations).

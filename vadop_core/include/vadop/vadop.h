@@ -126,6 +126,8 @@ class SweptBody {
   // projectGeneral on x, y and z, the products with the unit axes written out (the same values).
   void boxGeneral(double* out) const;
   SweptBody() = default;  // partBoxes fills the fields part by part
+  // The fields that do not depend on the window (shape, radii, spin axis); returns |w|.
+  double setBody(const Shape& shape, const Motion& motion);
 
   bool translating_sphere_ = false;  // sphere, no pivot, no rotation
   double radius_ = 0.0;              // radius + margin, when translating_sphere_
