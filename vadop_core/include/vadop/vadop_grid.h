@@ -115,11 +115,17 @@ class VadopGridBroadPhase : public BroadPhase {
   struct SlotPairs {
     std::vector<SlotPair> pairs;
     size_t box_tests = 0;
+    size_t shared_tests = 0;  // pairs whose boxes overlap (their shared axes tested)
     void clear() {
       pairs.clear();
       box_tests = 0;
+      shared_tests = 0;
     }
   };
+  // A pair whose boxes overlap, into `hits`: after its shared-axis test when fused_, else
+  // for testSharedAxes.
+  void boxHit(uint32_t a, uint32_t b, SlotPairs& hits);
+  bool fused_ = false;  // this update tests shared axes at once (one thread)
   void clearAxes(BodyId id);
   // Each slot of `large` (ascending not required) against every other slot, each pair once.
   void testLargeAgainstAll(const std::vector<uint32_t>& large, SlotPairs& hits);
@@ -130,8 +136,9 @@ class VadopGridBroadPhase : public BroadPhase {
   double expectedEscapeRate(double step) const;
   bool boxesOverlap(uint32_t a, uint32_t b) const;
   bool overlapOnShared(uint32_t a, uint32_t b) const;  // needs both slots' intervals
-  // The pairs of hits_ whose intervals overlap on every shared pool axis, into `out`; the
-  // intervals of their slots first (each once). Counts the tests in stats_.
+  // The pairs of hits_ whose intervals overlap on every shared pool axis, into `out` (unless
+  // fused_ tested them already); the intervals of their slots first (each once). Counts the
+  // tests in stats_.
   void testSharedAxes(int threads, std::vector<Pair>& out);
   // f(axis, interval) for each pool axis of slot s: its body's swept volume over the last
   // update's frame, projected now (the body's motion must be the update's).
