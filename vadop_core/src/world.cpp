@@ -341,7 +341,8 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
     }
   }
   // The pair filters, before the narrow phase, on this thread (the predicate is the caller's).
-  std::vector<std::pair<BodyId, BodyId>> tests;
+  std::vector<Candidate> tests;
+  const uint64_t every_part = config_.time_slices == 64 ? ~uint64_t{0} : (uint64_t{1} << config_.time_slices) - 1;
   for (const Pair& p : only || paths ? queried : broad_phase_->pairs()) {
     BodyId ia = p.a, ib = p.b;
     if (records_[ib].key < records_[ia].key) std::swap(ia, ib);  // a = the body added first
@@ -349,7 +350,7 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
     const Record& rb = records_[ib];
     if (!(ra.group & rb.mask) || !(rb.group & ra.mask)) continue;
     if (pair_filter_ && !pair_filter_(ra.key, rb.key)) continue;
-    tests.emplace_back(ia, ib);
+    tests.push_back({ia, ib, every_part});
   }
   const size_t found = tests.size();
   cullBySlices(tests, t0, t1);
@@ -362,8 +363,8 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
   for (size_t k = 0; k < tests.size(); ++k) {
     const Impact& hit = results[k];
     if (!hit.hit && !hit.undecided) continue;
-    const Record& ra = records_[tests[k].first];
-    const Record& rb = records_[tests[k].second];
+    const Record& ra = records_[tests[k].a];
+    const Record& rb = records_[tests[k].b];
     WorldImpact w;
     w.a = ra.name;
     w.b = rb.name;
@@ -462,12 +463,28 @@ void World::parallelFor(size_t n, const std::function<void(size_t)>& f) const {
   detail::parallelFor(threads_, n, kPairsPerThread, kChunk, f);
 }
 
-void World::narrowAll(const std::vector<std::pair<BodyId, BodyId>>& tests, double t0, double t1,
-                      std::vector<Impact>& results) {
+Impact World::narrowParts(const Candidate& c, double t0, double t1) const {
+  const int parts = config_.time_slices;
+  Impact r;
+  for (int k = 0; k < parts; ++k) {
+    if (!(c.parts >> k & 1)) continue;
+    int last = k;
+    while (last + 1 < parts && (c.parts >> (last + 1) & 1)) ++last;
+    // Over the parts before k the gap exceeds the tolerance (their boxes are apart), so a
+    // contact at the run's start is no contact at the window's.
+    r = narrow(c.a, c.b, k == 0 ? t0 : SweptBody::partEnd(t0, t1, k - 1, parts), SweptBody::partEnd(t0, t1, last, parts));
+    if (r.hit || r.undecided) return r;
+    k = last;
+  }
+  r.time = t1;
+  return r;
+}
+
+void World::narrowAll(const std::vector<Candidate>& tests, double t0, double t1, std::vector<Impact>& results) {
   results.assign(tests.size(), Impact{});
   last_reused_ = 0;
   if (!certificates_) {
-    parallelFor(tests.size(), [&](size_t k) { results[k] = narrow(tests[k].first, tests[k].second, t0, t1); });
+    parallelFor(tests.size(), [&](size_t k) { results[k] = narrowParts(tests[k], t0, t1); });
     return;
   }
   // Lookups on this thread; the narrow phase of the rest (certifying where worth trying) on the
@@ -488,7 +505,7 @@ void World::narrowAll(const std::vector<std::pair<BodyId, BodyId>>& tests, doubl
   };
   std::vector<Job> jobs;
   for (size_t k = 0; k < tests.size(); ++k) {
-    const BodyId a = tests[k].first, b = tests[k].second;
+    const BodyId a = tests[k].a, b = tests[k].b;
     if (records_[a].chain || records_[b].chain) {
       jobs.push_back({k, false});
       continue;
@@ -506,7 +523,7 @@ void World::narrowAll(const std::vector<std::pair<BodyId, BodyId>>& tests, doubl
   const double t_end = t1 + config_.coherence.lookahead;
   parallelFor(jobs.size(), [&](size_t i) {
     Job& job = jobs[i];
-    const BodyId a = tests[job.k].first, b = tests[job.k].second;
+    const BodyId a = tests[job.k].a, b = tests[job.k].b;
     if (job.certify) {
       // "No contact" for a tolerance of 2 x clearance certifies a gap > clearance (the contract
       // of time_of_impact.h) up to its time, or over the whole window without a hit.
@@ -522,10 +539,10 @@ void World::narrowAll(const std::vector<std::pair<BodyId, BodyId>>& tests, doubl
         return;
       }
     }
-    results[job.k] = narrow(a, b, t0, t1);
+    results[job.k] = narrowParts(tests[job.k], t0, t1);
   });
   for (const Job& job : jobs) {
-    const BodyId a = tests[job.k].first, b = tests[job.k].second;
+    const BodyId a = tests[job.k].a, b = tests[job.k].b;
     if (records_[a].chain || records_[b].chain) continue;
     const Impact& r = results[job.k];
     if (!job.certify) {
@@ -538,7 +555,7 @@ void World::narrowAll(const std::vector<std::pair<BodyId, BodyId>>& tests, doubl
   }
 }
 
-void World::cullBySlices(std::vector<std::pair<BodyId, BodyId>>& tests, double t0, double t1) {
+void World::cullBySlices(std::vector<Candidate>& tests, double t0, double t1) {
   const int slices = config_.time_slices;
   if (slices <= 1 || tests.empty() || !(t1 > t0)) return;
   ++predict_count_;
@@ -555,9 +572,9 @@ void World::cullBySlices(std::vector<std::pair<BodyId, BodyId>>& tests, double t
     s.index = slice_used_++;
     slice_fill_.push_back(id);
   };
-  for (const auto& pair : tests) {
-    assignSlot(pair.first);
-    assignSlot(pair.second);
+  for (const Candidate& pair : tests) {
+    assignSlot(pair.a);
+    assignSlot(pair.b);
   }
   if (slice_boxes_.size() < slice_used_ * stride) slice_boxes_.resize(slice_used_ * stride);
   parallelFor(slice_fill_.size(), [&](size_t i) {
@@ -565,12 +582,12 @@ void World::cullBySlices(std::vector<std::pair<BodyId, BodyId>>& tests, double t
     fillPartBoxes(id, t0, t1, &slice_boxes_[slice_of_[id].index * stride]);
   });
   size_t kept = 0;
-  for (const auto& pair : tests) {
-    const double* a = &slice_boxes_[slice_of_[pair.first].index * stride];
-    const double* b = &slice_boxes_[slice_of_[pair.second].index * stride];
-    bool keep = false;
-    for (int k = 0; k < slices && !keep; ++k, a += 6, b += 6) keep = boxesOverlap(a, b);
-    if (keep) tests[kept++] = pair;
+  for (Candidate pair : tests) {
+    const double* a = &slice_boxes_[slice_of_[pair.a].index * stride];
+    const double* b = &slice_boxes_[slice_of_[pair.b].index * stride];
+    pair.parts = 0;
+    for (int k = 0; k < slices; ++k, a += 6, b += 6) pair.parts |= uint64_t{boxesOverlap(a, b)} << k;
+    if (pair.parts) tests[kept++] = pair;
   }
   tests.resize(kept);
 }

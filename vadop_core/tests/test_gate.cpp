@@ -7,6 +7,8 @@
 #include "vadop/gate.h"
 #include "vadop/world.h"
 
+#include "impact_compare.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -178,14 +180,14 @@ TEST(GateScale, MatchesBruteForceOnRandomScenes) {
     EXPECT_EQ(g.clear, want.clear) << "seed " << seed;
     EXPECT_NEAR(g.scale, want.scale, 1e-12) << "seed " << seed;
     EXPECT_EQ(g.evaluations, want.evaluations) << "seed " << seed;
-    if (!g.clear) EXPECT_NEAR(g.contact_time, want.contact_time, 1e-6) << "seed " << seed;
+    if (!g.clear) EXPECT_NEAR(g.contact_time, want.contact_time, testing_compare::kContactTime) << "seed " << seed;
     for (double s : {0.0, 0.37, 1.0}) {
       const double a = gateContact(s), b = bruteContact(s);
       if (std::isinf(b)) {
         EXPECT_TRUE(std::isinf(a)) << "seed " << seed << " s " << s;
       } else {
         ++contacts;
-        EXPECT_NEAR(a, b, 1e-6) << "seed " << seed << " s " << s;
+        EXPECT_NEAR(a, b, testing_compare::kContactTime) << "seed " << seed << " s " << s;
       }
     }
     // The fine grid (step 0.001): the largest clear scale lies within one step of the answer

@@ -13,6 +13,8 @@
 #include "vadop/joint_chain.h"
 #include "vadop/world.h"
 
+#include "impact_compare.h"
+
 #include <gtest/gtest.h>
 
 #include <time.h>
@@ -365,7 +367,7 @@ TEST(LinkChain, WorldFindsEveryPairOfEveryLink) {
     std::sort(found.begin(), found.end());
     for (size_t k = 0; k < found.size(); ++k) {
       EXPECT_EQ(found[k].first, expected[k].first) << vadop::toString(kind);
-      EXPECT_NEAR(found[k].second, expected[k].second, 1e-6);
+      EXPECT_NEAR(found[k].second, expected[k].second, vadop::testing_compare::kContactTime);
     }
     EXPECT_GE(got.size(), 5u);
     // The same pairs of each moving link through the single-body queries.
@@ -439,7 +441,7 @@ TEST(LinkChain, AFleetOfArmsIsPrunedAndNoPairIsMissed) {
     ASSERT_EQ(found.size(), expected.size()) << vadop::toString(kind);
     for (size_t k = 0; k < found.size(); ++k) {
       EXPECT_EQ(found[k].first, expected[k].first) << vadop::toString(kind);
-      EXPECT_NEAR(found[k].second, expected[k].second, 1e-6);
+      EXPECT_NEAR(found[k].second, expected[k].second, vadop::testing_compare::kContactTime);
     }
     EXPECT_LT(w.lastCandidateCount(), all_pairs / 5) << vadop::toString(kind);
     std::printf("%s: %zu impacts, %zu candidates of %zu pairs\n", vadop::toString(kind), got.size(),

@@ -464,6 +464,7 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
   stats_.stamp = now;
   registry_.update(now, tf);
   syncWorld(now);
+  stats_.registry_seconds = secondsSince(start);
 
   impacts_.header.stamp = now;
   impacts_.header.frame_id = params_.fixed_frame;

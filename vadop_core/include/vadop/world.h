@@ -263,18 +263,29 @@ class World {
   void pathBox(BodyId p, double t0, double t1, double* box) const;
   // pathBox of every path body (6 doubles each, in path_bodies_'s order).
   std::vector<double> pathBoxes(double t0, double t1) const;
+  // A candidate pair for the narrow phase and the parts of the window it searches: bit k of
+  // `parts` set when the two boxes over part k of config_.time_slices overlap (every part
+  // without the cull). Over a part left out the padded shapes are apart (their boxes are), so
+  // the narrow phase's contract (time_of_impact.h) still holds over the whole window.
+  struct Candidate {
+    BodyId a, b;
+    uint64_t parts;  // kMaxTimeSlices <= 64
+  };
   // Drops from `tests` the pairs whose boxes over the config_.time_slices parts of [t0, t1]
-  // (partBoxes) overlap in none of them (WorldConfig::time_slices).
-  void cullBySlices(std::vector<std::pair<BodyId, BodyId>>& tests, double t0, double t1);
+  // (partBoxes) overlap in none of them (WorldConfig::time_slices), and keeps in `parts` those
+  // in which they do.
+  void cullBySlices(std::vector<Candidate>& tests, double t0, double t1);
   // The boxes of body `id` over the config_.time_slices parts of [t0, t1] (6 doubles each) into
   // `out`: its padded shape's swept boxes, or pathBox of each part for a body on a path. Bodies
   // are independent: cullBySlices fills them on the threads when there are many.
   void fillPartBoxes(BodyId id, double t0, double t1, double* out) const;
   Impact narrow(BodyId a, BodyId b, double t0, double t1) const;
-  // narrow() on every pair of `tests` into `results` (same order), on threads_ threads when there
-  // are enough pairs; rethrows the exception of the first pair (by index) that threw.
-  void narrowAll(const std::vector<std::pair<BodyId, BodyId>>& tests, double t0, double t1,
-                 std::vector<Impact>& results);
+  // narrow() over each run of consecutive parts of c.parts in turn, up to the first contact
+  // (or undecided pair); no contact in any: clear over [t0, t1] (time t1).
+  Impact narrowParts(const Candidate& c, double t0, double t1) const;
+  // narrowParts() on every pair of `tests` into `results` (same order), on threads_ threads when
+  // there are enough pairs; rethrows the exception of the first pair (by index) that threw.
+  void narrowAll(const std::vector<Candidate>& tests, double t0, double t1, std::vector<Impact>& results);
   // f(k) for k in [0, n), on threads_ threads when n is large enough; rethrows the exception
   // of the smallest k that threw.
   void parallelFor(size_t n, const std::function<void(size_t)>& f) const;

@@ -35,7 +35,8 @@ namespace vadop_ros {
 struct CycleStats {
   ros::Time stamp;
   double cycle_seconds = 0.0;    // wall time of the whole cycle (registry + world + message)
-  double predict_seconds = 0.0;  // of which World::predict
+  double registry_seconds = 0.0; // of which the registry's update and its copy into the world
+  double predict_seconds = 0.0;  // of which World::predict (the rest: the ImpactArray)
   size_t elements_in_world = 0;
   size_t moving_elements = 0;    // of the bodies (registry)
   size_t tracked_objects = 0;    // of ~tracks, in the world
