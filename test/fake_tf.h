@@ -4,6 +4,7 @@
 
 #include "vadop_ros/body_registry.h"
 
+#include <atomic>
 #include <map>
 #include <string>
 
@@ -22,7 +23,10 @@ class FakeTf : public vadop_ros::TransformSource {
     parent_.erase(child);
     pose_.erase(child);
   }
-  int lookups = 0;
+  std::atomic<int> lookups{0};
+  // Lookups only read the tables: safe on several threads (BodyRegistry::update in parallel).
+  bool concurrent_lookups = false;
+  bool concurrent() const override { return concurrent_lookups; }
 
   bool lookup(const std::string& target, const std::string& source, const ros::Time&, Eigen::Isometry3d& pose,
               ros::Time& stamp, std::string& error) override {

@@ -9,6 +9,9 @@
 
 #include <cmath>
 #include <limits>
+#include <mutex>
+#include <set>
+#include <thread>
 
 using vadop_ros::BodyRegistry;
 using vadop_ros::BodyState;
@@ -580,4 +583,118 @@ bodies:
       vadop::makeMotion({9e6, 0, 0}, Eigen::Quaterniond::Identity(), {9e3, 0, 0}, {0, 0, 0}, -1200.0);
   EXPECT_TRUE(BodyRegistry::motionRangeError(m, 0.0, 2.0).empty());
   EXPECT_FALSE(BodyRegistry::motionRangeError(m, 0.0, BodyRegistry::kMotionCheckWindow).empty());
+}
+
+// update() on several threads (a TransformSource that takes concurrent lookups) gives every
+// element the motion and every body the state of one thread: 1,100 bodies of five kinds
+// (spheres on odometry, rigid URDF robots, bodies posed through tf with half of the transforms
+// missing, bodies waiting or stale, twist bodies), updated at two times.
+TEST(BodyRegistry, UpdateOnThreadsEqualsOneThread) {
+  // Records the threads that looked up transforms: the update must really be shared out.
+  class ThreadsTf : public FakeTf {
+   public:
+    bool lookup(const std::string& target, const std::string& source, const ros::Time& time, Eigen::Isometry3d& pose,
+                ros::Time& stamp, std::string& error) override {
+      {
+        const std::lock_guard<std::mutex> lock(mutex_);
+        threads_.insert(std::this_thread::get_id());
+      }
+      return FakeTf::lookup(target, source, time, pose, stamp, error);
+    }
+    size_t threads() const { return threads_.size(); }
+
+   private:
+    std::mutex mutex_;
+    std::set<std::thread::id> threads_;
+  };
+  const int n = 1100;
+  std::string yaml_text = "stale_timeout: 0.5\nbodies:\n";
+  for (int i = 0; i < n; ++i) {
+    const std::string id = std::to_string(i);
+    switch (i % 5) {
+      case 0: yaml_text += "  - {name: s" + id + ", odom_topic: /s" + id + ", shape: {type: sphere, radius: 0.3}}\n"; break;
+      case 1: yaml_text += "  - {name: u" + id + ", odom_topic: /u" + id + ", robot_description: d}\n"; break;
+      case 2:
+        yaml_text += "  - {name: f" + id + ", odom_topic: /f" + id + ", frame: f" + id +
+                     "/base_link, shape: {type: box, size: [0.4, 0.3, 0.2]}}\n";
+        break;
+      case 3: yaml_text += "  - {name: w" + id + ", odom_topic: /w" + id + ", shape: {type: sphere, radius: 0.3}}\n"; break;
+      default:
+        yaml_text += "  - {name: t" + id + ", twist_topic: /t" + id + ", frame: t" + id +
+                     "_link, shape: {type: capsule, radius: 0.2, length: 0.5}}\n";
+    }
+  }
+  const std::string urdf = testUrdf();
+  auto read = [&](const std::string&, std::string& value) {
+    value = urdf;
+    return true;
+  };
+  BodyRegistry one(params(yaml_text), read, vadop_ros::makeDefaultMeshLoader());
+  BodyRegistry many(params(yaml_text), read, vadop_ros::makeDefaultMeshLoader());
+  many.setThreads(4);
+  ThreadsTf tf;
+  tf.concurrent_lookups = true;
+  for (int i = 0; i < n; ++i) {
+    const double x = 0.37 * i, y = 0.11 * (i % 17), v = 0.1 * (i % 13), w = 0.05 * (i % 7) - 0.15;
+    const std::string id = std::to_string(i);
+    const int kind = i % 5;
+    if (kind == 2 && i % 2 == 0) {
+      Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
+      offset.translation() = Eigen::Vector3d(0.5, 0.1 * (i % 3), 0.2);
+      tf.set("f" + id + "/base_footprint", "f" + id + "/base_link", offset, ros::Time(9.0));
+    }
+    if (kind == 4) {
+      Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+      pose.translation() = Eigen::Vector3d(x, y, 0);
+      pose.linear() = Eigen::AngleAxisd(0.3 * i, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+      tf.set("odom", "t" + id + "_link", pose, ros::Time(10.0));
+      geometry_msgs::TwistStamped m;
+      m.header.stamp = ros::Time(10.0);
+      m.twist.linear.x = v;
+      m.twist.angular.z = w;
+      for (BodyRegistry* r : {&one, &many}) ASSERT_EQ(r->onTwist(i, m, ros::Time(10.0)), InputResult::kAccepted);
+      continue;
+    }
+    if (kind == 3 && i % 2 == 0) continue;  // waiting; the others stale (a message 2 s old)
+    const double stamp = kind == 3 ? 8.0 : 10.0;
+    const std::string child = kind == 1 ? "u" + id + "/base_link" : kind == 2 ? "f" + id + "/base_footprint" : "";
+    for (BodyRegistry* r : {&one, &many}) {
+      ASSERT_EQ(r->onOdometry(i, odom(stamp, x, y, v, 0.0, 0.1 * i, w, "odom", child), ros::Time(stamp)),
+                InputResult::kAccepted);
+    }
+  }
+  size_t active = 0, missing = 0, stale = 0;
+  for (const double now : {10.05, 10.4}) {
+    one.update(ros::Time(now), tf);
+    many.update(ros::Time(now), tf);
+    ASSERT_EQ(one.elements().size(), many.elements().size());
+    for (size_t k = 0; k < one.elements().size(); ++k) {
+      const vadop_ros::Element& a = one.elements()[k];
+      const vadop_ros::Element& b = many.elements()[k];
+      ASSERT_EQ(a.active, b.active) << a.id;
+      if (!a.active) continue;
+      ++active;
+      EXPECT_EQ(a.motion.position, b.motion.position) << a.id;
+      EXPECT_EQ(a.motion.orientation.coeffs(), b.motion.orientation.coeffs()) << a.id;
+      EXPECT_EQ(a.motion.linear_velocity, b.motion.linear_velocity) << a.id;
+      EXPECT_EQ(a.motion.angular_velocity, b.motion.angular_velocity) << a.id;
+      EXPECT_EQ(a.motion.pivot_offset, b.motion.pivot_offset) << a.id;
+      EXPECT_EQ(a.motion.t_ref, b.motion.t_ref) << a.id;
+    }
+    for (size_t i = 0; i < one.bodies().size(); ++i) {
+      const vadop_ros::BodyStatus& a = one.bodies()[i].status;
+      const vadop_ros::BodyStatus& b = many.bodies()[i].status;
+      EXPECT_EQ(a.state, b.state) << one.bodies()[i].name;
+      EXPECT_EQ(a.tf_error, b.tf_error) << one.bodies()[i].name;
+      EXPECT_EQ(a.links_skipped, b.links_skipped) << one.bodies()[i].name;
+      EXPECT_EQ(a.elements_left_out, b.elements_left_out) << one.bodies()[i].name;
+      missing += a.state == BodyState::kTfMissing;
+      stale += a.state == BodyState::kStale;
+    }
+  }
+  // Not vacuous: every kind took part, and the lookups ran on more than one thread.
+  EXPECT_GT(active, 1500u);
+  EXPECT_EQ(missing, 2u * 110u);  // the f bodies without their transform, at both times
+  EXPECT_EQ(stale, 2u * 110u);
+  EXPECT_GT(tf.threads(), 1u);
 }

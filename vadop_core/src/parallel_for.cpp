@@ -1,4 +1,4 @@
-#include "parallel_for.h"
+#include "vadop/detail/parallel_for.h"
 
 #include <algorithm>
 #include <atomic>
@@ -8,6 +8,10 @@
 #include <vector>
 
 namespace vadop::detail {
+
+int threadCount(int configured) {
+  return configured > 0 ? configured : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
 
 void parallelFor(int threads, size_t n, size_t min_per_thread, size_t chunk, const std::function<void(size_t)>& f) {
   const size_t workers = std::min(static_cast<size_t>(std::max(threads, 1)), n / std::max<size_t>(min_per_thread, 1));

@@ -1,12 +1,12 @@
 #include "vadop/vadop_grid.h"
 
-#include "vadop/error.h"
 #include "axis_set.h"
 #include "cell_grid.h"
 #include "fat_box_pairs.h"
 #include "grid_cells.h"
-#include "parallel_for.h"
 #include "popcount.h"
+#include "vadop/detail/parallel_for.h"
+#include "vadop/error.h"
 
 #include <algorithm>
 #include <atomic>

@@ -2,8 +2,8 @@
 
 #include "name_index.h"
 #include "pair_certificates.h"
-#include "parallel_for.h"
 
+#include "vadop/detail/parallel_for.h"
 #include "vadop/error.h"
 #include "vadop/limits.h"
 #include "vadop/sweep_prune.h"
@@ -13,7 +13,6 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
-#include <thread>
 #include <sstream>
 #include <utility>
 
@@ -109,7 +108,7 @@ World::World(const WorldConfig& config) : config_(config), by_name_(std::make_un
     certificates_ = std::make_unique<detail::PairCertificates>();
     certificates_->configure(co.clearance, o.tolerance);
   }
-  threads_ = config.threads > 0 ? config.threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  threads_ = detail::threadCount(config.threads);
   broad_phase_ = makeBroadPhase(config);
   broad_phase_->setThreads(threads_);
 }

@@ -2,6 +2,7 @@
 
 #include "message_checks.h"
 
+#include <vadop/detail/parallel_for.h>
 #include <vadop/error.h>
 #include <vadop/limits.h>
 #include <vadop/joint_chain.h>
@@ -964,7 +965,10 @@ void BodyRegistry::update(const ros::Time& now, TransformSource& tf) {
   }
   const double t_now = seconds(now);
   const double t_check_end = t_now + kMotionCheckWindow;
-  for (Body& b : bodies_) {
+  // A body writes only itself and its elements (its warnings too); the kinematics it may share
+  // with others is read only (KDL's recursive solver keeps no state).
+  auto updateOne = [&](size_t i) {
+    Body& b = bodies_[i];
     if (b.is_static) {
       // Fixed motions (zero velocity, set at start-up): checked like the others, so that one
       // obstacle out of range is left out instead of failing every prediction.
@@ -974,11 +978,17 @@ void BodyRegistry::update(const ros::Time& now, TransformSource& tf) {
         e.active = why.empty();
         if (!e.active) rejectInput(b, "element \"" + e.id + "\": " + why, now, false);
       }
-      continue;
+      return;
     }
     updateMoving(b, now, t_now, t_check_end, tf);
-  }
+  };
+  // Below a few hundred bodies a thread costs more than it saves.
+  constexpr size_t kBodiesPerThread = 256;
+  constexpr size_t kChunk = 32;
+  vadop::detail::parallelFor(tf.concurrent() ? threads_ : 1, bodies_.size(), kBodiesPerThread, kChunk, updateOne);
 }
+
+void BodyRegistry::setThreads(int threads) { threads_ = vadop::detail::threadCount(threads); }
 
 bool BodyRegistry::updateBody(size_t body, const ros::Time& now, TransformSource& tf) {
   if (!has_base_ || body >= bodies_.size() || bodies_[body].is_static) return false;

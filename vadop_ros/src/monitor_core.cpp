@@ -74,6 +74,7 @@ MonitorCore::MonitorCore(const MonitorParams& params, const ParamReader& read_pa
   for (const BodyParams& b : params.bodies) gate_world_wanted_ = gate_world_wanted_ || b.has_gate;
   impacts_.header.frame_id = params_.fixed_frame;
   registry_.setMaxStampSkew(params.max_stamp_skew);
+  registry_.setThreads(params.threads);
   refused_.assign(registry_.elements().size(), 0);
   refused_motion_.resize(registry_.elements().size());
   // ~ignore_pairs matched once per element (the elements are fixed), not per candidate pair.

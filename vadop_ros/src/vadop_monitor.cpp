@@ -58,6 +58,7 @@ class Tf2Source : public TransformSource {
       return false;
     }
   }
+  bool concurrent() const override { return true; }  // tf2::BufferCore locks its own state
 
  private:
   tf2_ros::Buffer& buffer_;

@@ -80,6 +80,7 @@ struct NoTf : vadop_ros::TransformSource {
     error = "no tf in the benchmark (" + source + ")";
     return false;
   }
+  bool concurrent() const override { return true; }
 };
 
 // CPU time of the calling thread (ms): unaffected by other processes competing for the cores.

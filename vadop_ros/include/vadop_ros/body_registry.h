@@ -114,6 +114,9 @@ class TransformSource {
   // Returns false and sets `error` when there is none.
   virtual bool lookup(const std::string& target, const std::string& source, const ros::Time& time,
                       Eigen::Isometry3d& pose, ros::Time& stamp, std::string& error) = 0;
+  // True when lookup may run on several threads at once (tf2's buffer locks its own state);
+  // BodyRegistry::update then updates bodies in parallel.
+  virtual bool concurrent() const { return false; }
 };
 
 // Reads a string parameter (a robot_description); false when it does not exist.
@@ -307,7 +310,11 @@ class BodyRegistry {
   InputResult onJointTrajectory(size_t body, const trajectory_msgs::JointTrajectory& msg, const ros::Time& receipt);
 
   // Computes every element's motion at `now` (sets Element::active and motion, body states).
+  // Bodies are independent: with several threads (setThreads) and a TransformSource that takes
+  // concurrent lookups, they are shared out among the threads; the result is the same.
   void update(const ros::Time& now, TransformSource& tf);
+  // Threads of update() (0: one per hardware thread; the monitor's ~threads). Default 1.
+  void setThreads(int threads);
   // The same for one moving body, from its latest state (a velocity gate between cycles); the
   // time base stays. False (the body's elements inactive or partly so) when there is no
   // update() yet, the index is not a moving body, it has no state or a transform is missing.
@@ -375,6 +382,7 @@ class BodyRegistry {
 
   std::string fixed_frame_;
   double stale_timeout_ = 0.5;
+  int threads_ = 1;  // of update(), resolved
   std::vector<Body> bodies_;
   std::vector<Element> elements_;
   ros::Time base_;

@@ -1,13 +1,16 @@
 // Runs independent iterations on a few threads started for the call (this one included): the
-// narrow phase's pairs, the broad phase's bodies and cells. Nothing is shared between
-// iterations but what the caller shares; no pool is kept between calls (a call costs the
-// start of its threads, tens of microseconds, against milliseconds of work).
+// narrow phase's pairs, the broad phase's bodies and cells, the monitor's bodies. Nothing is
+// shared between iterations but what the caller shares; no pool is kept between calls (a call
+// costs the start of its threads, tens of microseconds, against milliseconds of work).
 #pragma once
 
 #include <cstddef>
 #include <functional>
 
 namespace vadop::detail {
+
+// A configured thread count resolved: 0 means one per hardware thread; at least 1.
+int threadCount(int configured);
 
 // f(k) for k in [0, n) on up to `threads` threads, `chunk` consecutive k at a time (costs that
 // vary by orders of magnitude balance out); on this thread alone when n < 2 * min_per_thread.
