@@ -580,15 +580,17 @@ void World::cullBySlices(std::vector<Candidate>& tests, double t0, double t1) {
     const BodyId id = slice_fill_[i];
     fillPartBoxes(id, t0, t1, &slice_boxes_[slice_of_[id].index * stride]);
   });
-  size_t kept = 0;
-  for (Candidate pair : tests) {
+  // A pair's test is a few box comparisons: many to a thread, many at a time.
+  constexpr size_t kPairsPerThread = 4096;
+  constexpr size_t kPairChunk = 1024;
+  detail::parallelFor(threads_, tests.size(), kPairsPerThread, kPairChunk, [&](size_t i) {
+    Candidate& pair = tests[i];
     const double* a = &slice_boxes_[slice_of_[pair.a].index * stride];
     const double* b = &slice_boxes_[slice_of_[pair.b].index * stride];
     pair.parts = 0;
     for (int k = 0; k < slices; ++k, a += 6, b += 6) pair.parts |= uint64_t{boxesOverlap(a, b)} << k;
-    if (pair.parts) tests[kept++] = pair;
-  }
-  tests.resize(kept);
+  });
+  tests.erase(std::remove_if(tests.begin(), tests.end(), [](const Candidate& c) { return c.parts == 0; }), tests.end());
 }
 
 void World::fillPartBoxes(BodyId id, double t0, double t1, double* out) const {
