@@ -89,9 +89,11 @@ struct WorldConfig {
   } coherence;
   // Time slices of predict's cull before the narrow phase: a candidate pair of the broad phase
   // goes to the narrow phase only if the two bodies' swept boxes (SweptBody) over one of
-  // `time_slices` equal parts of the window overlap. Bodies whose paths cross at different
-  // times (most candidates over a 2 s horizon) are dropped; the result is the same for every
-  // value (each box bounds its body over its part, the parts cover the window). 1: no cull.
+  // `time_slices` equal parts of the window overlap, and the narrow phase then searches only
+  // the parts where they do. Bodies whose paths cross at different times (most candidates over
+  // a 2 s horizon) are dropped; the pairs found are the same for every value (each box bounds
+  // its padded body over its part, the parts cover the window) and each result keeps the
+  // contract of time_of_impact.h (a contact's time may differ within its band). 1: no cull.
   // A body on a path (or a link of a moving chain) takes the box along its path over each part.
   // Memory: 6 doubles per body and slice. In [1, kMaxTimeSlices].
   int time_slices = 8;
