@@ -312,8 +312,8 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
   });
   stats_.reinserted = reinserted.load();
 
-  // 2. Per alive body, in id order: its slot and where its pool-axis intervals go (here), then
-  //    its swept AABB and axis ranks (on the threads). The intervals are computed later, for
+  // 2. Per alive body, in id order: its slot (here), its swept AABB and axis ranks (on the
+  //    threads), then where its pool-axis intervals go. The intervals are computed later, for
   //    the slots of pairs whose boxes overlap only (testSharedAxes).
   slot_body_.resize(slots);
   offset_.resize(slots);
@@ -326,15 +326,12 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
   frame_t1_ = t1;
   framed_ = true;
   cells_ready_ = false;
-  uint32_t next_slot = 0, next_interval = 0;
+  uint32_t next_slot = 0;
   for (BodyId id = 0; id < b.size(); ++id) {
     if (!b[id].alive) continue;
     slot_of_[id] = next_slot;
-    slot_body_[next_slot] = id;
-    offset_[next_slot++] = next_interval;
-    for (size_t w = 0; w < words_; ++w) next_interval += static_cast<uint32_t>(__builtin_popcountll(axis_bits_[id * words_ + w]));
+    slot_body_[next_slot++] = id;
   }
-  intervals_.resize(next_interval);
   detail::parallelFor(threads, slots, kParallelBodies / 2, kBodyChunk, [&](size_t s) {
     const BodyId id = slot_body_[s];
     SweptBody(*b[id].shape, b[id].motion, t0, t1).box(&box_[6 * s]);
@@ -342,6 +339,12 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
     std::copy_n(&axis_bits_[id * words_], words_, bits);
     detail::buildAxisRanks(bits, words_, &rank_[words_ * s]);
   });
+  uint32_t next_interval = 0;
+  for (size_t s = 0; s < slots; ++s) {
+    offset_[s] = next_interval;
+    next_interval += detail::axisCount(&bits_[words_ * s], &rank_[words_ * s], words_);
+  }
+  intervals_.resize(next_interval);
   auto grid_from = Clock::now();
   stats_.update_seconds = std::chrono::duration<double>(grid_from - start).count();
   if (slots < 2) {
