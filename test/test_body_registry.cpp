@@ -542,6 +542,38 @@ bodies:
   EXPECT_EQ(r.onTwist(0, m, ros::Time(50.3)), InputResult::kAccepted);
 }
 
+// Every rejected value is named by its field, and frame ids lose their leading slashes (the
+// body's frames are kept from message to message: a shorter id must not keep the longer one's tail).
+TEST(BodyRegistry, RejectionsNameTheFieldAndFramesLoseTheirSlash) {
+  BodyRegistry r(params(kThree), noParams(), vadop_ros::makeDefaultMeshLoader());
+  auto rejected = [&](nav_msgs::Odometry m) {
+    EXPECT_EQ(r.onOdometry(0, m, ros::Time(1.0)), InputResult::kInvalid);
+    return r.bodies()[0].status.last_invalid;
+  };
+  EXPECT_NE(rejected(odom(1.0, 0, kNaN, 1)).find("NaN/Inf in pose.pose.position.y"), std::string::npos);
+  auto q = odom(1.0, 0, 0, 1);
+  q.pose.pose.orientation.x = kNaN;
+  EXPECT_NE(rejected(q).find("NaN/Inf in pose.pose.orientation"), std::string::npos);
+  q.pose.pose.orientation = geometry_msgs::Quaternion();
+  EXPECT_NE(rejected(q).find("zero-norm quaternion in pose.pose.orientation"), std::string::npos);
+  EXPECT_NE(rejected(odom(1.0, 0, 0, 0, 2e4)).find("twist.twist.linear.y = "), std::string::npos);
+  EXPECT_NE(rejected(odom(1.0, 0, 0, 0, 0, 0, kNaN)).find("NaN/Inf in twist.twist.angular.z"), std::string::npos);
+  EXPECT_NE(rejected(odom(1.0, 0, 0, 0, 0, 0, 2e4)).find("twist.twist.angular.z = "), std::string::npos);
+
+  ASSERT_EQ(r.onOdometry(0, odom(1.0, 0, 0, 1, 0, 0, 0, "//odom_long_frame_name", "/robot_a/base_footprint"),
+                         ros::Time(1.0)),
+            InputResult::kAccepted);
+  EXPECT_EQ(r.bodies()[0].source_frame, "odom_long_frame_name");
+  EXPECT_EQ(r.bodies()[0].child_frame, "robot_a/base_footprint");
+  ASSERT_EQ(r.onOdometry(0, odom(1.1, 0, 0, 1, 0, 0, 0, "/map", "base"), ros::Time(1.1)), InputResult::kAccepted);
+  EXPECT_EQ(r.bodies()[0].source_frame, "map");
+  EXPECT_EQ(r.bodies()[0].child_frame, "base");
+  // An empty (or all-slash) pose frame is the fixed frame.
+  ASSERT_EQ(r.onOdometry(0, odom(1.2, 0, 0, 1, 0, 0, 0, "/"), ros::Time(1.2)), InputResult::kAccepted);
+  EXPECT_EQ(r.bodies()[0].source_frame, r.fixedFrame());
+  EXPECT_EQ(r.bodies()[0].child_frame, "");
+}
+
 TEST(BodyRegistry, MessageValuesAreCheckedAgainstTheLibraryRange) {
   BodyRegistry r(params(kThree), noParams(), vadop_ros::makeDefaultMeshLoader());
   // Old code accepted anything up to 1e9.

@@ -4,7 +4,9 @@
 #include "bench_adapters.h"
 #include "bench_world.h"
 
+#include "vadop/axis_pool.h"
 #include "vadop/sweep_prune.h"
+#include "vadop/vadop.h"
 #include "vadop/vadop_grid.h"
 #include "vadop/time_of_impact.h"
 #include "vadop/world.h"
@@ -110,6 +112,57 @@ BENCHMARK(BM_PredictOne)
     ->Args({2, 10000, 0})
     ->Args({3, 10000, 0})
     ->Unit(benchmark::kMicrosecond);
+
+// The swept volumes of the monitor's fleet: robots of four shapes (the monitor bench's sphere,
+// box, cylinder and capsule) driving and turning in the plane over a 2 s window. PartBoxes:
+// the cull's boxes of 8 parts per body; Project: one swept body projected on every axis of the
+// default pool (32; a body uses those near its velocity's normal plane). Arg: the shape (0..3).
+struct FleetBodies {
+  std::vector<vadop::Shape> shapes;
+  std::vector<vadop::Motion> motions;
+  explicit FleetBodies(int shape) {
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    for (int i = 0; i < 256; ++i) {
+      switch (shape) {
+        case 0: shapes.push_back(vadop::makeSphere(0.3)); break;
+        case 1: shapes.push_back(vadop::makeBox(Eigen::Vector3d(0.6, 0.4, 0.5))); break;
+        case 2: shapes.push_back(vadop::makeCylinder(0.3, 0.5)); break;
+        default: shapes.push_back(vadop::makeCapsule(0.2, 0.4)); break;
+      }
+      vadop::Motion m;
+      m.position = Eigen::Vector3d(50 * u(rng), 50 * u(rng), 0.25);
+      m.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(3 * u(rng), Eigen::Vector3d::UnitZ()));
+      m.linear_velocity = Eigen::Vector3d(1.5 * u(rng), 1.5 * u(rng), 0.0);
+      m.angular_velocity = Eigen::Vector3d(0.0, 0.0, 0.5 * u(rng));
+      motions.push_back(m);
+    }
+  }
+};
+
+void BM_PartBoxes(benchmark::State& state) {
+  const FleetBodies fleet(static_cast<int>(state.range(0)));
+  double out[6 * 8];
+  size_t i = 0;
+  for (auto _ : state) {
+    const size_t k = i++ % fleet.shapes.size();
+    vadop::SweptBody::partBoxes(fleet.shapes[k], fleet.motions[k], 10.0, 12.0, 8, out);
+    benchmark::DoNotOptimize(out);
+  }
+}
+BENCHMARK(BM_PartBoxes)->DenseRange(0, 3);
+
+void BM_Project(benchmark::State& state) {
+  const FleetBodies fleet(static_cast<int>(state.range(0)));
+  const vadop::AxisPool pool(vadop::VadopConfig{}.axes);
+  size_t i = 0;
+  for (auto _ : state) {
+    const size_t k = i++ % fleet.shapes.size();
+    const vadop::SweptBody swept(fleet.shapes[k], fleet.motions[k], 10.0, 12.0);
+    for (int a = 0; a < pool.size(); ++a) benchmark::DoNotOptimize(swept.project(pool.axis(a)));
+  }
+}
+BENCHMARK(BM_Project)->DenseRange(0, 3);
 
 }  // namespace
 

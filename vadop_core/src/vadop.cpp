@@ -151,15 +151,21 @@ SweptBody::SweptBody(const Shape& shape, const Motion& motion, double t0, double
 }
 
 void SweptBody::partBoxes(const Shape& shape, const Motion& motion, double t0, double t1, int parts, double* out) {
-  SweptBody part;
-  const double w = part.setBody(shape, motion);
+  // The bounds of one SweptBody per part, without building one: what does not depend on the
+  // part (spin axis, chord, the rotation term of each coordinate axis) is computed once, and
+  // the parts' mid-frame orientations are stepped by one turn increment.
+  const double w = motion.angular_velocity.norm();
   const bool pivot = motion.hasPivot();
-  part.shift_mid_.setZero();
-  const Eigen::Matrix3d orientation = motion.orientation.toRotationMatrix();
+  const bool sphere = shape.type == ShapeType::kSphere;  // its extent does not depend on orientation
+  const bool symmetric = shape.type != ShapeType::kConvex && shape.type != ShapeType::kMesh;
+  const double core_radius = std::max(0.0, shape.bounding_radius - shape.margin) + motion.pivotArm();
+  Eigen::Vector3d spin_axis = Eigen::Vector3d::Zero();
   Eigen::Matrix3d spin = Eigen::Matrix3d::Identity();  // exp([w] (t_mid - t_ref)) of the part
   Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();  // from one part's mid-frame to the next
+  double chord = 0.0;
   const double length = (t1 - t0) / parts;
   if (w > 0.0) {
+    spin_axis = motion.angular_velocity / w;
     // The parts' lengths and mid-times differ from `length` and from the stepped rotation's
     // times by rounding: the angle gets a margin of 1e-12 s of turning (far above those
     // rounding errors) and 1e-12 rad (the rounding of the products of `parts` rotations).
@@ -170,22 +176,44 @@ void SweptBody::partBoxes(const Shape& shape, const Motion& motion, double t0, d
       s = e;
     }
     const double angle = std::min(w * (0.5 * longest + 1e-12 * (1.0 + std::abs(t0) + std::abs(t1))) + 1e-12, kPi);
-    part.chord_ = 2.0 * std::sin(0.5 * angle);
-    const double first_mid = 0.5 * (t0 + partEnd(t0, t1, 0, parts));
-    spin = motion.spin(first_mid);
-    turn = Eigen::AngleAxisd(w * length, part.spin_axis_).toRotationMatrix();
+    chord = 2.0 * std::sin(0.5 * angle);
+    spin = motion.spin(0.5 * (t0 + partEnd(t0, t1, 0, parts)));
+    turn = Eigen::AngleAxisd(w * length, spin_axis).toRotationMatrix();
   }
-  part.translating_sphere_ = shape.type == ShapeType::kSphere && !pivot && part.chord_ == 0.0;
-  double s = t0;
+  double rot[3];
+  for (int k = 0; k < 3; ++k) rot[k] = rotationReach(core_radius, chord, spin_axis, k);
+  // R(t_mid) of the part (a sphere's is never read).
+  Eigen::Matrix3d rotation = spin * motion.orientation.toRotationMatrix();
+  const double ball = shape.radius + shape.margin;
+  // The centre (Motion::centreAt: the pivot, or the origin) moves in a straight line.
+  const Eigen::Vector3d centre_ref = pivot ? Eigen::Vector3d(motion.position + motion.pivot_offset) : motion.position;
+  auto centreAt = [&](double t) -> Eigen::Vector3d { return centre_ref + motion.linear_velocity * (t - motion.t_ref); };
+  Eigen::Vector3d c0 = centreAt(t0);
   for (int k = 0; k < parts; ++k, out += 6) {
     const double e = partEnd(t0, t1, k, parts);
-    if (shape.type != ShapeType::kSphere) part.rotation_mid_t_ = (spin * orientation).transpose();
-    part.p0_ = motion.centreAt(s);
-    part.p1_ = motion.centreAt(e);
-    if (pivot) part.shift_mid_ = -(spin * motion.pivot_offset);  // origin - pivot at mid-frame
-    part.box(out);
-    spin = turn * spin;
-    s = e;
+    const Eigen::Vector3d c1 = centreAt(e);
+    // Origin - pivot at mid-frame.
+    const Eigen::Vector3d shift = pivot ? Eigen::Vector3d(-(spin * motion.pivot_offset)) : Eigen::Vector3d::Zero();
+    for (int j = 0; j < 3; ++j) {
+      double up = ball, down = ball;
+      if (!sphere) {
+        const Eigen::Vector3d a_body = rotation.row(j).transpose();  // R(t_mid)^T e_j
+        up = support(shape, a_body);
+        down = symmetric ? up : support(shape, -a_body);
+      }
+      const Interval iv = axisBounds(c0[j], c1[j], up + shift[j], down - shift[j], rot[j]);
+      out[j] = iv.lo;
+      out[3 + j] = iv.hi;
+    }
+    if (w > 0.0) {
+      if (pivot) spin = (turn * spin).eval();
+      if (!sphere) {
+        Eigen::Matrix3d next;
+        next.noalias() = turn * rotation;
+        rotation = next;
+      }
+    }
+    c0 = c1;
   }
 }
 
@@ -204,12 +232,10 @@ Interval SweptBody::projectGeneral(const Eigen::Vector3d& a) const {
   const double shift = a.dot(shift_mid_);
   up += shift;
   down -= shift;
-  const double c0 = a.dot(p0_);
-  const double c1 = a.dot(p1_);
   // Only the component of a point orthogonal to the spin axis moves, and only the part of the
   // axis orthogonal to the spin axis sees it: hence |a x w_hat|.
   const double rot = chord_ > 0.0 ? core_radius_ * chord_ * a.cross(spin_axis_).norm() : 0.0;
-  return widened(std::min(c0, c1) - down - rot, std::max(c0, c1) + up + rot);
+  return axisBounds(a.dot(p0_), a.dot(p1_), up, down, rot);
 }
 
 void SweptBody::boxGeneral(double* out) const {
@@ -224,13 +250,8 @@ void SweptBody::boxGeneral(double* out) const {
       up = support(*shape_, a_body);
       down = symmetric ? up : support(*shape_, -a_body);
     }
-    up += shift_mid_[k];
-    down -= shift_mid_[k];
-    const double c0 = p0_[k], c1 = p1_[k];
-    // |e_k x w_hat|: the norm of the other two components of the spin axis.
-    const double i = spin_axis_[(k + 1) % 3], j = spin_axis_[(k + 2) % 3];
-    const double rot = chord_ > 0.0 ? core_radius_ * chord_ * std::sqrt(i * i + j * j) : 0.0;
-    const Interval iv = widened(std::min(c0, c1) - down - rot, std::max(c0, c1) + up + rot);
+    const Interval iv = axisBounds(p0_[k], p1_[k], up + shift_mid_[k], down - shift_mid_[k],
+                                   rotationReach(core_radius_, chord_, spin_axis_, k));
     out[k] = iv.lo;
     out[3 + k] = iv.hi;
   }

@@ -18,6 +18,8 @@
 #include <memory>
 #include <sstream>
 #include <stdexcept>
+#include <string>
+#include <string_view>
 #include <unordered_set>
 
 namespace vadop_ros {
@@ -49,10 +51,13 @@ namespace {
 
 Eigen::Vector3d toEigen(const geometry_msgs::Vector3& v) { return {v.x, v.y, v.z}; }
 
-std::string stripSlash(std::string s) {
-  while (!s.empty() && s.front() == '/') s.erase(0, 1);
-  return s;
+// A frame id without its leading slashes (tf2 refuses them), as a view into `s`.
+std::string_view withoutSlash(const std::string& s) {
+  std::string_view v(s);
+  while (!v.empty() && v.front() == '/') v.remove_prefix(1);
+  return v;
 }
+std::string stripSlash(const std::string& s) { return std::string(withoutSlash(s)); }
 
 // Rotation vector (axis * angle) of a rotation matrix, angle in [0, pi].
 Eigen::Vector3d rotationVector(const Eigen::Matrix3d& r) {
@@ -440,9 +445,14 @@ InputResult BodyRegistry::onOdometry(size_t bi, const nav_msgs::Odometry& msg, c
   const InputResult stamp_result = acceptStamp(b, msg.header.stamp, receipt);
   if (stamp_result != InputResult::kAccepted) return stamp_result;
   b.has_state = true;
-  b.source_frame = stripSlash(msg.header.frame_id);
-  if (b.source_frame.empty()) b.source_frame = fixed_frame_;
-  b.child_frame = stripSlash(msg.child_frame_id);
+  // Assigned in place: the body's strings keep their storage from message to message.
+  const std::string_view source = withoutSlash(msg.header.frame_id);
+  if (source.empty()) {
+    b.source_frame = fixed_frame_;
+  } else {
+    b.source_frame.assign(source);
+  }
+  b.child_frame.assign(withoutSlash(msg.child_frame_id));
   b.pose = Eigen::Isometry3d::Identity();
   b.pose.translation() = Eigen::Vector3d(p.position.x, p.position.y, p.position.z);
   b.pose.linear() = Eigen::Quaterniond(p.orientation.w, p.orientation.x, p.orientation.y, p.orientation.z)
@@ -466,7 +476,7 @@ InputResult BodyRegistry::onTwist(size_t bi, const geometry_msgs::TwistStamped& 
   const InputResult stamp_result = acceptStamp(b, msg.header.stamp, receipt);
   if (stamp_result != InputResult::kAccepted) return stamp_result;
   b.has_state = true;
-  b.twist_frame = stripSlash(msg.header.frame_id);
+  b.twist_frame.assign(withoutSlash(msg.header.frame_id));
   b.v = toEigen(msg.twist.linear);
   b.w = toEigen(msg.twist.angular);
   b.status.last_receipt = receipt;

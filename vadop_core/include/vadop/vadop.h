@@ -122,10 +122,21 @@ class SweptBody {
     const double widen = kRoundingWiden * (1.0 + std::max(std::abs(lo), std::abs(hi)));
     return Interval{lo - widen, hi + widen};
   }
+  // The interval on one axis: the pivot's ends c0, c1 on it, the shape's support up and down
+  // from the pivot at mid-frame, and `rot`, how far rotation moves a point along it.
+  static Interval axisBounds(double c0, double c1, double up, double down, double rot) {
+    return widened(std::min(c0, c1) - down - rot, std::max(c0, c1) + up + rot);
+  }
+  // `rot` on the coordinate axis e_k: |e_k x w_hat| is the norm of the spin axis's other two
+  // components.
+  static double rotationReach(double core_radius, double chord, const Eigen::Vector3d& spin_axis, int k) {
+    if (!(chord > 0.0)) return 0.0;
+    const double i = spin_axis[(k + 1) % 3], j = spin_axis[(k + 2) % 3];
+    return core_radius * chord * std::sqrt(i * i + j * j);
+  }
   Interval projectGeneral(const Eigen::Vector3d& axis) const;
   // projectGeneral on x, y and z, the products with the unit axes written out (the same values).
   void boxGeneral(double* out) const;
-  SweptBody() = default;  // partBoxes fills the fields part by part
   // The fields that do not depend on the window (shape, radii, spin axis); returns |w|.
   double setBody(const Shape& shape, const Motion& motion);
 
