@@ -12,6 +12,22 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 
+// support(shape, d) for a unit d, without the norms that support() takes of d: |d| = 1 to a
+// few ulps here (a unit axis turned by a rotation matrix), an error of that many ulps of the
+// radii, far below the intervals' widening (kRoundingWiden, at least 1e-12 m).
+double unitSupport(const Shape& s, const Eigen::Vector3d& d) {
+  switch (s.type) {
+    case ShapeType::kSphere: return s.radius + s.margin;
+    case ShapeType::kBox: return s.half_extents.dot(d.cwiseAbs()) + s.margin;
+    case ShapeType::kCapsule: return s.half_length * std::abs(d.z()) + s.radius + s.margin;
+    case ShapeType::kCylinder:
+      return s.half_length * std::abs(d.z()) + s.radius * std::sqrt(d.x() * d.x() + d.y() * d.y()) + s.margin;
+    case ShapeType::kConvex:
+    case ShapeType::kMesh: break;
+  }
+  return support(s, d);
+}
+
 
 }  // namespace
 
@@ -198,8 +214,8 @@ void SweptBody::partBoxes(const Shape& shape, const Motion& motion, double t0, d
       double up = ball, down = ball;
       if (!sphere) {
         const Eigen::Vector3d a_body = rotation.row(j).transpose();  // R(t_mid)^T e_j
-        up = support(shape, a_body);
-        down = symmetric ? up : support(shape, -a_body);
+        up = unitSupport(shape, a_body);
+        down = symmetric ? up : unitSupport(shape, -a_body);
       }
       const Interval iv = axisBounds(c0[j], c1[j], up + shift[j], down - shift[j], rot[j]);
       out[j] = iv.lo;
@@ -224,10 +240,10 @@ Interval SweptBody::projectGeneral(const Eigen::Vector3d& a) const {
     up = down = shape_->radius + shape_->margin;
   } else {
     const Eigen::Vector3d a_body = rotation_mid_t_ * a;
-    up = support(*shape_, a_body);
+    up = unitSupport(*shape_, a_body);
     // The primitives are centred (symmetric under x -> -x): one support query gives both ends.
     const bool symmetric = shape_->type != ShapeType::kConvex && shape_->type != ShapeType::kMesh;
-    down = symmetric ? up : support(*shape_, -a_body);
+    down = symmetric ? up : unitSupport(*shape_, -a_body);
   }
   const double shift = a.dot(shift_mid_);
   up += shift;
@@ -247,8 +263,8 @@ void SweptBody::boxGeneral(double* out) const {
       up = down = shape_->radius + shape_->margin;
     } else {
       const Eigen::Vector3d a_body = rotation_mid_t_.col(k);  // R(t_mid)^T e_k
-      up = support(*shape_, a_body);
-      down = symmetric ? up : support(*shape_, -a_body);
+      up = unitSupport(*shape_, a_body);
+      down = symmetric ? up : unitSupport(*shape_, -a_body);
     }
     const Interval iv = axisBounds(p0_[k], p1_[k], up + shift_mid_[k], down - shift_mid_[k],
                                    rotationReach(core_radius_, chord_, spin_axis_, k));

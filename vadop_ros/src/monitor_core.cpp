@@ -303,7 +303,6 @@ void MonitorCore::reset() {
   std::vector<size_t> left;
   tracks_.clear(left);
   for (const size_t slot : left) unsetTrack(slot);
-  impacts_.impacts.clear();
   std::fill(soonest_.begin(), soonest_.end(), std::numeric_limits<double>::infinity());
   std::fill(track_soonest_.begin(), track_soonest_.end(), std::numeric_limits<double>::infinity());
 }
@@ -469,7 +468,6 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
 
   impacts_.header.stamp = now;
   impacts_.header.frame_id = params_.fixed_frame;
-  impacts_.impacts.clear();
   std::fill(soonest_.begin(), soonest_.end(), std::numeric_limits<double>::infinity());
   std::fill(track_soonest_.begin(), track_soonest_.end(), std::numeric_limits<double>::infinity());
   t0_ = registry_.seconds(now);
@@ -516,22 +514,35 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
   stats_.raw_impacts = raw.size();
 
   const auto& elements = registry_.elements();
-  impacts_.impacts.reserve(raw.size());
+  // The array's entries are overwritten in place (their strings keep their storage from cycle
+  // to cycle: thousands of impacts a cycle in a large fleet), then cut to this cycle's count.
+  std::vector<vadop::Impact>& out = impacts_.impacts;
+  size_t count = 0;
+  auto names = [&](size_t element, std::string& body, std::string& link) {
+    if (isTrack(element)) {
+      body = tracks_.slots().at(element - trackBase()).name;
+      link.clear();
+      return;
+    }
+    const Element& e = elements.at(element);
+    body = registry_.bodies()[e.body].name;
+    link = e.link;
+  };
   // The soonest time to impact of an element's body (a tracked object's own).
   auto soonest = [&](size_t element) -> double& {
     return isTrack(element) ? track_soonest_[element - trackBase()] : soonest_[elements[element].body];
   };
   for (const RawImpact& hit : raw) {
-    if (pairIgnored(hit.a, hit.b)) {
+    // The world applies the same rules (syncWorld's groups and, when pair_rules_needed_, this
+    // predicate): without those rules no pair it reports is ignored.
+    if (pair_rules_needed_ && pairIgnored(hit.a, hit.b)) {
       ++stats_.ignored_tested;
       continue;
     }
-    const ElementKey ka = elementKey(hit.a), kb = elementKey(hit.b);
-    vadop::Impact msg;
-    msg.body_a = ka.body;
-    msg.link_a = ka.link;
-    msg.body_b = kb.body;
-    msg.link_b = kb.link;
+    if (count == out.size()) out.emplace_back();
+    vadop::Impact& msg = out[count++];
+    names(hit.a, msg.body_a, msg.link_a);
+    names(hit.b, msg.body_b, msg.link_b);
     // In [0, horizon]: t0 + horizon - t0 may differ from the horizon by a rounding.
     msg.time_to_impact = std::min(params_.horizon, std::max(0.0, hit.time - t0_));
     msg.time_of_impact = addSeconds(now, msg.time_to_impact);  // saturates: now may be near 2^32 s
@@ -545,12 +556,12 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
     msg.in_contact = hit.initially_touching;
     soonest(hit.a) = std::min(soonest(hit.a), msg.time_to_impact);
     soonest(hit.b) = std::min(soonest(hit.b), msg.time_to_impact);
-    impacts_.impacts.push_back(std::move(msg));
   }
+  out.resize(count);
   // The world sorts by time; the clamp to 0 keeps that order.
   stats_.impacts = impacts_.impacts.size();
   for (const RawImpact& u : predictor_.lastUndecided()) {
-    if (pairIgnored(u.a, u.b)) {
+    if (pair_rules_needed_ && pairIgnored(u.a, u.b)) {
       ++stats_.ignored_tested;
       continue;
     }
