@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <condition_variable>
 #include <exception>
+#include <memory>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -13,25 +16,27 @@ int threadCount(int configured) {
   return configured > 0 ? configured : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
 }
 
-void parallelFor(int threads, size_t n, size_t min_per_thread, size_t chunk, const std::function<void(size_t)>& f) {
-  const size_t workers = std::min(static_cast<size_t>(std::max(threads, 1)), n / std::max<size_t>(min_per_thread, 1));
-  if (workers <= 1) {
-    for (size_t k = 0; k < n; ++k) f(k);
-    return;
-  }
-  chunk = std::max<size_t>(chunk, 1);
+namespace {
+
+// One call's iterations, shared by the threads that run it: each takes the next `chunk` of
+// indices until none is left; the exception of the smallest index that threw is kept.
+struct Job {
+  size_t n = 0;
+  size_t chunk = 1;
+  const std::function<void(size_t)>* f = nullptr;
   std::atomic<size_t> next{0};
   std::mutex error_lock;
-  size_t error_at = n;
+  size_t error_at = 0;
   std::exception_ptr error;
-  auto work = [&]() {
+
+  void run() {
     for (;;) {
       const size_t begin = next.fetch_add(chunk);
       if (begin >= n) return;
       const size_t end = std::min(begin + chunk, n);
       for (size_t k = begin; k < end; ++k) {
         try {
-          f(k);
+          (*f)(k);
         } catch (...) {
           const std::lock_guard<std::mutex> lock(error_lock);
           if (k < error_at) {
@@ -41,17 +46,150 @@ void parallelFor(int threads, size_t n, size_t min_per_thread, size_t chunk, con
         }
       }
     }
-  };
-  std::vector<std::thread> pool;
-  pool.reserve(workers - 1);
-  try {
-    for (size_t i = 1; i < workers; ++i) pool.emplace_back(work);
-  } catch (...) {
-    // No thread to be had: this one does the rest.
   }
-  work();
-  for (std::thread& t : pool) t.join();
-  if (error) std::rethrow_exception(error);
+};
+
+// Set on every thread while it runs a call's iterations: a call made from inside an iteration
+// runs on its thread alone (no nesting: the pool serves one call at a time).
+thread_local bool tl_inside_call = false;
+
+void runInside(Job& job) {
+  const bool outer = tl_inside_call;
+  tl_inside_call = true;
+  job.run();
+  tl_inside_call = outer;
+}
+
+// Workers kept between calls: a cycle makes about ten calls of a few milliseconds each, and
+// starting threads for each cost ~70 us a call on the 2-core machine. A worker that finishes
+// a job spins briefly for the next (the calls of a cycle follow each other within
+// microseconds) and then sleeps. One call at a time uses the pool; a second caller meanwhile
+// (another thread of the process) starts threads of its own, as every call did before.
+class WorkerPool {
+ public:
+  static WorkerPool& instance() {
+    static WorkerPool pool;
+    return pool;
+  }
+
+  ~WorkerPool() {
+    {
+      const std::lock_guard<std::mutex> lock(m_);
+      stop_ = true;
+      ++generation_;
+      generation_spin_.store(generation_, std::memory_order_release);
+    }
+    wake_.notify_all();
+    for (std::thread& t : threads_) t.join();
+  }
+
+  std::unique_lock<std::mutex> tryAcquire() { return std::unique_lock<std::mutex>(call_, std::try_to_lock); }
+
+  // Runs `job` on this thread and `helpers` workers (started on first need); returns when all
+  // are done with it. The caller holds tryAcquire()'s lock.
+  void run(Job& job, size_t helpers) {
+    {
+      std::unique_lock<std::mutex> lock(m_);
+      while (threads_.size() < helpers) {
+        const size_t index = threads_.size();
+        try {
+          threads_.emplace_back([this, index] { work(index); });
+        } catch (...) {
+          break;  // no thread to be had: fewer helpers
+        }
+      }
+      helpers = std::min(helpers, threads_.size());
+      job_ = &job;
+      wanted_ = helpers;
+      done_.store(0, std::memory_order_relaxed);
+      generation_spin_.store(generation_ + 1, std::memory_order_release);
+      ++generation_;
+    }
+    wake_.notify_all();
+    runInside(job);
+    // The helpers finish within microseconds of this thread when the work is balanced: wait
+    // for them spinning a little before sleeping.
+    const auto spin_until = std::chrono::steady_clock::now() + std::chrono::microseconds(kSpinMicros);
+    while (done_.load(std::memory_order_acquire) != helpers && std::chrono::steady_clock::now() < spin_until) {
+      std::this_thread::yield();
+    }
+    std::unique_lock<std::mutex> lock(m_);
+    finished_.wait(lock, [&] { return done_.load(std::memory_order_acquire) == wanted_; });
+    job_ = nullptr;
+  }
+
+ private:
+  WorkerPool() = default;
+
+  void work(size_t index) {
+    uint64_t seen = 0;
+    for (;;) {
+      // Spin a little for the next call before sleeping on the lock.
+      const auto spin_until = std::chrono::steady_clock::now() + std::chrono::microseconds(kSpinMicros);
+      while (generation_spin_.load(std::memory_order_acquire) == seen &&
+             std::chrono::steady_clock::now() < spin_until) {
+        std::this_thread::yield();
+      }
+      Job* job = nullptr;
+      {
+        std::unique_lock<std::mutex> lock(m_);
+        wake_.wait(lock, [&] { return generation_ != seen; });
+        seen = generation_;
+        if (stop_) return;
+        if (index >= wanted_) continue;  // this call wants fewer workers
+        job = job_;
+      }
+      runInside(*job);
+      done_.fetch_add(1, std::memory_order_acq_rel);
+      // Through the lock: the caller either sees the count before it sleeps or is woken.
+      { const std::lock_guard<std::mutex> lock(m_); }
+      finished_.notify_one();
+    }
+  }
+
+  static constexpr int kSpinMicros = 200;
+
+  std::mutex call_;  // one call at a time
+  std::mutex m_;
+  std::condition_variable wake_, finished_;
+  std::vector<std::thread> threads_;
+  Job* job_ = nullptr;
+  size_t wanted_ = 0;
+  std::atomic<size_t> done_{0};  // helpers finished with the current job
+  uint64_t generation_ = 0;
+  std::atomic<uint64_t> generation_spin_{0};  // generation_, readable without the lock
+  bool stop_ = false;
+};
+
+}  // namespace
+
+void parallelFor(int threads, size_t n, size_t min_per_thread, size_t chunk, const std::function<void(size_t)>& f) {
+  const size_t workers = std::min(static_cast<size_t>(std::max(threads, 1)), n / std::max<size_t>(min_per_thread, 1));
+  if (workers <= 1 || tl_inside_call) {
+    // One thread's worth, or a call from inside another call's iteration: here, in order.
+    for (size_t k = 0; k < n; ++k) f(k);
+    return;
+  }
+  Job job;
+  job.n = n;
+  job.chunk = std::max<size_t>(chunk, 1);
+  job.f = &f;
+  job.error_at = n;
+  WorkerPool& pool = WorkerPool::instance();
+  if (auto lock = pool.tryAcquire(); lock.owns_lock()) {
+    pool.run(job, workers - 1);
+  } else {
+    std::vector<std::thread> own;
+    own.reserve(workers - 1);
+    try {
+      for (size_t i = 1; i < workers; ++i) own.emplace_back([&job] { runInside(job); });
+    } catch (...) {
+      // No thread to be had: this one does the rest.
+    }
+    runInside(job);
+    for (std::thread& t : own) t.join();
+  }
+  if (job.error) std::rethrow_exception(job.error);
 }
 
 }  // namespace vadop::detail

@@ -1,7 +1,8 @@
-// Runs independent iterations on a few threads started for the call (this one included): the
-// narrow phase's pairs, the broad phase's bodies and cells, the monitor's bodies. Nothing is
-// shared between iterations but what the caller shares; no pool is kept between calls (a call
-// costs the start of its threads, tens of microseconds, against milliseconds of work).
+// Runs independent iterations on a few threads (this one included): the narrow phase's pairs,
+// the broad phase's bodies and cells, the monitor's bodies. Nothing is shared between
+// iterations but what the caller shares. The threads are kept between calls (a process-wide
+// pool, started on first need): starting them for each call cost ~70 us, a tenth of a
+// 1,000-body cycle's ten calls.
 #pragma once
 
 #include <cstddef>
@@ -15,7 +16,9 @@ int threadCount(int configured);
 // f(k) for k in [0, n) on up to `threads` threads, `chunk` consecutive k at a time (costs that
 // vary by orders of magnitude balance out); on this thread alone when n < 2 * min_per_thread.
 // Every k runs even when some throw; then the exception of the smallest k that threw is
-// rethrown. A thread that cannot be started leaves its share to the others.
+// rethrown. A thread that cannot be started leaves its share to the others. A call made from
+// inside an iteration runs on that thread alone; a call while another thread's call holds the
+// pool starts threads of its own.
 void parallelFor(int threads, size_t n, size_t min_per_thread, size_t chunk, const std::function<void(size_t)>& f);
 
 // The blocks [begin, end) that split [0, n) into at most `blocks` parts of nearly equal size,

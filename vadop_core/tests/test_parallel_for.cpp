@@ -1,0 +1,104 @@
+// detail::parallelFor: every index once, exceptions, nesting, concurrent callers, and threads
+// kept between calls.
+#include "vadop/detail/parallel_for.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <mutex>
+#include <set>
+#include <stdexcept>
+#include <thread>
+#include <vector>
+
+using vadop::detail::parallelFor;
+
+namespace {
+
+// Runs parallelFor and checks that each index ran exactly once; returns the threads seen.
+std::set<std::thread::id> runOnce(int threads, size_t n, size_t min_per_thread, size_t chunk) {
+  std::vector<std::atomic<int>> count(n);
+  std::mutex lock;
+  std::set<std::thread::id> seen;
+  parallelFor(threads, n, min_per_thread, chunk, [&](size_t k) {
+    count[k].fetch_add(1);
+    const std::lock_guard<std::mutex> guard(lock);
+    seen.insert(std::this_thread::get_id());
+  });
+  for (size_t k = 0; k < n; ++k) EXPECT_EQ(count[k].load(), 1) << "index " << k << " of " << n;
+  return seen;
+}
+
+}  // namespace
+
+TEST(ParallelFor, EveryIndexExactlyOnce) {
+  for (int threads : {1, 2, 3, 8}) {
+    for (size_t n : {0u, 1u, 7u, 64u, 1000u, 4097u}) {
+      for (size_t chunk : {1u, 8u, 1024u}) runOnce(threads, n, 4, chunk);
+    }
+  }
+}
+
+TEST(ParallelFor, SmallestThrowingIndexIsRethrownAfterEveryIndexRan) {
+  for (int round = 0; round < 50; ++round) {
+    std::vector<std::atomic<int>> count(500);
+    try {
+      parallelFor(4, 500, 1, 3, [&](size_t k) {
+        count[k].fetch_add(1);
+        if (k == 77 || k == 300 || k == 499) throw std::runtime_error(std::to_string(k));
+      });
+      FAIL() << "nothing thrown";
+    } catch (const std::runtime_error& e) {
+      EXPECT_STREQ(e.what(), "77");
+    }
+    for (auto& c : count) ASSERT_EQ(c.load(), 1);
+  }
+}
+
+TEST(ParallelFor, CallsFromInsideAnIterationRunThere) {
+  std::vector<std::atomic<int>> count(64 * 64);
+  parallelFor(4, 64, 1, 1, [&](size_t i) {
+    const std::thread::id outer = std::this_thread::get_id();
+    parallelFor(4, 64, 1, 1, [&](size_t j) {
+      EXPECT_EQ(std::this_thread::get_id(), outer);
+      count[64 * i + j].fetch_add(1);
+    });
+  });
+  for (auto& c : count) ASSERT_EQ(c.load(), 1);
+}
+
+TEST(ParallelFor, ConcurrentCallersEachGetEveryIndexOnce) {
+  std::vector<std::thread> callers;
+  std::atomic<int> failures{0};
+  for (int c = 0; c < 4; ++c) {
+    callers.emplace_back([&failures] {
+      for (int round = 0; round < 200; ++round) {
+        const size_t n = 100 + round;
+        std::vector<std::atomic<int>> count(n);
+        parallelFor(3, n, 1, 4, [&](size_t k) { count[k].fetch_add(1); });
+        for (auto& x : count) failures += x.load() != 1;
+      }
+    });
+  }
+  for (auto& t : callers) t.join();
+  EXPECT_EQ(failures.load(), 0);
+}
+
+// The calls of one thread reuse the same helper threads (what makes a call cheap); more
+// threads than before start more helpers, fewer use some of them.
+TEST(ParallelFor, HelperThreadsAreKeptBetweenCalls) {
+  std::set<std::thread::id> helpers;
+  for (int call = 0; call < 200; ++call) {
+    std::set<std::thread::id> seen = runOnce(3, 3000, 1, 1);
+    seen.erase(std::this_thread::get_id());
+    helpers.insert(seen.begin(), seen.end());
+  }
+  EXPECT_GE(helpers.size(), 1u);
+  EXPECT_LE(helpers.size(), 2u) << "helpers started anew for calls";
+  for (int call = 0; call < 50; ++call) {
+    std::set<std::thread::id> seen = runOnce(2, 3000, 1, 1);
+    seen.erase(std::this_thread::get_id());
+    EXPECT_LE(seen.size(), 1u);
+    for (const auto& id : seen) EXPECT_EQ(helpers.count(id), 1u);
+  }
+}
