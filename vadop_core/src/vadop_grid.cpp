@@ -435,16 +435,22 @@ void VadopGridBroadPhase::testSharedAxes(int threads, std::vector<Pair>& out) {
   if (pool_ && !fused_) {
     // The intervals of the slots that need them (each once), then the shared-axis tests; both
     // on the threads, each writing its own slots or its own block.
-    std::vector<uint32_t>& need = scratch_slots_;
-    need.clear();
+    // The slots in slot (= body id) order: their bodies' motions and shapes are then read in
+    // the order they are stored (in the pairs' order each cost a few cache misses).
+    constexpr uint8_t kWanted = 2;
     for (const SlotPairs& h : hits_) {
       for (const SlotPair& p : h.pairs) {
         for (uint32_t s : {p.a, p.b}) {
-          if (interval_ready_[s]) continue;
-          interval_ready_[s] = 1;  // set below, before anything reads it
-          need.push_back(s);
+          if (!interval_ready_[s]) interval_ready_[s] = kWanted;
         }
       }
+    }
+    std::vector<uint32_t>& need = scratch_slots_;
+    need.clear();
+    for (uint32_t s = 0; s < interval_ready_.size(); ++s) {
+      if (interval_ready_[s] != kWanted) continue;
+      interval_ready_[s] = 1;  // set below, before anything reads it
+      need.push_back(s);
     }
     detail::parallelFor(threads, need.size(), kParallelBodies / 2, kBodyChunk, [&](size_t i) { projectSlot(need[i]); });
     detail::parallelFor(threads, hits_.size(), 1, 1, [&](size_t block) {

@@ -297,7 +297,10 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
     path->forEachPiece(t0, t1, [&](size_t k, double s, double e) { checkMotionReach(id, path->motion(k), s, e); });
   };
   if (!only) {
-    by_name_->forEach(checkReach);
+    // In id order (a removed body's record holds no shape): the motions are read as stored.
+    for (BodyId id = 0; id < records_.size(); ++id) {
+      if (records_[id].prepared) checkReach(id);
+    }
   }
 
   // The candidate pairs: the whole broad phase, or the queries of `only` (a pair of two of them
@@ -574,6 +577,19 @@ void World::cullBySlices(std::vector<Candidate>& tests, double t0, double t1) {
   for (const Candidate& pair : tests) {
     assignSlot(pair.a);
     assignSlot(pair.b);
+  }
+  if (4 * slice_used_ >= records_.size()) {
+    // Most bodies take part (a full predict of a crowded world): slots in id order instead, so
+    // that the bodies' motions and shapes are read in the order they are stored (in first-use
+    // order every body cost a few cache misses: half the cull's time at 10,000 bodies).
+    slice_fill_.clear();
+    size_t next = 0;
+    for (BodyId id = 0; id < records_.size(); ++id) {
+      SliceSlot& s = slice_of_[id];
+      if (s.stamp != predict_count_) continue;
+      s.index = next++;
+      slice_fill_.push_back(id);
+    }
   }
   if (slice_boxes_.size() < slice_used_ * stride) slice_boxes_.resize(slice_used_ * stride);
   parallelFor(slice_fill_.size(), [&](size_t i) {
