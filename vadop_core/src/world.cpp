@@ -10,6 +10,7 @@
 #include "vadop/vadop_grid.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -78,6 +79,8 @@ BroadPhaseKind parseBroadPhaseKind(const std::string& name) {
 }
 
 World::World(const WorldConfig& config) : config_(config), by_name_(std::make_unique<detail::NameIndex>()) {
+  static std::atomic<uint64_t> worlds{0};
+  serial_ = ++worlds;
   const ToiOptions& o = config.toi;
   if (!(std::isfinite(o.tolerance) && o.tolerance > 0.0)) {
     throw InvalidArgument("World: toi.tolerance must be finite and > 0, got " + formatNumber(o.tolerance));
@@ -168,10 +171,25 @@ void World::remove(const std::string& id) {
   records_[bid] = Record{};
 }
 
-void World::setMotion(const std::string& id, const Motion& motion) {
-  const BodyId bid = bodyId(id, "setMotion");
+void World::setMotion(const std::string& id, const Motion& motion) { setMotionOf(bodyId(id, "setMotion"), motion); }
+
+World::Handle World::handle(const std::string& id) const {
+  const BodyId bid = bodyId(id, "handle");
+  return Handle{static_cast<uint32_t>(bid), records_[bid].key, serial_};
+}
+
+void World::setMotion(const Handle& body, const Motion& motion) {
+  if (body.world != serial_ || body.index >= records_.size() || !records_[body.index].prepared ||
+      records_[body.index].key != body.key) {
+    throw InvalidArgument("setMotion: the handle (key " + std::to_string(body.key) +
+                          ") names no body of this World: removed, or another World's");
+  }
+  setMotionOf(body.index, motion);
+}
+
+void World::setMotionOf(BodyId bid, const Motion& motion) {
   // The message is built only for a motion the quick test refuses (setMotion runs per body per cycle).
-  if (!isValidMotion(motion)) validateMotion(motion, "setMotion body " + quoted(id) + ": motion");
+  if (!isValidMotion(motion)) validateMotion(motion, "setMotion body " + quoted(records_[bid].name) + ": motion");
   broad_phase_->setMotion(bid, motion);  // strong guarantee; nothing below throws
   if (records_[bid].chain) {
     path_bodies_.erase(std::lower_bound(path_bodies_.begin(), path_bodies_.end(), bid));

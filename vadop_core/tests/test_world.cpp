@@ -598,6 +598,75 @@ TEST(World, IncrementalUpdatesMatchAWorldBuiltFromScratch) {
   }
 }
 
+// setMotion by handle is setMotion by name; a handle names only the body it was taken for:
+// removed (and added again under its id), or of another World built the same way (same index
+// and key), it is refused, and so is a bad motion, each changing nothing.
+TEST(World, SetMotionByHandleIsByNameAndRefusesStaleHandles) {
+  testing_scene::GenParams p;
+  p.n = 200;
+  p.box = 6.0;
+  const Scene scene = parseScene(testing_scene::randomSceneJson(12, p));
+  World by_name, by_handle, twin;
+  addToWorld(scene, by_name);
+  addToWorld(scene, by_handle);
+  addToWorld(scene, twin);
+  std::vector<World::Handle> handles;
+  for (const auto& b : scene.bodies) handles.push_back(by_handle.handle(b.id));
+  std::mt19937_64 rng(8);
+  std::uniform_real_distribution<double> u(-3.0, 3.0);
+  size_t compared = 0;
+  for (int frame = 0; frame < 10; ++frame) {
+    const double t0 = 0.1 * frame;
+    for (int k = 0; k < 20; ++k) {
+      const size_t i = rng() % scene.bodies.size();
+      const Motion& m = by_name.motion(scene.bodies[i].id);
+      const Motion next = makeMotion(m.positionAt(t0), m.orientationAt(t0), Eigen::Vector3d(u(rng), u(rng), u(rng)),
+                                     m.angular_velocity, t0);
+      by_name.setMotion(scene.bodies[i].id, next);
+      by_handle.setMotion(handles[i], next);
+    }
+    const auto want = by_name.predict(t0, 0.1);
+    ASSERT_EQ(impactsToJsonLines(by_handle.predict(t0, 0.1)), impactsToJsonLines(want)) << "frame " << frame;
+    compared += want.size();
+  }
+  EXPECT_GT(compared, 20u);
+
+  const std::string id = scene.bodies[7].id;
+  const Motion before = by_handle.motion(id);
+  const Motion other = makeMotion(Eigen::Vector3d(1, 2, 3), Eigen::Quaterniond::Identity(), Eigen::Vector3d(1, 0, 0),
+                                  Eigen::Vector3d::Zero(), 0.0);
+  // Another World's handle with the same index and key.
+  const World::Handle twins = twin.handle(id);
+  EXPECT_EQ(twins.index, handles[7].index);
+  EXPECT_EQ(twins.key, handles[7].key);
+  EXPECT_THROW(by_handle.setMotion(twins, other), InvalidArgument);
+  // A bad motion: refused naming the body.
+  Motion bad = other;
+  bad.linear_velocity.x() = std::numeric_limits<double>::quiet_NaN();
+  try {
+    by_handle.setMotion(handles[7], bad);
+    ADD_FAILURE() << "a NaN velocity was accepted";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("\"" + id + "\""), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(by_handle.motion(id).position, before.position);
+  EXPECT_EQ(by_handle.motion(id).linear_velocity, before.linear_velocity);
+  // Removed, then added again under its id (it may take the same index): the old handle is stale.
+  by_handle.remove(id);
+  EXPECT_THROW(by_handle.setMotion(handles[7], other), InvalidArgument);
+  by_handle.add(id, scene.bodies[7].shape, before);
+  EXPECT_THROW(by_handle.setMotion(handles[7], other), InvalidArgument);
+  EXPECT_EQ(by_handle.motion(id).position, before.position);
+  by_handle.setMotion(by_handle.handle(id), other);
+  EXPECT_EQ(by_handle.motion(id).position, other.position);
+  EXPECT_THROW(by_handle.handle("no such body"), InvalidArgument);
+  // A moved-from World knows no handle.
+  World moved(std::move(by_handle));
+  EXPECT_THROW(by_handle.setMotion(handles[3], other), InvalidArgument);  // NOLINT(bugprone-use-after-move)
+  moved.setMotion(handles[3], other);
+  EXPECT_EQ(moved.motion(scene.bodies[3].id).position, other.position);
+}
+
 TEST(World, PredictRestrictedToSomeBodiesIsTheFilteredFullPrediction) {
   const Scene scene = parseScene(testing_scene::randomSceneJson(4));
   World w;

@@ -922,7 +922,9 @@ bool BodyRegistry::bodyMotion(Body& b, const ros::Time& now, TransformSource& tf
         return false;
       }
     }
-    const Eigen::Isometry3d fixed_child = fixed_src * b.pose;
+    // Most odometry is in the fixed frame already: no product with the identity (a cycle computes
+    // this for every body).
+    const Eigen::Isometry3d fixed_child = b.source_frame == fixed_frame_ ? b.pose : fixed_src * b.pose;
     const Eigen::Matrix3d& r = fixed_child.linear();
     v = r * b.v;
     w = r * b.w;
@@ -1062,7 +1064,7 @@ void BodyRegistry::updateMoving(Body& b, const ros::Time& now, double t_now, dou
     Eigen::Isometry3d pe;
     Eigen::Vector3d ve, we;
     if (e.tf_frame.empty()) {
-      pe = fb * e.offset;
+      pe = e.offset.matrix() == Eigen::Matrix4d::Identity() ? fb : fb * e.offset;  // one shape at the body frame
       ve = v + w.cross(pe.translation() - fb.translation());
       we = w;
     } else {

@@ -42,6 +42,7 @@ struct Predictor::Impl {
     bool in = false;
     std::string id;
     uint64_t key = 0;
+    vadop::World::Handle handle;  // setMotion every cycle without the name's lookup
     vadop::Motion motion;
     std::shared_ptr<const vadop::LinkChain> chain;  // null: motion alone
   };
@@ -69,11 +70,12 @@ bool Predictor::set(size_t i, const std::string& id, const vadop::Shape& shape, 
       s.in = true;
       s.id = id;
       s.key = impl_->world.key(id);
+      s.handle = impl_->world.handle(id);
       s.motion = motion;
       s.chain = nullptr;
       impl_->by_key[s.key] = i;
     } else if (!sameMotion(s.motion, motion) || (s.chain && !chain)) {
-      impl_->world.setMotion(s.id, motion);  // ends a chain
+      impl_->world.setMotion(s.handle, motion);  // ends a chain
       s.motion = motion;
       s.chain = nullptr;
     }

@@ -129,6 +129,17 @@ class World {
   // A new velocity (or pose): takes effect at the next predict (and ends a path). Throws when
   // the id is unknown or the motion invalid.
   void setMotion(const std::string& id, const Motion& motion);
+  // A body's handle, for what a caller does to every body every cycle: setMotion by handle
+  // skips the name's lookup. Valid until the body is removed (added again under the same id, it
+  // has a new handle); setMotion throws for a stale handle or one of another World.
+  struct Handle {
+    uint32_t index = ~uint32_t{0};
+    uint64_t key = 0;
+    uint64_t world = 0;
+  };
+  // Throws when the id is unknown.
+  Handle handle(const std::string& id) const;
+  void setMotion(const Handle& body, const Motion& motion);
   // The body follows `path` from the next predict on (every window, whatever its t0), until
   // setMotion. Throws when the id is unknown (nothing changed).
   void setPath(const std::string& id, const TimedPath& path);
@@ -296,6 +307,7 @@ class World {
   BodyId bodyId(const std::string& id, const char* operation) const;
   static constexpr BodyId kUnknownBody = ~BodyId{0};
   BodyId findBody(const std::string& id) const;  // or kUnknownBody
+  void setMotionOf(BodyId bid, const Motion& motion);
   struct NameOf;  // the name of a BodyId (in its record), for by_name_
   // Throws InvalidArgument when this World was moved from (no broad phase).
   void requireEngine(const char* operation) const;
@@ -308,6 +320,7 @@ class World {
   std::unique_ptr<detail::NameIndex> by_name_;  // names live in records_
   std::vector<BodyId> path_bodies_;  // sorted
   uint64_t next_key_ = 0;
+  uint64_t serial_ = 0;  // this World's, unique in the process: the Handle's `world`
   size_t last_candidates_ = 0;
   size_t last_reused_ = 0;
   size_t last_slice_culled_ = 0;
