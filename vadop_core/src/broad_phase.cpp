@@ -111,7 +111,7 @@ void BroadPhase::update(double t0, double t1) {
   pairs_.clear();
   framed_ = false;  // a throwing computePairs leaves no frame to answer queries from
   computePairs(t0, t1, pairs_);
-  std::sort(pairs_.begin(), pairs_.end());
+  if (!std::is_sorted(pairs_.begin(), pairs_.end())) std::sort(pairs_.begin(), pairs_.end());
   for (BodyId id : changed_) changed_flag_[id] = 0;
   changed_.clear();
   changed_indexed_ = 0;

@@ -81,19 +81,25 @@ std::unique_ptr<AxisPool> makeAxisPool(int axes) {
   return std::make_unique<AxisPool>(axes);
 }
 
+Eigen::Vector3d axisSelectionDirection(const Motion& motion, double bounding_radius, double frame_length,
+                              const VadopConfig& config) {
+  const double speed = motion.linear_velocity.norm();
+  const bool slow = !(speed * frame_length >= config.slow_fraction * bounding_radius) || speed == 0.0;
+  if (!slow) return motion.linear_velocity / speed;
+  if (config.slow_rule == SlowAxisRule::kAllAxes) return Eigen::Vector3d::Zero();
+  return config.slow_direction.normalized();
+}
+
 bool updateAxes(const Motion& motion, double bounding_radius, double frame_length, const AxisPool& pool,
                 const VadopConfig& config, const AxisZones& zones, std::vector<uint32_t>& axes) {
   const int m = pool.size();
-  const double speed = motion.linear_velocity.norm();
-  const bool slow = !(speed * frame_length >= config.slow_fraction * bounding_radius) || speed == 0.0;
-  if (slow && config.slow_rule == SlowAxisRule::kAllAxes) {
+  const Eigen::Vector3d u = axisSelectionDirection(motion, bounding_radius, frame_length, config);
+  if (u.squaredNorm() == 0.0) {  // slow, SlowAxisRule::kAllAxes
     if (axes.size() == static_cast<size_t>(m)) return false;  // ascending and unique: all of them
     axes.resize(m);
     for (int k = 0; k < m; ++k) axes[k] = static_cast<uint32_t>(k);
     return true;
   }
-  const Eigen::Vector3d u =
-      slow ? Eigen::Vector3d(config.slow_direction.normalized()) : Eigen::Vector3d(motion.linear_velocity / speed);
   const double in_zone = zones.in_zone, keep_zone = zones.keep_zone;
   // Keep the previous set while it still holds the whole zone and nothing far outside it: a
   // steadily turning body then changes lists only every hysteresis / 2 of turn, not each time

@@ -82,7 +82,8 @@ const AxisPool& VadopGridBroadPhase::pool() const {
 }
 
 size_t VadopGridBroadPhase::memoryBytes() const {
-  size_t bytes = axis_bits_.capacity() * sizeof(uint64_t) + dirty_flag_.capacity() +
+  size_t bytes = axis_bits_.capacity() * sizeof(uint64_t) + axis_direction_.capacity() * sizeof(Eigen::Vector3d) +
+                 dirty_flag_.capacity() +
                  (dirty_.capacity() + scratch_changed_.capacity()) * sizeof(BodyId);
   bytes += (slot_body_.capacity() + slot_of_.capacity() + offset_.capacity()) * sizeof(uint32_t) +
            box_.capacity() * sizeof(double) + bits_.capacity() * sizeof(uint64_t) +
@@ -129,6 +130,7 @@ Eigen::Vector3d VadopGridBroadPhase::axisDirection(uint32_t axis) const {
 void VadopGridBroadPhase::onAdd(BodyId id) {
   if (dirty_flag_.size() <= id) {
     axis_bits_.resize((id + 1) * words_, 0);
+    axis_direction_.resize(id + 1, Eigen::Vector3d::Zero());
     dirty_flag_.resize(id + 1, 0);
     slot_of_.resize(id + 1, kNoSlot);
   }
@@ -300,9 +302,14 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
   std::atomic<size_t> reinserted{0};
   detail::parallelFor(threads, changed.size(), kParallelBodies / 2, kBodyChunk, [&](size_t i) {
     const BodyId id = changed[i];
+    // A new motion along the same direction (a body turning about a fixed pivot, a new pose
+    // along the same line) keeps its axes (axisSelectionDirection): no pool scan.
+    const Eigen::Vector3d u = axisSelectionDirection(b[id].motion, b[id].shape->bounding_radius, frame, config_);
+    uint64_t* bits = &axis_bits_[id * words_];
+    if (u == axis_direction_[id] && std::any_of(bits, bits + words_, [](uint64_t w) { return w != 0; })) return;
+    axis_direction_[id] = u;
     thread_local std::vector<uint32_t> axes;
     axes.clear();
-    uint64_t* bits = &axis_bits_[id * words_];
     detail::forEachSetBit(bits, words_, [&](uint32_t k) { axes.push_back(k); });
     if (updateAxes(b[id].motion, b[id].shape->bounding_radius, frame, *pool_, config_, zones_, axes)) {
       reinserted.fetch_add(1, std::memory_order_relaxed);
@@ -453,12 +460,22 @@ void VadopGridBroadPhase::testSharedAxes(int threads, std::vector<Pair>& out) {
       need.push_back(s);
     }
     detail::parallelFor(threads, need.size(), kParallelBodies / 2, kBodyChunk, [&](size_t i) { projectSlot(need[i]); });
-    detail::parallelFor(threads, hits_.size(), 1, 1, [&](size_t block) {
-      std::vector<SlotPair>& pairs = hits_[block].pairs;
+  }
+  // Each block's pairs in body order, on the threads (slots are in body order). The incremental
+  // mode's blocks are ranges of the pairs' first slots, so their concatenation is sorted as
+  // well and BroadPhase::update need not sort it again.
+  detail::parallelFor(threads, hits_.size(), 1, 1, [&](size_t block) {
+    std::vector<SlotPair>& pairs = hits_[block].pairs;
+    if (pool_ && !fused_) {
       pairs.erase(std::remove_if(pairs.begin(), pairs.end(), [&](const SlotPair& p) { return !overlapOnShared(p.a, p.b); }),
                   pairs.end());
-    });
-  }
+    }
+    for (SlotPair& p : pairs) {
+      if (p.b < p.a) std::swap(p.a, p.b);
+    }
+    std::sort(pairs.begin(), pairs.end(),
+              [](const SlotPair& x, const SlotPair& y) { return x.a < y.a || (x.a == y.a && x.b < y.b); });
+  });
   for (const SlotPairs& h : hits_) {
     for (const SlotPair& p : h.pairs) out.push_back(makePair(slot_body_[p.a], slot_body_[p.b]));
   }

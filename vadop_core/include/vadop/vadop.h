@@ -66,6 +66,12 @@ std::unique_ptr<AxisPool> makeAxisPool(int axes);
 std::vector<uint32_t> selectAxes(const Motion& motion, double bounding_radius, double frame_length,
                                  const AxisPool& pool, const VadopConfig& config, double phi_rad,
                                  const std::vector<uint32_t>& previous = {});
+// The direction a body's axes are chosen about: its velocity's, or for a slow body
+// slow_direction (zero under SlowAxisRule::kAllAxes: every axis). The set updateAxes returns
+// for a direction is the one it keeps for that same direction (it holds the zone and nothing
+// beyond the hysteresis), so a caller may skip bodies whose direction did not change.
+Eigen::Vector3d axisSelectionDirection(const Motion& motion, double bounding_radius, double frame_length,
+                              const VadopConfig& config);
 // The same in place, for the per-frame loops: `axes` holds the previous set and receives the
 // new one (its storage reused); returns whether it changed. `zones` = axisZones(config, phi).
 struct AxisZones {

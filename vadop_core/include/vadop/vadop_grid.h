@@ -160,6 +160,7 @@ class VadopGridBroadPhase : public BroadPhase {
   // Persistent per body (indexed by BodyId): its axis set as a bitset (words_ per body, flat:
   // the per-frame pass reads it sequentially), and whether its motion changed.
   std::vector<uint64_t> axis_bits_;
+  std::vector<Eigen::Vector3d> axis_direction_;  // the direction axis_bits_ was chosen about
   std::vector<uint8_t> dirty_flag_;
   std::vector<BodyId> dirty_;
   std::vector<BodyId> scratch_changed_;  // the dirty bodies of an update, each once
