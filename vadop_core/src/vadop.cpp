@@ -179,7 +179,6 @@ void SweptBody::partBoxes(const Shape& shape, const Motion& motion, double t0, d
   const double w = motion.angular_velocity.norm();
   const bool pivot = motion.hasPivot();
   const bool sphere = shape.type == ShapeType::kSphere;  // its extent does not depend on orientation
-  const bool symmetric = shape.type != ShapeType::kConvex && shape.type != ShapeType::kMesh;
   const double core_radius = std::max(0.0, shape.bounding_radius - shape.margin) + motion.pivotArm();
   Eigen::Vector3d spin_axis = Eigen::Vector3d::Zero();
   Eigen::Matrix3d spin = Eigen::Matrix3d::Identity();  // exp([w] (t_mid - t_ref)) of the part
@@ -204,9 +203,9 @@ void SweptBody::partBoxes(const Shape& shape, const Motion& motion, double t0, d
   }
   double rot[3];
   for (int k = 0; k < 3; ++k) rot[k] = rotationReach(core_radius, chord, spin_axis, k);
-  // R(t_mid) of the part (a sphere's is never read).
-  Eigen::Matrix3d rotation = spin * motion.orientation.toRotationMatrix();
-  const double ball = shape.radius + shape.margin;
+  // R(t_mid)^T of the part (a sphere's is never read), stepped by turn^T.
+  Eigen::Matrix3d rotation_t = (spin * motion.orientation.toRotationMatrix()).transpose();
+  const Eigen::Matrix3d turn_t = turn.transpose();
   // The centre (Motion::centreAt: the pivot, or the origin) moves in a straight line.
   const Eigen::Vector3d centre_ref = pivot ? Eigen::Vector3d(motion.position + motion.pivot_offset) : motion.position;
   auto centreAt = [&](double t) -> Eigen::Vector3d { return centre_ref + motion.linear_velocity * (t - motion.t_ref); };
@@ -216,23 +215,13 @@ void SweptBody::partBoxes(const Shape& shape, const Motion& motion, double t0, d
     const Eigen::Vector3d c1 = centreAt(e);
     // Origin - pivot at mid-frame.
     const Eigen::Vector3d shift = pivot ? Eigen::Vector3d(-(spin * motion.pivot_offset)) : Eigen::Vector3d::Zero();
-    for (int j = 0; j < 3; ++j) {
-      double up = ball, down = ball;
-      if (!sphere) {
-        const Eigen::Vector3d a_body = rotation.row(j).transpose();  // R(t_mid)^T e_j
-        up = unitSupport(shape, a_body);
-        down = symmetric ? up : unitSupport(shape, -a_body);
-      }
-      const Interval iv = axisBounds(c0[j], c1[j], up + shift[j], down - shift[j], rot[j]);
-      out[j] = iv.lo;
-      out[3 + j] = iv.hi;
-    }
+    boxOf(shape, rotation_t, c0, c1, shift, rot, out);
     if (w > 0.0) {
       if (pivot) spin = (turn * spin).eval();
       if (!sphere) {
         Eigen::Matrix3d next;
-        next.noalias() = turn * rotation;
-        rotation = next;
+        next.noalias() = rotation_t * turn_t;
+        rotation_t = next;
       }
     }
     c0 = c1;
@@ -261,19 +250,25 @@ Interval SweptBody::projectGeneral(const Eigen::Vector3d& a) const {
 }
 
 void SweptBody::boxGeneral(double* out) const {
-  const bool sphere = shape_->type == ShapeType::kSphere;
-  const bool symmetric = shape_->type != ShapeType::kConvex && shape_->type != ShapeType::kMesh;
+  double rot[3];
+  for (int k = 0; k < 3; ++k) rot[k] = rotationReach(core_radius_, chord_, spin_axis_, k);
+  boxOf(*shape_, rotation_mid_t_, p0_, p1_, shift_mid_, rot, out);
+}
+
+void SweptBody::boxOf(const Shape& shape, const Eigen::Matrix3d& rotation_t, const Eigen::Vector3d& p0,
+                      const Eigen::Vector3d& p1, const Eigen::Vector3d& shift, const double* rot, double* out) {
+  const bool sphere = shape.type == ShapeType::kSphere;  // rotation_t is not read
+  const bool symmetric = shape.type != ShapeType::kConvex && shape.type != ShapeType::kMesh;
   for (int k = 0; k < 3; ++k) {
     double up, down;
     if (sphere) {
-      up = down = shape_->radius + shape_->margin;
+      up = down = shape.radius + shape.margin;
     } else {
-      const Eigen::Vector3d a_body = rotation_mid_t_.col(k);  // R(t_mid)^T e_k
-      up = unitSupport(*shape_, a_body);
-      down = symmetric ? up : unitSupport(*shape_, -a_body);
+      const Eigen::Vector3d a_body = rotation_t.col(k);  // R(t_mid)^T e_k
+      up = unitSupport(shape, a_body);
+      down = symmetric ? up : unitSupport(shape, -a_body);
     }
-    const Interval iv = axisBounds(p0_[k], p1_[k], up + shift_mid_[k], down - shift_mid_[k],
-                                   rotationReach(core_radius_, chord_, spin_axis_, k));
+    const Interval iv = axisBounds(p0[k], p1[k], up + shift[k], down - shift[k], rot[k]);
     out[k] = iv.lo;
     out[3 + k] = iv.hi;
   }
