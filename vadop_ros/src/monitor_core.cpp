@@ -89,9 +89,20 @@ MonitorCore::MonitorCore(const MonitorParams& params, const ParamReader& read_pa
 }
 
 ElementKey MonitorCore::elementKey(size_t element) const {
-  if (isTrack(element)) return {tracks_.slots().at(element - trackBase()).name, ""};
+  ElementKey key;
+  elementNames(element, key.body, key.link);
+  return key;
+}
+
+void MonitorCore::elementNames(size_t element, std::string& body, std::string& link) const {
+  if (isTrack(element)) {
+    body = tracks_.slots().at(element - trackBase()).name;
+    link.clear();
+    return;
+  }
   const Element& e = registry_.elements().at(element);
-  return {registry_.bodies()[e.body].name, e.link};
+  body = registry_.bodies()[e.body].name;
+  link = e.link;
 }
 
 void MonitorCore::syncGateWorld() {
@@ -518,16 +529,6 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
   // to cycle: thousands of impacts a cycle in a large fleet), then cut to this cycle's count.
   std::vector<vadop::Impact>& out = impacts_.impacts;
   size_t count = 0;
-  auto names = [&](size_t element, std::string& body, std::string& link) {
-    if (isTrack(element)) {
-      body = tracks_.slots().at(element - trackBase()).name;
-      link.clear();
-      return;
-    }
-    const Element& e = elements.at(element);
-    body = registry_.bodies()[e.body].name;
-    link = e.link;
-  };
   // The soonest time to impact of an element's body (a tracked object's own).
   auto soonest = [&](size_t element) -> double& {
     return isTrack(element) ? track_soonest_[element - trackBase()] : soonest_[elements[element].body];
@@ -541,8 +542,8 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
     }
     if (count == out.size()) out.emplace_back();
     vadop::Impact& msg = out[count++];
-    names(hit.a, msg.body_a, msg.link_a);
-    names(hit.b, msg.body_b, msg.link_b);
+    elementNames(hit.a, msg.body_a, msg.link_a);
+    elementNames(hit.b, msg.body_b, msg.link_b);
     // In [0, horizon]: t0 + horizon - t0 may differ from the horizon by a rounding.
     msg.time_to_impact = std::min(params_.horizon, std::max(0.0, hit.time - t0_));
     msg.time_of_impact = addSeconds(now, msg.time_to_impact);  // saturates: now may be near 2^32 s

@@ -111,6 +111,8 @@ class MonitorCore {
   // tracks() (element registry().elements().size() + slot). What one is, as the filters and
   // the impacts name it: a tracked object is the body "<prefix>/<id>" without a link.
   ElementKey elementKey(size_t element) const;
+  // The same, written into the given strings (the ImpactArray's, whose storage is kept).
+  void elementNames(size_t element, std::string& body, std::string& link) const;
   const MonitorParams& params() const { return params_; }
 
   // Runs one cycle at `now` and returns the impacts (header stamped `now`, in the fixed frame).
