@@ -95,9 +95,8 @@ size_t VadopGridBroadPhase::memoryBytes() const {
 }
 
 template <class F>
-void VadopGridBroadPhase::forEachProjected(uint32_t s, F&& f) const {
-  const Body& body = bodies()[slot_body_[s]];
-  const SweptBody swept(*body.shape, body.motion, frame_t0_, frame_t1_);
+void VadopGridBroadPhase::forEachProjected(uint32_t s, const Motion& motion, F&& f) const {
+  const SweptBody swept(*bodies()[slot_body_[s]].shape, motion, frame_t0_, frame_t1_);
   detail::forEachSetBit(&bits_[words_ * s], words_,
                         [&](uint32_t k) { f(k, swept.project(pool_->axis(static_cast<int>(k)))); });
 }
@@ -107,12 +106,13 @@ std::vector<VadopGridBroadPhase::AxisSpan> VadopGridBroadPhase::volume(BodyId id
   std::vector<AxisSpan> out;
   const uint32_t s = id < slot_of_.size() ? slot_of_[id] : kNoSlot;
   if (s == kNoSlot) return out;
-  if (interval_ready_[s]) {
+  if (interval_ready_[s] == kIntervalsSet) {
     uint32_t i = 0;
     detail::forEachSetBit(&bits_[words_ * s], words_,
                           [&](uint32_t k) { out.push_back({k, intervals_[offset_[s] + i++]}); });
-  } else {  // lazy and not needed by the update; the motion is unchanged since (onSetMotion)
-    forEachProjected(s, [&](uint32_t k, const Interval& iv) { out.push_back({k, iv}); });
+  } else {  // lazy and not needed by the update: projected with the update's motion
+    const Motion& motion = interval_ready_[s] == kMotionKept ? update_motion_[s] : bodies()[id].motion;
+    forEachProjected(s, motion, [&](uint32_t k, const Interval& iv) { out.push_back({k, iv}); });
   }
   const uint32_t m = pool_ ? static_cast<uint32_t>(pool_->size()) : 0;
   for (uint32_t k = 0; k < 3; ++k) out.push_back({m + k, Interval{box_[6 * s + k], box_[6 * s + 3 + k]}});
@@ -143,9 +143,14 @@ void VadopGridBroadPhase::onAdd(BodyId id) {
 }
 
 void VadopGridBroadPhase::onSetMotion(BodyId id) {
-  // volume() reports the last update's intervals: compute a lazy slot's before its motion goes.
+  // volume() reports the last update's intervals: keep a lazy slot's motion before it goes
+  // (called before the base class stores the new motion).
   const uint32_t s = id < slot_of_.size() ? slot_of_[id] : kNoSlot;
-  if (s != kNoSlot) requireIntervals(s);
+  if (pool_ && s != kNoSlot && interval_ready_[s] == 0) {
+    if (update_motion_.size() < interval_ready_.size()) update_motion_.resize(interval_ready_.size());
+    update_motion_[s] = bodies()[id].motion;
+    interval_ready_[s] = kMotionKept;
+  }
   if (!dirty_flag_[id]) {
     dirty_flag_[id] = 1;
     dirty_.push_back(id);
@@ -154,8 +159,8 @@ void VadopGridBroadPhase::onSetMotion(BodyId id) {
 
 void VadopGridBroadPhase::projectSlot(uint32_t s) {
   Interval* out = intervals_.data() + offset_[s];
-  forEachProjected(s, [&](uint32_t, const Interval& iv) { *out++ = iv; });
-  interval_ready_[s] = 1;
+  forEachProjected(s, bodies()[slot_body_[s]].motion, [&](uint32_t, const Interval& iv) { *out++ = iv; });
+  interval_ready_[s] = kIntervalsSet;
 }
 
 void VadopGridBroadPhase::clearAxes(BodyId id) { std::fill_n(&axis_bits_[id * words_], words_, 0); }
@@ -456,7 +461,7 @@ void VadopGridBroadPhase::testSharedAxes(int threads, std::vector<Pair>& out) {
     need.clear();
     for (uint32_t s = 0; s < interval_ready_.size(); ++s) {
       if (interval_ready_[s] != kWanted) continue;
-      interval_ready_[s] = 1;  // set below, before anything reads it
+      interval_ready_[s] = kIntervalsSet;  // set below, before anything reads it
       need.push_back(s);
     }
     detail::parallelFor(threads, need.size(), kParallelBodies / 2, kBodyChunk, [&](size_t i) { projectSlot(need[i]); });

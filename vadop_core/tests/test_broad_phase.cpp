@@ -593,8 +593,10 @@ TEST(VadopGrid, LazyIntervalsReportTheUpdatesVolumeAfterSetMotion) {
     ASSERT_TRUE(lazy.stats().incremental);
     ASSERT_FALSE(eager.stats().incremental);
     ASSERT_EQ(lazy.pairs(), eager.pairs());
-    for (int k = 0; k < 20; ++k) {  // new motions after the update, before volume()
-      const BodyId id = ids[(f * 37 + k * 11) % ids.size()];
+    std::vector<Motion> at_update;  // each body's motion during the update
+    for (BodyId id : ids) at_update.push_back(lazy.motion(id));
+    for (int k = 0; k < 25; ++k) {  // new motions after the update (five bodies twice), before volume()
+      const BodyId id = ids[(f * 37 + (k % 20) * 11) % ids.size()];
       const Motion m = linear(lazy.motion(id).positionAt((f + 1) * dt), {w(rng), w(rng), w(rng)});
       lazy.setMotion(id, m);
       eager.setMotion(id, m);
@@ -602,11 +604,20 @@ TEST(VadopGrid, LazyIntervalsReportTheUpdatesVolumeAfterSetMotion) {
     for (BodyId id : ids) {
       const auto a = BroadPhaseTestAccess::volume(lazy, id), b = BroadPhaseTestAccess::volume(eager, id);
       ASSERT_EQ(a.size(), b.size()) << "body " << id << " frame " << f;
+      // The swept sphere over the update's frame with the update's motion, projected anew.
+      const SweptBody swept(makeSphere(0.5), at_update[id], f * dt, (f + 1) * dt);
+      size_t pool_spans = 0;
       for (size_t k = 0; k < a.size(); ++k) {
         ASSERT_EQ(a[k].axis, b[k].axis);
         ASSERT_EQ(a[k].interval.lo, b[k].interval.lo) << "body " << id << " axis " << a[k].axis << " frame " << f;
         ASSERT_EQ(a[k].interval.hi, b[k].interval.hi);
+        if (a[k].axis >= static_cast<uint32_t>(VadopConfig{}.axes)) continue;  // x, y, z of the box
+        const Interval want = swept.project(BroadPhaseTestAccess::axisDirection(lazy, a[k].axis));
+        ASSERT_EQ(a[k].interval.lo, want.lo) << "body " << id << " axis " << a[k].axis << " frame " << f;
+        ASSERT_EQ(a[k].interval.hi, want.hi);
+        ++pool_spans;
       }
+      EXPECT_GT(pool_spans, 0u);
     }
   }
 }

@@ -141,13 +141,13 @@ class VadopGridBroadPhase : public BroadPhase {
   // tests in stats_.
   void testSharedAxes(int threads, std::vector<Pair>& out);
   // f(axis, interval) for each pool axis of slot s: its body's swept volume over the last
-  // update's frame, projected now (the body's motion must be the update's).
+  // update's frame moving with `motion` (the update's), projected now.
   template <class F>
-  void forEachProjected(uint32_t s, F&& f) const;
+  void forEachProjected(uint32_t s, const Motion& motion, F&& f) const;
   // The slot's pool-axis intervals (see intervals_); slots are independent.
   void projectSlot(uint32_t s);
   void requireIntervals(uint32_t s) {
-    if (!interval_ready_[s]) projectSlot(s);
+    if (interval_ready_[s] != kIntervalsSet) projectSlot(s);
   }
 
   std::unique_ptr<AxisPool> pool_;
@@ -174,9 +174,13 @@ class VadopGridBroadPhase : public BroadPhase {
   std::vector<uint32_t> offset_;       // first interval of the slot
   // All slots' pool-axis intervals, computed for the slots of pairs whose boxes overlap only
   // (testSharedAxes; most slots in a crowded frame, few in a sparse one); interval_ready_ says
-  // which are set.
+  // which are set. A slot whose intervals were not computed and whose body got a new motion
+  // since keeps the update's motion in update_motion_ (for volume(); copying it costs a tenth
+  // of projecting, and setMotion runs for every body every cycle in the monitor).
+  static constexpr uint8_t kIntervalsSet = 1, kMotionKept = 3;
   std::vector<Interval> intervals_;
   std::vector<uint8_t> interval_ready_;
+  std::vector<Motion> update_motion_;  // per slot, valid where interval_ready_ is kMotionKept
   std::vector<SlotPairs> hits_;          // per block of the last update, the large bodies' last
   std::vector<uint32_t> scratch_slots_;  // the slots whose intervals an update computes
   double frame_t0_ = 0.0, frame_t1_ = 0.0;  // of the last update
