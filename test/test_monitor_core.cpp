@@ -11,6 +11,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <memory>
 #include <random>
 #include <set>
 
@@ -319,7 +320,8 @@ static_obstacles:
 }
 
 TEST(MonitorCore, RejectsABadVadopConfiguration) {
-  EXPECT_THROW(makeCore("axes: 3\nphi_deg: 1.0\n"), vadop_ros::ParamError);
+  // Checked where they are used: by the VADOP broad phase.
+  EXPECT_THROW(makeCore("broad_phase: vadop\naxes: 3\nphi_deg: 1.0\n"), vadop_ros::ParamError);
 }
 
 TEST(MonitorCore, RobotDrivingACurveIsPredictedOnItsArc) {
@@ -836,4 +838,47 @@ bodies:
   EXPECT_GT(seen, 60u);
   EXPECT_GT(links, 10u);
   EXPECT_GT(shrank, 5u);
+}
+
+// ~broad_phase: every broad phase hands the narrow phase the pairs that can touch, so the
+// impacts are those of brute force (every pair's swept boxes tested), cycle after cycle, in a
+// turning fleet.
+TEST(MonitorCore, EveryBroadPhaseReportsTheImpactsOfBruteForce) {
+  std::string config = "horizon: 2.0\nbodies:\n";
+  const char* shapes[] = {"{type: sphere, radius: 0.3}", "{type: box, size: [0.6, 0.4, 0.3]}",
+                          "{type: cylinder, radius: 0.25, length: 0.5}", "{type: capsule, radius: 0.2, length: 0.4}"};
+  constexpr int kBodies = 48;
+  for (int i = 0; i < kBodies; ++i) {
+    config += "  - {name: r" + std::to_string(i) + ", odom_topic: /r" + std::to_string(i) + ", shape: " + shapes[i % 4] + "}\n";
+  }
+  const std::vector<std::string> kinds = {"brute", "grid", "vadop", "sap", "vadop_sap"};
+  std::vector<std::unique_ptr<MonitorCore>> cores;  // MonitorCore does not move
+  for (const std::string& kind : kinds) {
+    cores.push_back(std::make_unique<MonitorCore>(vadop_ros::parseParams(vadop_test::yaml("broad_phase: " + kind + "\n" + config)), noParams()));
+  }
+  FakeTf tf;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> pos(-6.0, 6.0), speed(0.3, 1.5), turn(-0.5, 0.5), angle(-M_PI, M_PI);
+  size_t seen = 0;
+  for (int cycle = 0; cycle < 20; ++cycle) {
+    const double stamp = 100.0 + cycle / 30.0;
+    for (int i = 0; i < kBodies; ++i) {
+      const double heading = angle(rng), v = speed(rng);
+      nav_msgs::Odometry m = odom(stamp, pos(rng), pos(rng), v * std::cos(heading), v * std::sin(heading));
+      m.twist.twist.angular.z = turn(rng);
+      for (auto& core : cores) {
+        ASSERT_EQ(core->registry().onOdometry(i, m, ros::Time(stamp)), vadop_ros::InputResult::kAccepted);
+      }
+    }
+    const vadop::ImpactArray want = cores[0]->cycle(ros::Time(stamp), tf);
+    for (size_t c = 1; c < cores.size(); ++c) {
+      const auto& got = cores[c]->cycle(ros::Time(stamp), tf).impacts;
+      ASSERT_EQ(got.size(), want.impacts.size()) << kinds[c] << ", cycle " << cycle;
+      for (size_t k = 0; k < got.size(); ++k) {
+        EXPECT_EQ(MonitorCore::describe(got[k]), MonitorCore::describe(want.impacts[k])) << kinds[c] << ", cycle " << cycle;
+      }
+    }
+    seen += want.impacts.size();
+  }
+  EXPECT_GT(seen, 100u);
 }

@@ -38,7 +38,8 @@
 //
 // --fast F: a share F of the bodies 5 times faster (1.5-7.5 m/s: mixed speeds); --3d H: every
 // body also climbs and sinks at up to 0.5 m/s between 0 and H m (drones); --broadphase K: the
-// world's broad phase (vadop, grid, sap, vadop_sap, brute; ~broad_phase), the same narrow phase.
+// world's broad phase (grid, vadop, sap, vadop_sap, brute; ~broad_phase, default the node's: grid),
+// the same narrow phase.
 // --time-slices K: ~time_slices (the cull before the narrow phase; default the node's, 8; 1: none);
 // the column `culled` counts the broad phase's pairs it dropped per cycle.
 // --noise S: every odometry message's twist gets Gaussian noise of S (m/s on the forward speed,
@@ -198,7 +199,7 @@ struct Options {
   double churn = 0.2;
   int threads = 1;
   double fast = 0.0, ceiling = 0.0;
-  std::string broad_phase = "vadop";
+  std::string broad_phase = vadop_ros::MonitorParams{}.broad_phase;
   int time_slices = vadop_ros::MonitorParams{}.time_slices;
   double noise = 0.0;                       // --noise: odometry twist noise (m/s and rad/s, 1 sigma)
   bool paired = false;                      // --paired: also time the same cycle without coherence
