@@ -882,3 +882,44 @@ TEST(MonitorCore, EveryBroadPhaseReportsTheImpactsOfBruteForce) {
   }
   EXPECT_GT(seen, 100u);
 }
+
+// The ImpactArray's entries are written on the threads when a cycle has hundreds: the array and
+// the bodies' soonest times are those of one thread, cycle after cycle (the array shrinking and
+// growing).
+TEST(MonitorCore, ImpactArrayOnTheThreadsEqualsOneThread) {
+  std::string config = "horizon: 2.0\nbodies:\n";
+  constexpr int kBodies = 160;
+  for (int i = 0; i < kBodies; ++i) {
+    config += "  - {name: r" + std::to_string(i) + ", odom_topic: /r" + std::to_string(i) + ", shape: " +
+              (i % 2 ? "{type: sphere, radius: 0.3}" : "{type: box, size: [0.6, 0.4, 0.3]}") + "}\n";
+  }
+  MonitorCore one = makeCore("threads: 1\n" + config);
+  MonitorCore four = makeCore("threads: 4\n" + config);
+  FakeTf tf;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> speed(-1.5, 1.5), turn(-0.5, 0.5);
+  size_t threaded_cycles = 0;
+  for (int cycle = 0; cycle < 12; ++cycle) {
+    const double stamp = 100.0 + cycle / 30.0;
+    // Crowded (hundreds of impacts) or spread out (a few), in turn.
+    const double side = cycle % 3 == 2 ? 60.0 : 8.0;
+    std::uniform_real_distribution<double> pos(-side / 2, side / 2);
+    for (int i = 0; i < kBodies; ++i) {
+      nav_msgs::Odometry m = odom(stamp, pos(rng), pos(rng), speed(rng), speed(rng));
+      m.twist.twist.angular.z = turn(rng);
+      ASSERT_EQ(one.registry().onOdometry(i, m, ros::Time(stamp)), vadop_ros::InputResult::kAccepted);
+      ASSERT_EQ(four.registry().onOdometry(i, m, ros::Time(stamp)), vadop_ros::InputResult::kAccepted);
+    }
+    const vadop::ImpactArray want = one.cycle(ros::Time(stamp), tf);
+    const auto& got = four.cycle(ros::Time(stamp), tf).impacts;
+    ASSERT_EQ(got.size(), want.impacts.size()) << "cycle " << cycle;
+    for (size_t k = 0; k < got.size(); ++k) {
+      EXPECT_EQ(MonitorCore::describe(got[k]), MonitorCore::describe(want.impacts[k])) << "cycle " << cycle;
+      EXPECT_EQ(got[k].time_of_impact, want.impacts[k].time_of_impact);
+      EXPECT_EQ(got[k].in_contact, want.impacts[k].in_contact);
+    }
+    EXPECT_EQ(four.soonest(), one.soonest()) << "cycle " << cycle;
+    threaded_cycles += got.size() >= 256;  // two threads' worth (128 impacts each)
+  }
+  EXPECT_GE(threaded_cycles, 4u);
+}

@@ -1,5 +1,6 @@
 #include "vadop_ros/monitor_core.h"
 
+#include <vadop/detail/parallel_for.h>
 #include <vadop/error.h>
 
 #include <ros/console.h>
@@ -525,40 +526,51 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
   stats_.raw_impacts = raw.size();
 
   const auto& elements = registry_.elements();
+  // The impacts the pair rules keep (the world applies the same rules: syncWorld's groups and,
+  // when pair_rules_needed_, this predicate; without those rules it reports no ignored pair).
+  std::vector<uint32_t>& kept = kept_impacts_;
+  kept.clear();
+  for (size_t k = 0; k < raw.size(); ++k) {
+    if (pair_rules_needed_ && pairIgnored(raw[k].a, raw[k].b)) {
+      ++stats_.ignored_tested;
+      continue;
+    }
+    kept.push_back(static_cast<uint32_t>(k));
+  }
   // The array's entries are overwritten in place (their strings keep their storage from cycle
-  // to cycle: thousands of impacts a cycle in a large fleet), then cut to this cycle's count.
+  // to cycle), each by one thread: thousands a cycle in a large fleet, on the cycle's thread
+  // otherwise (mostly cache misses on the bodies' names).
   std::vector<vadop::Impact>& out = impacts_.impacts;
-  size_t count = 0;
+  out.resize(kept.size());
+  constexpr size_t kImpactsPerThread = 128, kImpactChunk = 32;
+  vadop::detail::parallelFor(vadop::detail::threadCount(params_.threads), kept.size(), kImpactsPerThread, kImpactChunk,
+                             [&](size_t i) {
+                               const RawImpact& hit = raw[kept[i]];
+                               vadop::Impact& msg = out[i];
+                               elementNames(hit.a, msg.body_a, msg.link_a);
+                               elementNames(hit.b, msg.body_b, msg.link_b);
+                               // In [0, horizon]: t0 + horizon - t0 may differ from the horizon by a rounding.
+                               msg.time_to_impact = std::min(params_.horizon, std::max(0.0, hit.time - t0_));
+                               // Saturates: now may be near 2^32 s.
+                               msg.time_of_impact = addSeconds(now, msg.time_to_impact);
+                               msg.point.x = hit.point.x();
+                               msg.point.y = hit.point.y();
+                               msg.point.z = hit.point.z();
+                               msg.normal.x = hit.normal.x();
+                               msg.normal.y = hit.normal.y();
+                               msg.normal.z = hit.normal.z();
+                               msg.closing_speed = hit.closing_speed;
+                               msg.in_contact = hit.initially_touching;
+                             });
   // The soonest time to impact of an element's body (a tracked object's own).
   auto soonest = [&](size_t element) -> double& {
     return isTrack(element) ? track_soonest_[element - trackBase()] : soonest_[elements[element].body];
   };
-  for (const RawImpact& hit : raw) {
-    // The world applies the same rules (syncWorld's groups and, when pair_rules_needed_, this
-    // predicate): without those rules no pair it reports is ignored.
-    if (pair_rules_needed_ && pairIgnored(hit.a, hit.b)) {
-      ++stats_.ignored_tested;
-      continue;
-    }
-    if (count == out.size()) out.emplace_back();
-    vadop::Impact& msg = out[count++];
-    elementNames(hit.a, msg.body_a, msg.link_a);
-    elementNames(hit.b, msg.body_b, msg.link_b);
-    // In [0, horizon]: t0 + horizon - t0 may differ from the horizon by a rounding.
-    msg.time_to_impact = std::min(params_.horizon, std::max(0.0, hit.time - t0_));
-    msg.time_of_impact = addSeconds(now, msg.time_to_impact);  // saturates: now may be near 2^32 s
-    msg.point.x = hit.point.x();
-    msg.point.y = hit.point.y();
-    msg.point.z = hit.point.z();
-    msg.normal.x = hit.normal.x();
-    msg.normal.y = hit.normal.y();
-    msg.normal.z = hit.normal.z();
-    msg.closing_speed = hit.closing_speed;
-    msg.in_contact = hit.initially_touching;
-    soonest(hit.a) = std::min(soonest(hit.a), msg.time_to_impact);
-    soonest(hit.b) = std::min(soonest(hit.b), msg.time_to_impact);
+  for (size_t i = 0; i < kept.size(); ++i) {
+    const RawImpact& hit = raw[kept[i]];
+    soonest(hit.a) = std::min(soonest(hit.a), out[i].time_to_impact);
+    soonest(hit.b) = std::min(soonest(hit.b), out[i].time_to_impact);
   }
-  out.resize(count);
   // The world sorts by time; the clamp to 0 keeps that order.
   stats_.impacts = impacts_.impacts.size();
   for (const RawImpact& u : predictor_.lastUndecided()) {

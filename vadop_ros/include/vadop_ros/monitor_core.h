@@ -228,6 +228,7 @@ class MonitorCore {
   vadop::ImpactArray impacts_;
   CycleStats stats_;
   std::vector<double> soonest_;
+  std::vector<uint32_t> kept_impacts_;  // cycle's scratch: the world's impacts the pair rules keep
   double t0_ = 0.0;  // registry seconds of the last cycle
   // Elements the world refused at predict, kept out while their motion stays the same.
   std::vector<char> refused_;
