@@ -106,6 +106,22 @@ void MonitorCore::elementNames(size_t element, std::string& body, std::string& l
   link = e.link;
 }
 
+void MonitorCore::writeImpact(const RawImpact& hit, const ros::Time& now, vadop::Impact& msg) const {
+  elementNames(hit.a, msg.body_a, msg.link_a);
+  elementNames(hit.b, msg.body_b, msg.link_b);
+  // In [0, horizon]: t0 + horizon - t0 may differ from the horizon by a rounding.
+  msg.time_to_impact = std::min(params_.horizon, std::max(0.0, hit.time - t0_));
+  msg.time_of_impact = addSeconds(now, msg.time_to_impact);  // saturates: now may be near 2^32 s
+  msg.point.x = hit.point.x();
+  msg.point.y = hit.point.y();
+  msg.point.z = hit.point.z();
+  msg.normal.x = hit.normal.x();
+  msg.normal.y = hit.normal.y();
+  msg.normal.z = hit.normal.z();
+  msg.closing_speed = hit.closing_speed;
+  msg.in_contact = hit.initially_touching;
+}
+
 void MonitorCore::syncGateWorld() {
   const auto& elements = registry_.elements();
   std::string error;
@@ -544,24 +560,7 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
   out.resize(kept.size());
   constexpr size_t kImpactsPerThread = 128, kImpactChunk = 32;
   vadop::detail::parallelFor(vadop::detail::threadCount(params_.threads), kept.size(), kImpactsPerThread, kImpactChunk,
-                             [&](size_t i) {
-                               const RawImpact& hit = raw[kept[i]];
-                               vadop::Impact& msg = out[i];
-                               elementNames(hit.a, msg.body_a, msg.link_a);
-                               elementNames(hit.b, msg.body_b, msg.link_b);
-                               // In [0, horizon]: t0 + horizon - t0 may differ from the horizon by a rounding.
-                               msg.time_to_impact = std::min(params_.horizon, std::max(0.0, hit.time - t0_));
-                               // Saturates: now may be near 2^32 s.
-                               msg.time_of_impact = addSeconds(now, msg.time_to_impact);
-                               msg.point.x = hit.point.x();
-                               msg.point.y = hit.point.y();
-                               msg.point.z = hit.point.z();
-                               msg.normal.x = hit.normal.x();
-                               msg.normal.y = hit.normal.y();
-                               msg.normal.z = hit.normal.z();
-                               msg.closing_speed = hit.closing_speed;
-                               msg.in_contact = hit.initially_touching;
-                             });
+                             [&](size_t i) { writeImpact(raw[kept[i]], now, out[i]); });
   // The soonest time to impact of an element's body (a tracked object's own).
   auto soonest = [&](size_t element) -> double& {
     return isTrack(element) ? track_soonest_[element - trackBase()] : soonest_[elements[element].body];

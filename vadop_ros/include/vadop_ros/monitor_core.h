@@ -194,6 +194,8 @@ class MonitorCore {
   static constexpr uint32_t kMovingGroup = 1u;
   static constexpr uint32_t kStaticGroup = 2u;
   void syncWorld(const ros::Time& now);
+  // One entry of the ImpactArray from the world's impact (thread-safe: reads only).
+  void writeImpact(const RawImpact& hit, const ros::Time& now, vadop::Impact& msg) const;
   // World::predict threw `error`: leaves out of the world every element whose motion is out of
   // range over the window or that the message names; false when none could be found.
   bool leaveOutOffenders(const std::string& error, const ros::Time& now);

@@ -130,7 +130,7 @@ struct MonitorParams {
   // The world's broad phase (vadop::parseBroadPhaseKind): "grid" (the plain swept-AABB grid,
   // default), "vadop", "sap", "vadop_sap" or "brute"; the impacts are the same, the cost
   // differs. grid is the default because, after the cull (time_slices), the velocity-aligned
-  // volumes remove no pair on the monitor's workloads and cost 6-57% of the cycle (README).
+  // volumes remove no pair on the monitor's workloads and cost up to 57% more (README).
   std::string broad_phase = "grid";
   // Time slices of the cull before the narrow phase (vadop::WorldConfig::time_slices),
   // [1, vadop::kMaxTimeSlices]; 1: none. The impacts are the same for every count.
