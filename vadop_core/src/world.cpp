@@ -398,17 +398,17 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
     (hit.hit ? found_hits : found_undecided)
         .push_back({hit.time, records_[tests[k].a].key, records_[tests[k].b].key, static_cast<uint32_t>(k)});
   }
-  auto build = [&](std::vector<Found>& found) {
-    std::sort(found.begin(), found.end());
-    std::vector<WorldImpact> list(found.size());
-    for (size_t i = 0; i < found.size(); ++i) {
-      const Candidate& c = tests[found[i].test];
+  auto build = [&](std::vector<Found>& order) {
+    std::sort(order.begin(), order.end());
+    std::vector<WorldImpact> list(order.size());
+    for (size_t i = 0; i < order.size(); ++i) {
+      const Candidate& c = tests[order[i].test];
       WorldImpact& w = list[i];
       w.a = records_[c.a].name;
       w.b = records_[c.b].name;
-      w.a_key = found[i].a_key;
-      w.b_key = found[i].b_key;
-      w.impact = results[found[i].test];
+      w.a_key = order[i].a_key;
+      w.b_key = order[i].b_key;
+      w.impact = results[order[i].test];
     }
     return list;
   };
