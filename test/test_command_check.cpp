@@ -237,6 +237,44 @@ bodies:
   EXPECT_EQ(c.status, CommandCheck::Status::kTfMissing) << c.why;
 }
 
+// States the library cannot carry to now: a gate refuses them instead of throwing (the node's
+// callback would die) or forwarding. A body twist source whose frame's pose comes from tf
+// stamped far from the clock (its motion's reference time beyond the library's range), and an
+// odometry received after the clock (the clock went back past it: its age is unknown).
+TEST(CommandCheck, StatesFarFromTheClockAreRefusedNotThrown) {
+  MonitorCore core = makeCore(R"(
+horizon: 5.0
+bodies:
+  - {name: a, twist_topic: /a, frame: a_base, shape: {type: sphere, radius: 0.5}}
+  - {name: b, odom_topic: /b, shape: {type: sphere, radius: 0.5}}
+)");
+  FakeTf tf;
+  Eigen::Isometry3d at = Eigen::Isometry3d::Identity();
+  at.translation() = Eigen::Vector3d(-2, 0, 0);
+  tf.set("odom", "a_base", at, ros::Time(100.0));
+  geometry_msgs::TwistStamped tw;
+  tw.header.stamp = ros::Time(100.0);
+  tw.twist.linear.x = 0.5;
+  ASSERT_EQ(core.registry().onTwist(0, tw, ros::Time(100.0)), vadop_ros::InputResult::kAccepted);
+  ASSERT_EQ(core.registry().onOdometry(1, odom(100.0, 2, 0, 0, 0), ros::Time(100.0)),
+            vadop_ros::InputResult::kAccepted);
+  core.cycle(ros::Time(100.0), tf);
+  CommandCheck c = core.checkCommand(0, {1, 0, 0}, kZero, ros::Time(100.0), tf, 5.0, 0.5);
+  ASSERT_EQ(c.status, CommandCheck::Status::kChecked) << c.why;
+  // a's pose is now stamped 2e7 s: the gate places the body anew and cannot.
+  tf.set("odom", "a_base", at, ros::Time(2e7));
+  ASSERT_NO_THROW(c = core.checkCommand(0, {1, 0, 0}, kZero, ros::Time(100.0), tf, 5.0, 0.5));
+  EXPECT_EQ(c.status, CommandCheck::Status::kTfMissing) << c.why;
+  EXPECT_NE(c.why.find("out of range"), std::string::npos) << c.why;
+  // b's odometry was received at 100 s; the clock is now at 99 s.
+  ASSERT_NO_THROW(c = core.checkCommand(1, {1, 0, 0}, kZero, ros::Time(99.0), tf, 5.0, 0.5));
+  EXPECT_EQ(c.status, CommandCheck::Status::kStale) << c.why;
+  EXPECT_NE(c.why.find("went back"), std::string::npos) << c.why;
+  // Within the clock's lag (a simulated /clock behind its messages): checked.
+  c = core.checkCommand(1, {1, 0, 0}, kZero, ros::Time(99.9), tf, 5.0, 0.5);
+  EXPECT_EQ(c.status, CommandCheck::Status::kChecked) << c.why;
+}
+
 // The markers of a checked command: the body's sweep under the gated command, in the gate's
 // namespace, ending where the scaled command takes it; nothing for a command not checked.
 TEST(CommandCheck, MarkersDrawTheGatedSweep) {

@@ -326,6 +326,11 @@ ros::Time addSeconds(const ros::Time& t, double s) {
   return out;
 }
 
+bool receiptFresh(const ros::Time& receipt, const ros::Time& now, double timeout) {
+  const double age = secondsBetween(now, receipt);
+  return age <= timeout && age >= -BodyRegistry::kClockLag;
+}
+
 std::string BodyRegistry::motionRangeError(const vadop::Motion& m, double t0, double t1) {
   using vadop::kMaxAngularSpeed;
   using vadop::kMaxCoordinate;
@@ -677,7 +682,7 @@ void BodyRegistry::updateJointBody(Body& b, const ros::Time& now, double t_now, 
   const size_t nj = kin.joints().size();
   // Joint j at time t (registry seconds): its position carried from its stamp with its velocity
   // (none when the joint states or the body are stale), clamped at its limits.
-  const bool joints_stale = !b.has_joints || secondsBetween(now, b.joint_receipt) > stale_timeout_;
+  const bool joints_stale = !b.has_joints || !receiptFresh(b.joint_receipt, now, stale_timeout_);
   std::vector<double> qt(nj, 0.0), rate(nj, 0.0), since(nj, t_now);
   bool moving = false;
   for (size_t j = 0; j < nj; ++j) {
@@ -1037,7 +1042,7 @@ void BodyRegistry::updateMoving(Body& b, const ros::Time& now, double t_now, dou
     b.status.state = BodyState::kTfMissing;
     return;
   }
-  const bool stale = secondsBetween(now, b.status.last_receipt) > stale_timeout_;
+  const bool stale = !receiptFresh(b.status.last_receipt, now, stale_timeout_);
   if (stale) {
     v.setZero();
     w.setZero();
@@ -1047,15 +1052,32 @@ void BodyRegistry::updateMoving(Body& b, const ros::Time& now, double t_now, dou
   // `now` (its stamp may be hours old, beyond the library's time range).
   const ros::Time motion_ref = stale ? now : t_ref;
   const double tr = seconds(motion_ref);
+  // The body frame's own motion, which its elements, its plan and the velocity gate all carry:
+  // out of the library's range over the window (a pose from tf stamped far from the clock), the
+  // body is left out as a whole, as when its transform is missing.
+  vadop::Motion frame;
+  std::string frame_error;
+  try {
+    frame = twistMotion(fb, v, w, tr);
+    frame_error = motionRangeError(frame, t_now, t_check_end);
+  } catch (const vadop::InvalidArgument& ex) {
+    frame_error = ex.what();
+  }
+  if (!frame_error.empty()) {
+    b.status.tf_error = "the body frame's motion is out of range: " + frame_error;
+    rejectInput(b, b.status.tf_error, now, false);
+    b.status.state = BodyState::kTfMissing;
+    return;
+  }
   if (b.kinematics) {
     try {
-      updateJointBody(b, now, t_now, t_check_end, twistMotion(fb, v, w, tr), stale);
+      updateJointBody(b, now, t_now, t_check_end, frame, stale);
     } catch (const vadop::InvalidArgument& ex) {
       rejectInput(b, std::string("invalid motion: ") + ex.what(), now, false);
     }
     b.tf_missing_since = ros::Time();
     b.status.state = stale ? BodyState::kStale : BodyState::kOk;
-    b.frame_motion = FrameMotion{true, stale, fb, v, w, tr};
+    b.frame_motion = FrameMotion{true, stale, fb, v, w, tr, frame};
     return;
   }
   const Eigen::Matrix3d& rb = fb.linear();
@@ -1141,11 +1163,8 @@ void BodyRegistry::updateMoving(Body& b, const ros::Time& now, double t_now, dou
   } else {
     b.tf_missing_since = ros::Time();
     b.status.state = stale ? BodyState::kStale : BodyState::kOk;
-    b.frame_motion = FrameMotion{true, stale, fb, v, w, tr};
-    if (!stale && !b.plan.empty()) {
-      // (twistMotion cannot throw here: the elements' motions from the same values were accepted.)
-      followPlan(b, now, t_now, t_check_end, twistMotion(fb, v, w, tr).poseAt(t_now));
-    }
+    b.frame_motion = FrameMotion{true, stale, fb, v, w, tr, frame};
+    if (!stale && !b.plan.empty()) followPlan(b, now, t_now, t_check_end, frame.poseAt(t_now));
   }
 }
 

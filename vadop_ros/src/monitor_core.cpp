@@ -208,9 +208,11 @@ CommandCheck MonitorCore::checkCommand(size_t body, const Eigen::Vector3d& v, co
     out.why = b.elements.empty() ? "no geometry" : "no state received yet";
     return out;
   }
-  if (secondsBetween(now, b.status.last_receipt) > state_timeout) {
+  if (!receiptFresh(b.status.last_receipt, now, state_timeout)) {
+    const double age = secondsBetween(now, b.status.last_receipt);
     out.status = Status::kStale;
-    out.why = "no state for " + std::to_string(secondsBetween(now, b.status.last_receipt)) + " s";
+    out.why = age >= 0.0 ? "no state for " + std::to_string(age) + " s"
+                         : "the last state was received " + std::to_string(-age) + " s after the node's clock (it went back)";
     return out;
   }
   for (size_t ei : b.elements) {
@@ -227,7 +229,7 @@ CommandCheck MonitorCore::checkCommand(size_t body, const Eigen::Vector3d& v, co
   }
   const double t_now = registry_.seconds(now);
   const FrameMotion& fm = b.frame_motion;
-  const vadop::Motion frame = twistMotion(fm.pose, fm.v, fm.w, fm.t_ref);
+  const vadop::Motion& frame = fm.motion;
   const Eigen::Isometry3d pose = frame.poseAt(t_now);
   const Eigen::Vector3d frame_v = frame.velocityOfPoint(pose.translation(), t_now);
   // The command in the fixed frame.

@@ -52,10 +52,12 @@
 //    <= kMaxCoordinate, |position| within the window <= kMaxReach, |velocities| <= the limits,
 //    |t_ref| <= kMaxTime): an element outside it is left out of the world this cycle, with a
 //    warning (throttled per body) and the body marked bad input. Static obstacles too;
-//  - no accepted message for stale_timeout (by receipt time): the body stands still at its
-//    last pose (zero velocity) and is flagged stale;
+//  - no accepted message for stale_timeout (by receipt time), or the last one received after
+//    the clock by more than kClockLag (the clock went back past it: its age is unknown): the
+//    body stands still at its last pose (zero velocity) and is flagged stale;
 //  - a transform missing: the body (or that link) is skipped this cycle; a warning (throttled)
-//    once it has been missing for kTfWarnAfter;
+//    once it has been missing for kTfWarnAfter. The body frame's motion out of the range above
+//    (a pose from tf stamped far from the clock): skipped the same way, said why;
 //  - URDF that does not parse / a link that cannot be converted: an error naming the body (and
 //    link) in its status; the rest is monitored.
 #pragma once
@@ -105,6 +107,11 @@ ros::Time addSeconds(const ros::Time& t, double s);
 // "" when `stamp` is within max_skew seconds of `receipt` (the node's clock), else why not
 // (a message so far off would blind a body, or be extrapolated over hours).
 std::string stampSkewError(const ros::Time& stamp, const ros::Time& receipt, double max_skew);
+// Whether a state received at `receipt` still describes its body at `now`: received at most
+// `timeout` seconds before, and not after `now` by more than a simulated clock may lag its
+// messages (BodyRegistry::kClockLag). A receipt further ahead means the clock went back past it:
+// its age is unknown, so it counts as stale (a stale body stands still; a gate stops it).
+bool receiptFresh(const ros::Time& receipt, const ros::Time& now, double timeout);
 
 // tf as the registry sees it: a tf2_ros::Buffer in the node, a table in tests.
 class TransformSource {
@@ -203,6 +210,8 @@ vadop::Motion twistMotion(const Eigen::Isometry3d& pose, const Eigen::Vector3d& 
 
 // A body frame moving with constant linear and angular velocity (fixed frame) from t_ref (the
 // registry's seconds): pose at t_ref; stale when the state timed out (v = w = 0, t_ref = now).
+// Valid only when `motion` (twistMotion of the rest) is within the library's range over the
+// prediction window, so that its readers (the plan, the velocity gate) need not check it again.
 struct FrameMotion {
   bool valid = false;
   bool stale = false;
@@ -210,6 +219,7 @@ struct FrameMotion {
   Eigen::Vector3d v = Eigen::Vector3d::Zero();
   Eigen::Vector3d w = Eigen::Vector3d::Zero();
   double t_ref = 0.0;
+  vadop::Motion motion;
 };
 
 struct Body {
