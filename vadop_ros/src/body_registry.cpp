@@ -1086,7 +1086,13 @@ void BodyRegistry::updateMoving(Body& b, const ros::Time& now, double t_now, dou
     Eigen::Isometry3d pe;
     Eigen::Vector3d ve, we;
     if (e.tf_frame.empty()) {
-      pe = e.offset.matrix() == Eigen::Matrix4d::Identity() ? fb : fb * e.offset;  // one shape at the body frame
+      if (e.offset.matrix() == Eigen::Matrix4d::Identity()) {
+        // One shape at the body frame (most bodies): the frame's motion, already checked.
+        e.motion = frame;
+        e.active = true;
+        continue;
+      }
+      pe = fb * e.offset;
       ve = v + w.cross(pe.translation() - fb.translation());
       we = w;
     } else {
