@@ -172,6 +172,27 @@ SweptBody::SweptBody(const Shape& shape, const Motion& motion, double t0, double
   translating_sphere_ = shape.type == ShapeType::kSphere && !motion.hasPivot() && chord_ == 0.0;
 }
 
+namespace {
+
+// r = r * step and r = step * r, a row (column) at a time from values held in registers.
+// Eigen's product into a temporary stored the matrix in 8- and 16-byte pieces that the next
+// part's 16-byte loads straddled: a store-forwarding stall that took a third of partBoxes' time
+// (perf annotate, 10,000 bodies).
+void stepRotation(Eigen::Matrix3d& r, const Eigen::Matrix3d& step) {
+  for (int i = 0; i < 3; ++i) {
+    const double a = r(i, 0), b = r(i, 1), c = r(i, 2);
+    for (int j = 0; j < 3; ++j) r(i, j) = a * step(0, j) + b * step(1, j) + c * step(2, j);
+  }
+}
+void turnRotation(const Eigen::Matrix3d& step, Eigen::Matrix3d& r) {
+  for (int j = 0; j < 3; ++j) {
+    const double a = r(0, j), b = r(1, j), c = r(2, j);
+    for (int i = 0; i < 3; ++i) r(i, j) = step(i, 0) * a + step(i, 1) * b + step(i, 2) * c;
+  }
+}
+
+}  // namespace
+
 void SweptBody::partBoxes(const Shape& shape, const Motion& motion, double t0, double t1, int parts, double* out) {
   // The bounds of one SweptBody per part, without building one: what does not depend on the
   // part (spin axis, chord, the rotation term of each coordinate axis) is computed once, and
@@ -217,12 +238,8 @@ void SweptBody::partBoxes(const Shape& shape, const Motion& motion, double t0, d
     const Eigen::Vector3d shift = pivot ? Eigen::Vector3d(-(spin * motion.pivot_offset)) : Eigen::Vector3d::Zero();
     boxOf(shape, rotation_t, c0, c1, shift, rot, out);
     if (w > 0.0) {
-      if (pivot) spin = (turn * spin).eval();
-      if (!sphere) {
-        Eigen::Matrix3d next;
-        next.noalias() = rotation_t * turn_t;
-        rotation_t = next;
-      }
+      if (pivot) turnRotation(turn, spin);
+      if (!sphere) stepRotation(rotation_t, turn_t);
     }
     c0 = c1;
   }
