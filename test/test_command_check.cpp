@@ -49,6 +49,28 @@ bodies:
 
 const Eigen::Vector3d kZero = Eigen::Vector3d::Zero();
 
+// a: a body twist source (frame a_base, posed by tf at x = -2); b: odometry at x = 2; both still,
+// their states received at 100 s; a's pose stamped `tf_stamp`.
+const char* kTwistAndOdometry = R"(
+horizon: 5.0
+bodies:
+  - {name: a, twist_topic: /a, frame: a_base, shape: {type: sphere, radius: 0.5}}
+  - {name: b, odom_topic: /b, shape: {type: sphere, radius: 0.5}}
+)";
+void poseA(FakeTf& tf, const ros::Time& tf_stamp) {
+  Eigen::Isometry3d at = Eigen::Isometry3d::Identity();
+  at.translation() = Eigen::Vector3d(-2, 0, 0);
+  tf.set("odom", "a_base", at, tf_stamp);
+}
+void stateTwistAndOdometry(MonitorCore& core, FakeTf& tf, const ros::Time& tf_stamp) {
+  poseA(tf, tf_stamp);
+  geometry_msgs::TwistStamped tw;
+  tw.header.stamp = ros::Time(100.0);
+  ASSERT_EQ(core.registry().onTwist(0, tw, ros::Time(100.0)), vadop_ros::InputResult::kAccepted);
+  ASSERT_EQ(core.registry().onOdometry(1, odom(100.0, 2, 0, 0, 0), ros::Time(100.0)),
+            vadop_ros::InputResult::kAccepted);
+}
+
 }  // namespace
 
 // a at x = -2 and b at x = 2, both still: a gap of 3 m ahead of a.
@@ -214,20 +236,9 @@ TEST(CommandCheck, WhatCannotBeCheckedIsSaidNotGuessed) {
 
 // A body twist source whose frame has no transform: the gate cannot place the body.
 TEST(CommandCheck, AMissingTransformIsReported) {
-  MonitorCore core = makeCore(R"(
-horizon: 5.0
-bodies:
-  - {name: a, twist_topic: /a, frame: a_base, shape: {type: sphere, radius: 0.5}}
-  - {name: b, odom_topic: /b, shape: {type: sphere, radius: 0.5}}
-)");
+  MonitorCore core = makeCore(kTwistAndOdometry);
   FakeTf tf;
-  Eigen::Isometry3d at = Eigen::Isometry3d::Identity();
-  at.translation() = Eigen::Vector3d(-2, 0, 0);
-  tf.set("odom", "a_base", at);
-  geometry_msgs::TwistStamped tw;
-  tw.header.stamp = ros::Time(100.0);
-  core.registry().onTwist(0, tw, ros::Time(100.0));
-  core.registry().onOdometry(1, odom(100.0, 2, 0, 0, 0), ros::Time(100.0));
+  stateTwistAndOdometry(core, tf, ros::Time(1.0));
   core.cycle(ros::Time(100.0), tf);
   CommandCheck c = core.checkCommand(0, {1, 0, 0}, kZero, ros::Time(100.0), tf, 5.0, 0.5);
   ASSERT_EQ(c.status, CommandCheck::Status::kChecked) << c.why;
@@ -242,27 +253,14 @@ bodies:
 // stamped far from the clock (its motion's reference time beyond the library's range), and an
 // odometry received after the clock (the clock went back past it: its age is unknown).
 TEST(CommandCheck, StatesFarFromTheClockAreRefusedNotThrown) {
-  MonitorCore core = makeCore(R"(
-horizon: 5.0
-bodies:
-  - {name: a, twist_topic: /a, frame: a_base, shape: {type: sphere, radius: 0.5}}
-  - {name: b, odom_topic: /b, shape: {type: sphere, radius: 0.5}}
-)");
+  MonitorCore core = makeCore(kTwistAndOdometry);
   FakeTf tf;
-  Eigen::Isometry3d at = Eigen::Isometry3d::Identity();
-  at.translation() = Eigen::Vector3d(-2, 0, 0);
-  tf.set("odom", "a_base", at, ros::Time(100.0));
-  geometry_msgs::TwistStamped tw;
-  tw.header.stamp = ros::Time(100.0);
-  tw.twist.linear.x = 0.5;
-  ASSERT_EQ(core.registry().onTwist(0, tw, ros::Time(100.0)), vadop_ros::InputResult::kAccepted);
-  ASSERT_EQ(core.registry().onOdometry(1, odom(100.0, 2, 0, 0, 0), ros::Time(100.0)),
-            vadop_ros::InputResult::kAccepted);
+  stateTwistAndOdometry(core, tf, ros::Time(100.0));
   core.cycle(ros::Time(100.0), tf);
   CommandCheck c = core.checkCommand(0, {1, 0, 0}, kZero, ros::Time(100.0), tf, 5.0, 0.5);
   ASSERT_EQ(c.status, CommandCheck::Status::kChecked) << c.why;
   // a's pose is now stamped 2e7 s: the gate places the body anew and cannot.
-  tf.set("odom", "a_base", at, ros::Time(2e7));
+  poseA(tf, ros::Time(2e7));
   ASSERT_NO_THROW(c = core.checkCommand(0, {1, 0, 0}, kZero, ros::Time(100.0), tf, 5.0, 0.5));
   EXPECT_EQ(c.status, CommandCheck::Status::kTfMissing) << c.why;
   EXPECT_NE(c.why.find("out of range"), std::string::npos) << c.why;

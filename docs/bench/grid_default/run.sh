@@ -1,7 +1,8 @@
 #!/bin/bash
-# The node's new default (broad_phase: grid) and setMotion without eager intervals, against the
-# commit before (BB): both builds with both broad phases, the four runs of each workload in an
-# order rotated each round. Rows into $OUT as round,build,broad_phase,arguments,<the bench's row>.
+# Two builds of vadop_monitor_bench (B: the change, BB: a base commit's) with both broad phases,
+# the four runs of each workload in an order rotated each round. Rows into $OUT as
+# round,build,broad_phase,arguments,<the bench's row>. Used for docs/bench/grid_default (BB =
+# 89a7a11) and docs/bench/part_boxes (BB = 49ffc57).
 export PATH=/usr/bin:$PATH
 B=${B:-/work/b/ros/devel/lib/vadop/vadop_monitor_bench}
 BB=${BB:-/work/b/basehead/devel/lib/vadop/vadop_monitor_bench}

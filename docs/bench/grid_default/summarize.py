@@ -1,7 +1,8 @@
 # Medians (ranges) of run.sh's rows per build and broad phase, and ratios per round: the new
-# default (new grid) against the old (base vadop), and each broad phase against itself (the
-# library's changes: setMotion without the eager intervals, the impacts ordered on small records). Usage: python3 summarize.py monitor.csv  (CPU mean of the cycle thread
-# for --threads 1, else the wall median per cycle).
+# build's grid (the node's default) against the base build's vadop (its default before 49ffc57),
+# each broad phase of the new build against the base build's, and vadop / grid in the new build.
+# Usage: python3 summarize.py monitor.csv  (CPU mean of the cycle thread for --threads 1, else
+# the wall median per cycle).
 import collections, statistics, sys
 
 rows = collections.defaultdict(dict)  # (args, bodies) -> {(round, build, bp): value}
@@ -35,6 +36,7 @@ for (args, bodies), v in rows.items():
     print(f"{label} [{bodies}] candidates grid {cands.get('grid')} vadop {cands.get('vadop')}")
     for key in [("base", "vadop"), ("base", "grid"), ("new", "vadop"), ("new", "grid")]:
         print(f"  {key[0]:4} {key[1]:5} {show(v, key)}")
-    print(f"  new default / old default (new grid / base vadop): {ratio(v, ('new', 'grid'), ('base', 'vadop'))}")
-    print(f"  the library's changes (setMotion, the ordered impacts): vadop {ratio(v, ('new', 'vadop'), ('base', 'vadop'))}, "
+    print(f"  new grid / base vadop: {ratio(v, ('new', 'grid'), ('base', 'vadop'))}")
+    print(f"  new build / base build: vadop {ratio(v, ('new', 'vadop'), ('base', 'vadop'))}, "
           f"grid {ratio(v, ('new', 'grid'), ('base', 'grid'))}")
+    print(f"  vadop / grid in the new build: {ratio(v, ('new', 'vadop'), ('new', 'grid'))}")
