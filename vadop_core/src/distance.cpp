@@ -167,6 +167,10 @@ struct Gjk {
   // The direction (along a - b) that certified the largest lower bound of the core distance.
   double best_lower = -std::numeric_limits<double>::infinity();
   Eigen::Vector3d best_dir = Eigen::Vector3d::Zero();
+  // overlap: the final simplex, holding the origin (a tetrahedron, or a triangle, a
+  // segment or a point passing through it).
+  SVert simplex[4];
+  int simplex_n = 0;
 };
 
 template <class CA, class CB>
@@ -345,7 +349,9 @@ Gjk runGjk(const CA& A, const CB& B, Eigen::Vector3d guess, double abs_tol, doub
   for (; it < max_iter; ++it) {
     const double vv = v.squaredNorm();
     if (vv <= tiny * tiny) {
-      r.overlap = true;  // touching exactly (within rounding): distance 0
+      r.overlap = true;  // the origin on the simplex (within rounding): distance 0 or less
+      for (int k = 0; k < n; ++k) r.simplex[k] = s[k];
+      r.simplex_n = n;
       break;
     }
     const SVert w = makeVert(A, B, -v);
@@ -367,6 +373,8 @@ Gjk runGjk(const CA& A, const CB& B, Eigen::Vector3d guess, double abs_tol, doub
     s[n++] = w;
     if (!closestOnSimplex(s, n, lambda)) {
       r.overlap = true;
+      for (int k = 0; k < n; ++k) r.simplex[k] = s[k];
+      r.simplex_n = n;
       break;
     }
     const Eigen::Vector3d nv = closestPoint(s, n, lambda);
@@ -404,50 +412,212 @@ Eigen::Vector3d anyPerpendicular(const Eigen::Vector3d& n) {
   return n.cross(t).normalized();
 }
 
-// Overlapping cores: the direction of least penetration, by maximising the separation
-// over unit directions (hill climbing from the centre line and the bodies' axes).
-Eigen::Vector3d penetrationDirection(const Convex& A, const Convex& B, const Eigen::Vector3d& hint) {
-  std::vector<Eigen::Vector3d> cand;
-  if (hint.squaredNorm() > 0.0) cand.push_back(hint.normalized());
-  const Eigen::Vector3d cc = B.origin() - A.origin();
-  if (cc.squaredNorm() > 0.0) cand.push_back(cc.normalized());
-  // Centroids of the cores (meaningful for triangles, whose p is the mesh origin).
-  const Eigen::Vector3d ca = A.shape ? A.origin() : Eigen::Vector3d((A.tri[0] + A.tri[1] + A.tri[2]) / 3.0);
-  const Eigen::Vector3d cb = B.shape ? B.origin() : Eigen::Vector3d((B.tri[0] + B.tri[1] + B.tri[2]) / 3.0);
-  if ((cb - ca).squaredNorm() > 0.0) cand.push_back((cb - ca).normalized());
-  for (const Convex* c : {&A, &B}) {
-    if (c->shape) {
+// Unit directions, each tried with both signs.
+struct Axes {
+  static constexpr int kMax = 32;
+  Eigen::Vector3d v[kMax];
+  int n = 0;
+  void add(const Eigen::Vector3d& d) {
+    const double dd = d.squaredNorm();
+    if (dd > 0.0 && n < kMax) v[n++] = d / std::sqrt(dd);
+  }
+};
+
+// The facet normals and edge directions of a polytope core (point, segment, box, triangle),
+// world frame; false for a cylinder or a point cloud, whose facets are not at hand.
+bool polytopeFeatures(const Convex& c, Axes& faces, Axes& edges) {
+  if (c.shape == nullptr) {
+    faces.add((c.tri[1] - c.tri[0]).cross(c.tri[2] - c.tri[0]));
+    for (int k = 0; k < 3; ++k) edges.add(c.tri[(k + 1) % 3] - c.tri[k]);
+    return true;
+  }
+  switch (c.shape->kind) {
+    case CoreKind::kPoint: return true;
+    case CoreKind::kSegment:
+      edges.add(c.R.col(2));
+      // Another point or a parallel segment: their difference is a segment through the
+      // origin, whose least separation is 0 along any perpendicular.
+      faces.add(anyPerpendicular(c.R.col(2)));
+      return true;
+    case CoreKind::kBox:
       for (int k = 0; k < 3; ++k) {
-        cand.push_back(c->R.col(k));
-        cand.push_back(-c->R.col(k));
+        faces.add(c.R.col(k));
+        edges.add(c.R.col(k));
       }
-    } else {
-      const Eigen::Vector3d tn = (c->tri[1] - c->tri[0]).cross(c->tri[2] - c->tri[0]);
-      if (tn.squaredNorm() > 0.0) {
-        cand.push_back(tn.normalized());
-        cand.push_back(-tn.normalized());
+      return true;
+    default: return false;
+  }
+}
+
+// Expanding polytope (EPA) on the cores' difference K = A - B, which holds the origin: the
+// polytope, inside K, starts as the GJK's final tetrahedron; its face nearest the origin is
+// pushed out to K's support along the face's normal n until that support gains at most
+// `tol` over the face. The least penetration depth then lies between the face's distance
+// and h_K(n), so n is within `tol` of the best separating direction, wherever on K it lies
+// (a hill climb only finds the nearest local maximum). False when the polytope degenerates
+// (flat faces, a tetrahedron with the origin on its boundary) or the budget runs out;
+// `best` then holds the best direction met (when any).
+bool expandingPolytope(const Convex& A, const Convex& B, const SVert* tet, double tol, Eigen::Vector3d* best) {
+  struct Face {
+    int v[3];
+    Eigen::Vector3d n;
+    double d;
+  };
+  constexpr int kMaxIterations = 48;
+  std::vector<Eigen::Vector3d> w;  // vertices of the polytope
+  w.reserve(4 + kMaxIterations);
+  for (int k = 0; k < 4; ++k) w.push_back(tet[k].w);
+  std::vector<Face> faces;
+  faces.reserve(64);
+  auto addFace = [&](int a, int b, int c) {
+    Face f{{a, b, c}, (w[b] - w[a]).cross(w[c] - w[a]), 0.0};
+    const double len = f.n.norm();
+    if (!(len > 1e-12 * (w[b] - w[a]).norm() * (w[c] - w[a]).norm()) || !(len > 0.0)) return false;
+    f.n /= len;
+    f.d = f.n.dot(w[a]);
+    faces.push_back(f);
+    return true;
+  };
+  // The tetrahedron's faces, wound outward.
+  const double orient = (w[1] - w[0]).cross(w[2] - w[0]).dot(w[3] - w[0]);
+  if (!(std::abs(orient) > 0.0)) return false;
+  const int kTet[4][3] = {{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}};
+  for (const auto& t : kTet) {
+    if (!(orient < 0.0 ? addFace(t[0], t[1], t[2]) : addFace(t[0], t[2], t[1]))) return false;
+  }
+  double best_h = kInf;
+  const double flat = 1e-12 * (1.0 + A.lever + B.lever + (B.p - A.p).norm());
+  std::vector<std::pair<int, int>> horizon;
+  for (int it = 0; it < kMaxIterations; ++it) {
+    size_t near = 0;
+    for (size_t f = 1; f < faces.size(); ++f) {
+      if (faces[f].d < faces[near].d) near = f;
+    }
+    const Face f = faces[near];
+    if (f.d < -tol) return false;  // the origin outside: not a valid start
+    const Eigen::Vector3d x = makeVert(A, B, f.n).w;
+    const double h = f.n.dot(x);
+    if (h < best_h) {
+      best_h = h;
+      *best = f.n;
+    }
+    if (h - f.d <= tol) return true;
+    // Faces that see x go; the edges they leave open (the horizon) are joined to x. A face
+    // whose plane x lies in (support points on a cylinder's cap, a segment) stays: seen by a
+    // rounding error, it would cut the horizon into pieces.
+    horizon.clear();
+    for (size_t g = 0; g < faces.size();) {
+      if (faces[g].n.dot(x - w[faces[g].v[0]]) > flat) {
+        for (int e = 0; e < 3; ++e) {
+          const std::pair<int, int> edge(faces[g].v[e], faces[g].v[(e + 1) % 3]);
+          const auto twin = std::find(horizon.begin(), horizon.end(), std::make_pair(edge.second, edge.first));
+          if (twin != horizon.end()) {
+            horizon.erase(twin);
+          } else {
+            horizon.push_back(edge);
+          }
+        }
+        faces[g] = faces.back();
+        faces.pop_back();
+      } else {
+        ++g;
+      }
+    }
+    w.push_back(x);
+    const int xi = static_cast<int>(w.size()) - 1;
+    for (const auto& e : horizon) {
+      if (!addFace(e.first, e.second, xi)) return false;
+    }
+    if (faces.empty()) return false;
+  }
+  return false;
+}
+
+// A tetrahedron of support points of A - B holding the origin (inside or on a face), from
+// the GJK's final simplex: a triangle through the origin (the supports of a cylinder along
+// directions in a plane holding its axis all lie in that plane) gets the support along its
+// normal, a segment first the support along a perpendicular. False if none is found.
+bool enclosingTetrahedron(const Convex& A, const Convex& B, const Gjk& g, SVert* tet) {
+  int n = g.simplex_n;
+  for (int k = 0; k < n; ++k) tet[k] = g.simplex[k];
+  if (n == 2) {
+    const Eigen::Vector3d e = tet[1].w - tet[0].w;
+    if (!(e.squaredNorm() > 0.0)) return false;
+    tet[n++] = makeVert(A, B, anyPerpendicular(e));
+  }
+  if (n == 3) {
+    const Eigen::Vector3d nrm = (tet[1].w - tet[0].w).cross(tet[2].w - tet[0].w);
+    if (!(nrm.squaredNorm() > 0.0)) return false;
+    tet[3] = makeVert(A, B, nrm);
+    // The origin lies in the triangle's plane, and K beyond it on one side at least.
+    if (!(nrm.dot(tet[3].w - tet[0].w) > 0.0)) tet[3] = makeVert(A, B, -nrm);
+    n = 4;
+  }
+  return n == 4;
+}
+
+// Overlapping cores: the direction of least penetration, maximising the separation over
+// unit directions. When both cores are polytopes the maximum is exact: the separation of
+// the padded shapes is the core separation minus the roundings, so it is largest along a
+// facet normal of the cores' Minkowski difference (the origin lies inside it), and every
+// such normal is a facet normal of one core or the cross product of an edge of each
+// (separating axes). A cylinder or a point cloud: the expanding polytope, to 1e-9 of the
+// shapes' size; where it cannot run (the GJK stopped on a flat simplex: the cores touch
+// within rounding) or does not converge, hill climbing from the centre lines, the bodies'
+// axes and the polytope's best direction.
+Eigen::Vector3d penetrationDirection(const Convex& A, const Convex& B, const Gjk& g) {
+  Axes faces, edges_a, edges_b;
+  const bool polytope_a = polytopeFeatures(A, faces, edges_a);
+  const bool polytope_b = polytopeFeatures(B, faces, edges_b);
+  const bool polytopes = polytope_a && polytope_b;
+  Eigen::Vector3d expanded = Eigen::Vector3d::Zero();
+  SVert tet[4];
+  if (!polytopes && enclosingTetrahedron(A, B, g, tet) &&
+      expandingPolytope(A, B, tet, 1e-9 * (A.lever + B.lever), &expanded)) {
+    return expanded;
+  }
+  Axes cand = faces;
+  for (int i = 0; i < edges_a.n; ++i) {
+    for (int j = 0; j < edges_b.n; ++j) cand.add(edges_a.v[i].cross(edges_b.v[j]));
+  }
+  if (!polytopes) {
+    cand.add(expanded);
+    cand.add(-g.v);
+    cand.add(B.origin() - A.origin());
+    // Centroids of the cores (meaningful for triangles, whose p is the mesh origin).
+    const Eigen::Vector3d ca = A.shape ? A.origin() : Eigen::Vector3d((A.tri[0] + A.tri[1] + A.tri[2]) / 3.0);
+    const Eigen::Vector3d cb = B.shape ? B.origin() : Eigen::Vector3d((B.tri[0] + B.tri[1] + B.tri[2]) / 3.0);
+    cand.add(cb - ca);
+    for (const Convex* c : {&A, &B}) {
+      if (c->shape) {
+        for (int k = 0; k < 3; ++k) cand.add(c->R.col(k));
+      }
+    }
+    for (int k = 0; k < 3; ++k) cand.add(Eigen::Vector3d::Unit(k));
+  }
+  // Two points at the same place: every direction separates them equally.
+  Eigen::Vector3d best = cand.n > 0 ? cand.v[0] : Eigen::Vector3d::UnitX();
+  double bs = separation(A, B, best);
+  for (int i = 0; i < cand.n; ++i) {
+    for (const Eigen::Vector3d& c : {cand.v[i], Eigen::Vector3d(-cand.v[i])}) {
+      const double s = separation(A, B, c);
+      if (s > bs) {
+        bs = s;
+        best = c;
       }
     }
   }
-  for (int k = 0; k < 3; ++k) {
-    cand.push_back(Eigen::Vector3d::Unit(k));
-    cand.push_back(-Eigen::Vector3d::Unit(k));
-  }
-  Eigen::Vector3d best = cand[0];
-  double bs = -kInf;
-  for (const auto& c : cand) {
-    const double s = separation(A, B, c);
-    if (s > bs) {
-      bs = s;
-      best = c;
-    }
-  }
+  if (polytopes) return best;
+  // Eight compass directions: a ridge at an angle to the frame is followed, not stalled on.
+  constexpr double kDiag = 0.70710678118654752;
   double step = 0.25;
   for (int it = 0; it < 400 && step > 1e-7; ++it) {
     const Eigen::Vector3d e1 = anyPerpendicular(best);
     const Eigen::Vector3d e2 = best.cross(e1);
+    const Eigen::Vector3d d1 = kDiag * (e1 + e2), d2 = kDiag * (e1 - e2);
     bool improved = false;
-    for (const Eigen::Vector3d& e : {e1, Eigen::Vector3d(-e1), e2, Eigen::Vector3d(-e2)}) {
+    for (const Eigen::Vector3d& e : {e1, Eigen::Vector3d(-e1), e2, Eigen::Vector3d(-e2), d1, Eigen::Vector3d(-d1), d2,
+                                     Eigen::Vector3d(-d2)}) {
       const Eigen::Vector3d c = (best + step * e).normalized();
       const double s = separation(A, B, c);
       if (s > bs) {
@@ -495,7 +665,7 @@ DistanceResult convexDistance(const Convex& A, const Convex& B, const Eigen::Vec
     return r;
   }
   r.cores_overlap = true;
-  const Eigen::Vector3d n = penetrationDirection(A, B, -g.v);
+  const Eigen::Vector3d n = penetrationDirection(A, B, g);
   if (cert) *cert = n;
   r.normal = n;
   r.lower_bound = separation(A, B, n);
