@@ -459,23 +459,27 @@ bool polytopeFeatures(const Convex& c, Axes& faces, Axes& edges) {
 // `best` then holds the best direction met (when any).
 bool expandingPolytope(const Convex& A, const Convex& B, const SVert* tet, double tol, Eigen::Vector3d* best) {
   struct Face {
+    Eigen::Vector3d n;  // unit, outward
+    double d;           // n.x on the face: its distance from the origin
     int v[3];
-    Eigen::Vector3d n;
-    double d;
   };
+  // Each step adds a vertex; a closed triangulation of V vertices has 2V - 4 faces and at
+  // most 3V - 6 edges, which bounds the faces and the horizon.
   constexpr int kMaxIterations = 48;
-  std::vector<Eigen::Vector3d> w;  // vertices of the polytope
-  w.reserve(4 + kMaxIterations);
-  for (int k = 0; k < 4; ++k) w.push_back(tet[k].w);
-  std::vector<Face> faces;
-  faces.reserve(64);
+  constexpr int kMaxVertices = 4 + kMaxIterations;
+  constexpr int kMaxFaces = 2 * kMaxVertices;
+  Eigen::Vector3d w[kMaxVertices];
+  int nw = 0;
+  for (int k = 0; k < 4; ++k) w[nw++] = tet[k].w;
+  Face faces[kMaxFaces];
+  int nf = 0;
   auto addFace = [&](int a, int b, int c) {
-    Face f{{a, b, c}, (w[b] - w[a]).cross(w[c] - w[a]), 0.0};
-    const double len = f.n.norm();
-    if (!(len > 1e-12 * (w[b] - w[a]).norm() * (w[c] - w[a]).norm()) || !(len > 0.0)) return false;
-    f.n /= len;
-    f.d = f.n.dot(w[a]);
-    faces.push_back(f);
+    const Eigen::Vector3d ab = w[b] - w[a], ac = w[c] - w[a];
+    Eigen::Vector3d n = ab.cross(ac);
+    const double len = n.norm();
+    if (!(len > 1e-12 * ab.norm() * ac.norm()) || !(len > 0.0) || nf == kMaxFaces) return false;
+    n /= len;
+    faces[nf++] = Face{n, n.dot(w[a]), {a, b, c}};
     return true;
   };
   // The tetrahedron's faces, wound outward.
@@ -487,48 +491,49 @@ bool expandingPolytope(const Convex& A, const Convex& B, const SVert* tet, doubl
   }
   double best_h = kInf;
   const double flat = 1e-12 * (1.0 + A.lever + B.lever + (B.p - A.p).norm());
-  std::vector<std::pair<int, int>> horizon;
+  std::pair<int, int> horizon[3 * kMaxVertices];
   for (int it = 0; it < kMaxIterations; ++it) {
-    size_t near = 0;
-    for (size_t f = 1; f < faces.size(); ++f) {
+    int near = 0;
+    for (int f = 1; f < nf; ++f) {
       if (faces[f].d < faces[near].d) near = f;
     }
-    const Face f = faces[near];
-    if (f.d < -tol) return false;  // the origin outside: not a valid start
-    const Eigen::Vector3d x = makeVert(A, B, f.n).w;
-    const double h = f.n.dot(x);
+    const Eigen::Vector3d n = faces[near].n;
+    const double d = faces[near].d;
+    if (d < -tol) return false;  // the origin outside: not a valid start
+    const Eigen::Vector3d x = makeVert(A, B, n).w;
+    const double h = n.dot(x);
     if (h < best_h) {
       best_h = h;
-      *best = f.n;
+      *best = n;
     }
-    if (h - f.d <= tol) return true;
+    if (h - d <= tol) return true;
     // Faces that see x go; the edges they leave open (the horizon) are joined to x. A face
     // whose plane x lies in (support points on a cylinder's cap, a segment) stays: seen by a
     // rounding error, it would cut the horizon into pieces.
-    horizon.clear();
-    for (size_t g = 0; g < faces.size();) {
-      if (faces[g].n.dot(x - w[faces[g].v[0]]) > flat) {
+    int nh = 0;
+    for (int g = 0; g < nf;) {
+      if (faces[g].n.dot(x) - faces[g].d > flat) {
         for (int e = 0; e < 3; ++e) {
-          const std::pair<int, int> edge(faces[g].v[e], faces[g].v[(e + 1) % 3]);
-          const auto twin = std::find(horizon.begin(), horizon.end(), std::make_pair(edge.second, edge.first));
-          if (twin != horizon.end()) {
-            horizon.erase(twin);
+          const int a = faces[g].v[e], b = faces[g].v[(e + 1) % 3];
+          int twin = 0;
+          while (twin < nh && !(horizon[twin].first == b && horizon[twin].second == a)) ++twin;
+          if (twin < nh) {
+            horizon[twin] = horizon[--nh];
           } else {
-            horizon.push_back(edge);
+            horizon[nh++] = {a, b};
           }
         }
-        faces[g] = faces.back();
-        faces.pop_back();
+        faces[g] = faces[--nf];
       } else {
         ++g;
       }
     }
-    w.push_back(x);
-    const int xi = static_cast<int>(w.size()) - 1;
-    for (const auto& e : horizon) {
-      if (!addFace(e.first, e.second, xi)) return false;
+    w[nw] = x;
+    const int xi = nw++;
+    for (int k = 0; k < nh; ++k) {
+      if (!addFace(horizon[k].first, horizon[k].second, xi)) return false;
     }
-    if (faces.empty()) return false;
+    if (nf == 0) return false;
   }
   return false;
 }
@@ -561,10 +566,10 @@ bool enclosingTetrahedron(const Convex& A, const Convex& B, const Gjk& g, SVert*
 // the padded shapes is the core separation minus the roundings, so it is largest along a
 // facet normal of the cores' Minkowski difference (the origin lies inside it), and every
 // such normal is a facet normal of one core or the cross product of an edge of each
-// (separating axes). A cylinder or a point cloud: the expanding polytope, to 1e-9 of the
-// shapes' size; where it cannot run (the GJK stopped on a flat simplex: the cores touch
-// within rounding) or does not converge, hill climbing from the centre lines, the bodies'
-// axes and the polytope's best direction.
+// (separating axes). A cylinder or a point cloud: the expanding polytope, to 1e-6 of the
+// sum of the shapes' bounding radii; where it cannot run (no tetrahedron of supports around
+// the origin: the cores touch within rounding) or does not converge, hill climbing from the
+// centre lines, the bodies' axes and the polytope's best direction.
 Eigen::Vector3d penetrationDirection(const Convex& A, const Convex& B, const Gjk& g) {
   Axes faces, edges_a, edges_b;
   const bool polytope_a = polytopeFeatures(A, faces, edges_a);
@@ -573,7 +578,7 @@ Eigen::Vector3d penetrationDirection(const Convex& A, const Convex& B, const Gjk
   Eigen::Vector3d expanded = Eigen::Vector3d::Zero();
   SVert tet[4];
   if (!polytopes && enclosingTetrahedron(A, B, g, tet) &&
-      expandingPolytope(A, B, tet, 1e-9 * (A.lever + B.lever), &expanded)) {
+      expandingPolytope(A, B, tet, 1e-6 * (A.lever + B.lever), &expanded)) {
     return expanded;
   }
   Axes cand = faces;

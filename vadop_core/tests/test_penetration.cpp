@@ -152,15 +152,15 @@ TEST(Penetration, PolytopeCoresGiveTheGlobalMaximum) {
   }
 }
 
-// A cylinder's or a point cloud's depth comes from the expanding polytope, to 1e-9 of the shapes' size: never
-// worse than the dense search by more than that (a hill climb alone stalls on the wrong
-// face: 4 to 16 cm too deep on a third of these pairs).
+// A cylinder's or a point cloud's depth comes from the expanding polytope, to 1e-6 of the
+// sum of the shapes' bounding radii (under 3.2 here): never worse than the dense search by
+// more than that. (A hill climb alone stops on the wrong face: up to 0.27 m too deep.)
 TEST(Penetration, CylinderAndPointCloudCoresAreAtLeastAsDeepAsADenseSearch) {
   uint32_t seed = 100;
   for (int ka : {4, 5}) {
     for (int kb : {0, 1, 2, 3, 4, 5}) {
       if (ka == 5 && kb == 4) continue;
-      const Tally t = checkPairs(ka, kb, 30, 1e-8, seed++);
+      const Tally t = checkPairs(ka, kb, 30, 3.2e-6, seed++);
       std::printf("%s-%s: %d overlapping, dense maximum above the reported by at most %.3g m\n", kKind[ka],
                   kKind[kb], t.overlapping, t.worst);
       EXPECT_GE(t.overlapping, 10) << kKind[ka] << "-" << kKind[kb];
