@@ -463,8 +463,8 @@ bool expandingPolytope(const Convex& A, const Convex& B, const SVert* tet, doubl
     double d;           // n.x on the face: its distance from the origin
     int v[3];
   };
-  // Each step adds a vertex; a closed triangulation of V vertices has 2V - 4 faces and at
-  // most 3V - 6 edges, which bounds the faces and the horizon.
+  // Each step adds a vertex; a closed triangulation of V vertices has 2V - 4 faces (addFace
+  // refuses more, should rounding break the triangulation).
   constexpr int kMaxIterations = 48;
   constexpr int kMaxVertices = 4 + kMaxIterations;
   constexpr int kMaxFaces = 2 * kMaxVertices;
@@ -491,7 +491,7 @@ bool expandingPolytope(const Convex& A, const Convex& B, const SVert* tet, doubl
   }
   double best_h = kInf;
   const double flat = 1e-12 * (1.0 + A.lever + B.lever + (B.p - A.p).norm());
-  std::pair<int, int> horizon[3 * kMaxVertices];
+  std::pair<int, int> horizon[3 * kMaxFaces];  // each removed face gives at most 3 edges
   for (int it = 0; it < kMaxIterations; ++it) {
     int near = 0;
     for (int f = 1; f < nf; ++f) {
