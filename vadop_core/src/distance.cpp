@@ -455,8 +455,8 @@ bool polytopeFeatures(const Convex& c, Axes& faces, Axes& edges) {
 // `tol` over the face. The least penetration depth then lies between the face's distance
 // and h_K(n), so n is within `tol` of the best separating direction, wherever on K it lies
 // (a hill climb only finds the nearest local maximum). False when the polytope degenerates
-// (flat faces, a tetrahedron with the origin on its boundary) or the budget runs out;
-// `best` then holds the best direction met (when any).
+// (a flat face, the origin outside the start) or the budget runs out; `best` then holds the
+// best direction met (when any).
 bool expandingPolytope(const Convex& A, const Convex& B, const SVert* tet, double tol, Eigen::Vector3d* best) {
   struct Face {
     Eigen::Vector3d n;  // unit, outward
