@@ -102,6 +102,8 @@ struct Convex {
   double lever = 0.0;  // max |x - p| over the padded convex
 
   Eigen::Vector3d origin() const { return p + shift; }
+  // A point inside the core: the body origin, or a triangle's centroid (its p is the mesh's).
+  Eigen::Vector3d centre() const { return shape ? origin() : Eigen::Vector3d((tri[0] + tri[1] + tri[2]) / 3.0); }
 
   // Farthest core point along d (world frame; d need not be unit).
   Eigen::Vector3d support(const Eigen::Vector3d& d) const {
@@ -345,13 +347,17 @@ Gjk runGjk(const CA& A, const CB& B, Eigen::Vector3d guess, double abs_tol, doub
   double lambda[4] = {1.0, 0.0, 0.0, 0.0};
   Eigen::Vector3d v = s[0].w;
   Eigen::Vector3d pa = s[0].a, pb = s[0].b;
+  // Overlap: the simplex holding the origin, for the penetration direction.
+  auto overlapping = [&]() {
+    r.overlap = true;
+    for (int k = 0; k < n; ++k) r.simplex[k] = s[k];
+    r.simplex_n = n;
+  };
   int it = 0;
   for (; it < max_iter; ++it) {
     const double vv = v.squaredNorm();
     if (vv <= tiny * tiny) {
-      r.overlap = true;  // the origin on the simplex (within rounding): distance 0 or less
-      for (int k = 0; k < n; ++k) r.simplex[k] = s[k];
-      r.simplex_n = n;
+      overlapping();  // the origin on the simplex (within rounding): distance 0 or less
       break;
     }
     const SVert w = makeVert(A, B, -v);
@@ -372,9 +378,7 @@ Gjk runGjk(const CA& A, const CB& B, Eigen::Vector3d guess, double abs_tol, doub
     for (int k = 0; k < n; ++k) saved[k] = s[k];
     s[n++] = w;
     if (!closestOnSimplex(s, n, lambda)) {
-      r.overlap = true;
-      for (int k = 0; k < n; ++k) r.simplex[k] = s[k];
-      r.simplex_n = n;
+      overlapping();  // the origin inside the tetrahedron
       break;
     }
     const Eigen::Vector3d nv = closestPoint(s, n, lambda);
@@ -589,10 +593,7 @@ Eigen::Vector3d penetrationDirection(const Convex& A, const Convex& B, const Gjk
     cand.add(expanded);
     cand.add(-g.v);
     cand.add(B.origin() - A.origin());
-    // Centroids of the cores (meaningful for triangles, whose p is the mesh origin).
-    const Eigen::Vector3d ca = A.shape ? A.origin() : Eigen::Vector3d((A.tri[0] + A.tri[1] + A.tri[2]) / 3.0);
-    const Eigen::Vector3d cb = B.shape ? B.origin() : Eigen::Vector3d((B.tri[0] + B.tri[1] + B.tri[2]) / 3.0);
-    cand.add(cb - ca);
+    cand.add(B.centre() - A.centre());
     for (const Convex* c : {&A, &B}) {
       if (c->shape) {
         for (int k = 0; k < 3; ++k) cand.add(c->R.col(k));
@@ -963,8 +964,7 @@ AdvanceStep meshStep(const Side& A, const Side& B, double horizon, double touch,
     const int ia = it.ia, ib = it.ib;
     if (A.leaf(ia) && B.leaf(ib)) {
       const Convex ca = A.convex(ia), cb = B.convex(ib);
-      const Eigen::Vector3d ga = ca.shape ? ca.origin() : Eigen::Vector3d((ca.tri[0] + ca.tri[1] + ca.tri[2]) / 3.0);
-      const Eigen::Vector3d gb = cb.shape ? cb.origin() : Eigen::Vector3d((cb.tri[0] + cb.tri[1] + cb.tri[2]) / 3.0);
+      const Eigen::Vector3d ga = ca.centre(), gb = cb.centre();
       if (!out.touching && (gb - ga).squaredNorm() > 0.0) {
         // Cheap screen before GJK: the exact separation of the two pieces along their
         // centroid line with the linear motion bound (a valid certificate, only weaker).
