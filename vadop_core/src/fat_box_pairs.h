@@ -32,8 +32,10 @@ class FatBoxPairs {
   // Whether box (lo x y z, hi x y z) lies inside the fat box of `id` (false if it has none).
   bool contains(BodyId id, const double* box) const;
   // Sets the fat boxes of `ids` (6 doubles each in `boxes`, lo x y z then hi x y z; ids
-  // distinct), replacing those they had, and brings their partner lists up to date.
-  void update(const std::vector<BodyId>& ids, const std::vector<double>& boxes);
+  // distinct), replacing those they had, and brings their partner lists up to date. The grid
+  // queries of the new boxes run on up to `threads` threads; the lists come out the same,
+  // in the same order, whatever the count.
+  void update(const std::vector<BodyId>& ids, const std::vector<double>& boxes, int threads = 1);
   // Forgets `id` (no-op if it has no fat box).
   void remove(BodyId id);
 
@@ -59,6 +61,8 @@ class FatBoxPairs {
   detail::CellGrid grid_;
   std::vector<std::vector<BodyId>> adj_;  // per BodyId
   std::vector<uint8_t> in_update_;        // per BodyId, during update()
+  // update()'s new pairs (id, partner), per block of its ids: kept for their storage.
+  std::vector<std::vector<std::pair<BodyId, BodyId>>> found_;
   size_t pair_count_ = 0;
 };
 

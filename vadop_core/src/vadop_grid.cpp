@@ -575,7 +575,7 @@ bool VadopGridBroadPhase::computeFromFatBoxes(double step, int threads, size_t b
     std::nth_element(extent.begin(), extent.begin() + static_cast<long>(mid), extent.end());
     const double h = cell_size_ > 0.0 ? cell_size_ : 2.0 * extent[mid];
     fat_->reset(std::max(h, 1e-9), max_abs);
-    fat_->update(fat_ids_, fat_boxes_);
+    fat_->update(fat_ids_, fat_boxes_, threads);
     fat_valid_ = true;
     streak_ = 0;
     stats_.fat_rebuilt = true;
@@ -592,7 +592,7 @@ bool VadopGridBroadPhase::computeFromFatBoxes(double step, int threads, size_t b
       retry_wait_ = backoff_;
       return false;
     }
-    fat_->update(fat_ids_, fat_boxes_);
+    fat_->update(fat_ids_, fat_boxes_, threads);
     if (++streak_ >= 8) backoff_ = 1;
     if (fat_->wasteful()) {
       fat_valid_ = false;  // rebuilt at the next update (this frame's pairs are still exact)

@@ -96,6 +96,48 @@ TEST(FatBoxPairs, PartnersMatchABruteForceLoopUnderRandomUpdatesAndRemovals) {
   }
 }
 
+// Batches of hundreds of ids, as a crowd's escapes give, so that update() shares its queries
+// out: on 1, 2 and 4 threads every partner list is the same, in the same order, and matches
+// the brute-force loop.
+TEST(FatBoxPairs, ThreadsGiveTheSameListsInTheSameOrder) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> pos(-20.0, 20.0), size(0.1, 3.0), u01(0.0, 1.0);
+  const int counts[] = {1, 2, 4};
+  FatBoxPairs fp[3];
+  for (FatBoxPairs& f : fp) f.reset(2.0);
+  BoxMap boxes;
+  for (int step = 0; step < 12; ++step) {
+    std::vector<BodyId> ids;
+    std::vector<double> flat;
+    const size_t batch = step == 0 ? 1200 : 200 + static_cast<size_t>(u01(rng) * 400);
+    std::set<BodyId> chosen;
+    while (chosen.size() < batch) chosen.insert(static_cast<BodyId>(u01(rng) * 1200));
+    for (const BodyId id : chosen) {
+      std::vector<double> b(6);
+      for (int k = 0; k < 3; ++k) {  // a crowd on a floor: z within 1 m
+        b[k] = k == 2 ? u01(rng) : pos(rng);
+        b[3 + k] = b[k] + (u01(rng) < 0.01 ? 60.0 : size(rng));
+      }
+      ids.push_back(id);
+      flat.insert(flat.end(), b.begin(), b.end());
+      boxes[id] = b;
+    }
+    std::shuffle(ids.begin(), ids.end(), rng);  // the caller's order, not sorted
+    flat.clear();
+    for (const BodyId id : ids) flat.insert(flat.end(), boxes[id].begin(), boxes[id].end());
+    for (int t = 0; t < 3; ++t) fp[t].update(ids, flat, counts[t]);
+    expectMatchesBruteForce(fp[0], boxes);
+    if (::testing::Test::HasFatalFailure()) return;
+    for (int t = 1; t < 3; ++t) {
+      ASSERT_EQ(fp[t].pairs(), fp[0].pairs()) << counts[t] << " threads, step " << step;
+      for (const auto& [id, box] : boxes) {
+        ASSERT_EQ(fp[t].partners(id), fp[0].partners(id)) << counts[t] << " threads, body " << id;
+      }
+    }
+  }
+  EXPECT_GT(fp[0].pairs(), 1000u) << "too sparse to exercise the blocks";
+}
+
 TEST(FatBoxPairs, BadInputThrows) {
   FatBoxPairs fp;
   EXPECT_THROW(fp.reset(0.0), InvalidArgument);
