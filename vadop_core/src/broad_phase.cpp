@@ -107,6 +107,11 @@ void BroadPhase::setThreads(int threads) {
 }
 
 void BroadPhase::update(double t0, double t1) {
+  // The caller's boxes serve this update only, whether it completes or throws.
+  struct Forget {
+    const double*& boxes;
+    ~Forget() { boxes = nullptr; }
+  } forget{frame_boxes_};
   requireInterval(t0, t1, "update");
   pairs_.clear();
   framed_ = false;  // a throwing computePairs leaves no frame to answer queries from

@@ -344,9 +344,14 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
     slot_of_[id] = next_slot;
     slot_body_[next_slot++] = id;
   }
+  const double* given = frameBoxes();
   detail::parallelFor(threads, slots, kParallelBodies / 2, kBodyChunk, [&](size_t s) {
     const BodyId id = slot_body_[s];
-    SweptBody(*b[id].shape, b[id].motion, t0, t1).box(&box_[6 * s]);
+    if (given) {
+      std::copy_n(given + 6 * static_cast<size_t>(id), 6, &box_[6 * s]);
+    } else {
+      SweptBody(*b[id].shape, b[id].motion, t0, t1).box(&box_[6 * s]);
+    }
     uint64_t* bits = &bits_[words_ * s];
     std::copy_n(&axis_bits_[id * words_], words_, bits);
     detail::buildAxisRanks(bits, words_, &rank_[words_ * s]);

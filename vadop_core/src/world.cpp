@@ -348,7 +348,15 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
     }
     std::sort(queried.begin(), queried.end());
     queried.erase(std::unique(queried.begin(), queried.end()), queried.end());
-  } else {
+  }
+  // A crowded world's full predict: every body's part boxes first, their unions the broad
+  // phase's boxes (a body on a path is held at rest there: not with paths).
+  const bool all_parts = !only && !paths && parts_for_all_ && config_.time_slices > 1 && t1 > t0;
+  if (!only) {
+    if (all_parts) {
+      fillAllPartBoxes(t0, t1);
+      broad_phase_->setFrameBoxes(frame_boxes_.data());
+    }
     broad_phase_->update(t0, t1);
     if (paths) {
       // The broad phase's pairs without the path bodies (it holds them at rest), and theirs.
@@ -373,7 +381,8 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
     tests.push_back({ia, ib, every_part});
   }
   const size_t found = tests.size();
-  cullBySlices(tests, t0, t1);
+  cullBySlices(tests, t0, t1, all_parts);
+  if (!only) parts_for_all_ = found >= records_.size();
   std::vector<Impact> results;
   if (certificates_ && !only) certificates_->beginPass();
   narrowAll(tests, t0, t1, results);
@@ -589,13 +598,44 @@ void World::narrowAll(const std::vector<Candidate>& tests, double t0, double t1,
   }
 }
 
-void World::cullBySlices(std::vector<Candidate>& tests, double t0, double t1) {
+void World::fillAllPartBoxes(double t0, double t1) {
   const int slices = config_.time_slices;
-  if (slices <= 1 || tests.empty() || !(t1 > t0)) return;
+  const size_t stride = 6 * static_cast<size_t>(slices);
+  ++predict_count_;
+  slice_used_ = 0;
+  slice_fill_.clear();
+  if (slice_of_.size() < records_.size()) slice_of_.resize(records_.size());
+  for (BodyId id = 0; id < records_.size(); ++id) {
+    if (!records_[id].prepared) continue;
+    SliceSlot& s = slice_of_[id];
+    s.stamp = predict_count_;
+    s.index = slice_used_++;
+    slice_fill_.push_back(id);
+  }
+  if (slice_boxes_.size() < slice_used_ * stride) slice_boxes_.resize(slice_used_ * stride);
+  frame_boxes_.resize(6 * records_.size());
+  parallelFor(slice_fill_.size(), [&](size_t i) {
+    const BodyId id = slice_fill_[i];
+    double* parts = &slice_boxes_[slice_of_[id].index * stride];
+    fillPartBoxes(id, t0, t1, parts);
+    const double* part = parts;
+    double* box = &frame_boxes_[6 * static_cast<size_t>(id)];
+    std::copy_n(part, 6, box);
+    for (int k = 1; k < slices; ++k) {
+      part += 6;
+      for (int c = 0; c < 3; ++c) {
+        box[c] = std::min(box[c], part[c]);
+        box[3 + c] = std::max(box[3 + c], part[3 + c]);
+      }
+    }
+  });
+}
+
+void World::fillPartBoxesOfPairs(const std::vector<Candidate>& tests, double t0, double t1) {
+  const size_t stride = 6 * static_cast<size_t>(config_.time_slices);
   ++predict_count_;
   slice_used_ = 0;
   if (slice_of_.size() < records_.size()) slice_of_.resize(records_.size());
-  const size_t stride = 6 * static_cast<size_t>(slices);
   // Slots in first-use order: a query touches a few bodies, whose boxes then share a few hot
   // lines instead of lying far apart in an array indexed by id.
   slice_fill_.clear();
@@ -628,6 +668,13 @@ void World::cullBySlices(std::vector<Candidate>& tests, double t0, double t1) {
     const BodyId id = slice_fill_[i];
     fillPartBoxes(id, t0, t1, &slice_boxes_[slice_of_[id].index * stride]);
   });
+}
+
+void World::cullBySlices(std::vector<Candidate>& tests, double t0, double t1, bool filled) {
+  const int slices = config_.time_slices;
+  if (slices <= 1 || tests.empty() || !(t1 > t0)) return;
+  const size_t stride = 6 * static_cast<size_t>(slices);
+  if (!filled) fillPartBoxesOfPairs(tests, t0, t1);
   // A pair's test is a few box comparisons: many to a thread, many at a time.
   constexpr size_t kPairsPerThread = 4096;
   constexpr size_t kPairChunk = 1024;

@@ -36,6 +36,13 @@ class BroadPhase {
   // Computes the candidate pairs of the frame [t0, t1] (t0 <= t1, both finite).
   void update(double t0, double t1);
 
+  // Boxes of the bodies over the next update()'s frame [t0, t1], computed by the caller, for
+  // engines that would compute the same (the grid engine takes them instead of its own swept
+  // boxes; the others ignore them): 6 doubles per BodyId from 0 (lo x y z, hi x y z), each
+  // containing that body's swept box over [t0, t1] (SweptBody's, or tighter). nullptr: none.
+  // Read by the next update() only, which forgets them; the array must outlive that call.
+  void setFrameBoxes(const double* boxes_by_id) { frame_boxes_ = boxes_by_id; }
+
   // Candidate pairs of the last update, sorted, a < b in each.
   const std::vector<Pair>& pairs() const { return pairs_; }
 
@@ -109,6 +116,8 @@ class BroadPhase {
   }
 
   const detail::LargeArray<Body>& bodies() const { return bodies_; }
+  // setFrameBoxes' boxes during update() (nullptr: none).
+  const double* frameBoxes() const { return frame_boxes_; }
   void requireKnown(BodyId id, const char* operation) const {
     if (!contains(id)) throwUnknown(id, operation);
   }
@@ -127,6 +136,7 @@ class BroadPhase {
   std::vector<BodyId> free_ids_;  // min-heap
   size_t alive_count_ = 0;
   int threads_ = 1;
+  const double* frame_boxes_ = nullptr;
   std::vector<Pair> pairs_;
   // The last update's frame, and the bodies added, removed or given a new motion since (in
   // order, with repeats: a body changed twice is listed twice).

@@ -9,7 +9,8 @@
 // rebuilt each frame, except in slow scenes: there the pairs of overlapping "fat" boxes
 // (fat_box_pairs.h) are kept from frame to frame and only bodies that leave their fat boxes are
 // re-gridded (incremental mode; same candidates). Its update splits bodies and cells over
-// setThreads() threads (same candidates). It does not compute contacts; not thread-safe.
+// setThreads() threads (same candidates) and takes the caller's swept AABBs when given
+// (setFrameBoxes: the World's cull has them). It does not compute contacts; not thread-safe.
 #pragma once
 
 #include "vadop/axis_pool.h"

@@ -287,7 +287,14 @@ class World {
   // Drops from `tests` the pairs whose boxes over the config_.time_slices parts of [t0, t1]
   // (partBoxes) overlap in none of them (WorldConfig::time_slices), and keeps in `parts` those
   // in which they do.
-  void cullBySlices(std::vector<Candidate>& tests, double t0, double t1);
+  // `filled`: fillAllPartBoxes ran for this window (the boxes are there already).
+  void cullBySlices(std::vector<Candidate>& tests, double t0, double t1, bool filled);
+  // The part boxes of every body (slots in id order) and, in frame_boxes_, the union of each
+  // body's parts: the broad phase's boxes in a crowded world's full predict, so that no body's
+  // swept volume is bounded twice (the union is its swept box over [t0, t1], or tighter).
+  void fillAllPartBoxes(double t0, double t1);
+  // The part boxes of the bodies of `tests` only.
+  void fillPartBoxesOfPairs(const std::vector<Candidate>& tests, double t0, double t1);
   // The boxes of body `id` over the config_.time_slices parts of [t0, t1] (6 doubles each) into
   // `out`: its padded shape's swept boxes, or pathBox of each part for a body on a path. Bodies
   // are independent: cullBySlices fills them on the threads when there are many.
@@ -336,6 +343,11 @@ class World {
   size_t slice_used_ = 0;
   std::vector<BodyId> slice_fill_;
   uint64_t predict_count_ = 0;
+  std::vector<double> frame_boxes_;  // by BodyId, 6 each (removed bodies' entries unused)
+  // The last full predict had as many candidate pairs (after the group filters) as bodies:
+  // most bodies need their part boxes, so the next computes them for all, before the broad
+  // phase (a part box costs about three swept boxes: not worth it for a sparse world).
+  bool parts_for_all_ = false;
   std::unique_ptr<detail::PairCertificates> certificates_;  // WorldConfig::coherence
   std::vector<WorldImpact> last_undecided_;
   PairPredicate pair_filter_;
