@@ -1,5 +1,6 @@
 #include "vadop_ros/predictor.h"
 
+#include <vadop/detail/parallel_for.h>
 #include <vadop/error.h>
 #include <vadop/joint_chain.h>
 #include <vadop/world.h>
@@ -37,7 +38,7 @@ bool sameMotion(const vadop::Motion& a, const vadop::Motion& b) {
 }
 
 struct Predictor::Impl {
-  explicit Impl(const PredictorConfig& c) : world(worldConfig(c)) {}
+  explicit Impl(const PredictorConfig& c) : world(worldConfig(c)), threads(vadop::detail::threadCount(c.threads)) {}
   struct Slot {
     bool in = false;
     std::string id;
@@ -47,6 +48,7 @@ struct Predictor::Impl {
     std::shared_ptr<const vadop::LinkChain> chain;  // null: motion alone
   };
   vadop::World world;
+  int threads;  // of the impacts' conversion, as the world's
   std::vector<Slot> slots;
   std::unordered_map<uint64_t, size_t> by_key;
   vadop::World::PairPredicate ignored;  // setIgnored's, as the world's pair filter
@@ -208,11 +210,16 @@ std::vector<RawImpact> Predictor::predict(double t0, double horizon) {
     RawImpact r;
     if (elementsOf(w, r)) impl_->undecided.push_back(r);
   }
-  std::vector<RawImpact> out;
-  out.reserve(hits.size());
-  for (const vadop::WorldImpact& w : hits) {
-    RawImpact r;
-    if (!elementsOf(w, r)) continue;
+  // Thousands of impacts a cycle in a large fleet (two lookups and two point velocities each):
+  // on the threads, then the ones of elements not ours dropped in order.
+  std::vector<RawImpact> out(hits.size());
+  std::vector<uint8_t> ours(hits.size(), 0);
+  constexpr size_t kImpactsPerThread = 128, kImpactChunk = 32;
+  vadop::detail::parallelFor(impl_->threads, hits.size(), kImpactsPerThread, kImpactChunk, [&](size_t k) {
+    const vadop::WorldImpact& w = hits[k];
+    RawImpact& r = out[k];
+    if (!elementsOf(w, r)) return;
+    ours[k] = 1;
     r.point = w.impact.point;
     r.normal = w.impact.normal;
     r.initially_touching = w.impact.initially_touching;
@@ -222,8 +229,12 @@ std::vector<RawImpact> Predictor::predict(double t0, double horizon) {
       return x.chain ? x.chain->velocityOfPoint(r.point, r.time) : pointVelocity(x.motion, r.point, r.time);
     };
     r.closing_speed = (velocity(sa) - velocity(sb)).dot(r.normal);
-    out.push_back(r);
+  });
+  size_t kept = 0;
+  for (size_t k = 0; k < out.size(); ++k) {
+    if (ours[k]) out[kept++] = out[k];
   }
+  out.resize(kept);
   return out;
 }
 
