@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -63,17 +64,31 @@ struct Outcome {
   size_t calls = 0, culled = 0;
 };
 
-Outcome predictWith(const SlicedScene& s, BroadPhaseKind kind, int slices, double t0, double horizon,
-                    const std::vector<std::string>* only = nullptr) {
+// The scene in a world of that broad phase (some pairs undecided: they must match too).
+std::unique_ptr<World> sceneWorld(const SlicedScene& s, BroadPhaseKind kind, int slices = 8, int threads = 1) {
   WorldConfig c;
   c.broad_phase = kind;
   c.time_slices = slices;
-  c.toi.max_iterations = 300;  // some pairs undecided: they must match too
-  World w(c);
-  for (size_t i = 0; i < s.ids.size(); ++i) w.add(s.ids[i], s.shapes[i], s.motions[i]);
+  c.threads = threads;
+  c.toi.max_iterations = 300;
+  auto w = std::make_unique<World>(c);
+  for (size_t i = 0; i < s.ids.size(); ++i) w->add(s.ids[i], s.shapes[i], s.motions[i]);
+  return w;
+}
+
+// A full predict's impacts, then its undecided pairs, as lines.
+std::string resultLines(World& w, double t0, double horizon) {
+  return impactsToJsonLines(w.predict(t0, horizon)) + "undecided:\n" + impactsToJsonLines(w.lastUndecided());
+}
+
+Outcome predictWith(const SlicedScene& s, BroadPhaseKind kind, int slices, double t0, double horizon,
+                    const std::vector<std::string>* only = nullptr) {
+  const std::unique_ptr<World> world = sceneWorld(s, kind, slices);
+  World& w = *world;
   Outcome o;
-  o.lines = impactsToJsonLines(only ? w.predict(t0, horizon, *only) : w.predict(t0, horizon)) + "undecided:\n" +
-            impactsToJsonLines(w.lastUndecided());
+  o.lines = only ? impactsToJsonLines(w.predict(t0, horizon, *only)) + "undecided:\n" +
+                       impactsToJsonLines(w.lastUndecided())
+                 : resultLines(w, t0, horizon);
   o.calls = w.lastCandidateCount();
   o.culled = w.lastSliceCulledCount();
   return o;
@@ -127,15 +142,11 @@ TEST(TimeSlices, TheBroadPhaseOnTheUnionOfThePartsChangesNoResult) {
   for (uint64_t seed = 1; seed <= 2; ++seed) {
     const SlicedScene s = randomScene(seed);
     for (const BroadPhaseKind kind : {BroadPhaseKind::kGrid, BroadPhaseKind::kVadop}) {
-      WorldConfig c;
-      c.broad_phase = kind;
-      c.toi.max_iterations = 300;
-      World w(c);
-      for (size_t i = 0; i < s.ids.size(); ++i) w.add(s.ids[i], s.shapes[i], s.motions[i]);
+      const std::unique_ptr<World> world = sceneWorld(s, kind);
+      World& w = *world;
       size_t first_found = 0;
       for (const double t0 : {0.0, 0.0, 0.7, 0.0}) {
-        const std::string got = impactsToJsonLines(w.predict(t0, 2.0)) + "undecided:\n" +
-                                impactsToJsonLines(w.lastUndecided());
+        const std::string got = resultLines(w, t0, 2.0);
         const Outcome truth = predictWith(s, BroadPhaseKind::kBrute, 1, t0, 2.0);
         ASSERT_TRUE(testing_compare::sameImpactLines(got, truth.lines))
             << "seed " << seed << " " << toString(kind) << " t0 " << t0;
@@ -157,15 +168,11 @@ TEST(TimeSlices, ThePartsOfEveryBodyOnThreadsEqualOneThread) {
   const SlicedScene s = randomScene(3, 1500);
   std::vector<std::string> reference;
   for (const int threads : {1, 2, 4}) {
-    WorldConfig c;
-    c.broad_phase = BroadPhaseKind::kGrid;
-    c.threads = threads;
-    World w(c);
-    for (size_t i = 0; i < s.ids.size(); ++i) w.add(s.ids[i], s.shapes[i], s.motions[i]);
+    const std::unique_ptr<World> world = sceneWorld(s, BroadPhaseKind::kGrid, 8, threads);
+    World& w = *world;
     size_t k = 0;
     for (const double t0 : {0.0, 0.0, 0.4, 0.9}) {
-      const std::string got = impactsToJsonLines(w.predict(t0, 2.0)) + "undecided:\n" +
-                              impactsToJsonLines(w.lastUndecided());
+      const std::string got = resultLines(w, t0, 2.0);
       if (k == 0) {
         ASSERT_GE(w.lastCandidateCount() + w.lastSliceCulledCount(), s.ids.size()) << "not crowded enough";
       }
