@@ -39,8 +39,10 @@ class BroadPhase {
   // Boxes of the bodies over the next update()'s frame [t0, t1], computed by the caller, for
   // engines that would compute the same (the grid engine takes them instead of its own swept
   // boxes; the others ignore them): 6 doubles per BodyId from 0 (lo x y z, hi x y z), each
-  // containing that body's swept box over [t0, t1] (SweptBody's, or tighter). nullptr: none.
-  // Read by the next update() only, which forgets them; the array must outlive that call.
+  // holding that body's shape (margin included) at every time of [t0, t1]: SweptBody's box, or
+  // a tighter one that still does, such as the union of its boxes over parts of the window.
+  // nullptr: none. Read by the next update() only, which forgets them; the array must outlive
+  // that call.
   void setFrameBoxes(const double* boxes_by_id) { frame_boxes_ = boxes_by_id; }
 
   // Candidate pairs of the last update, sorted, a < b in each.
