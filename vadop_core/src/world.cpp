@@ -607,45 +607,21 @@ constexpr size_t kBodyChunk = 128;
 }  // namespace
 
 void World::fillAllPartBoxes(double t0, double t1) {
-  const int slices = config_.time_slices;
-  const size_t stride = 6 * static_cast<size_t>(slices);
   ++predict_count_;
-  slice_used_ = 0;
-  slice_fill_.clear();
   if (slice_of_.size() < records_.size()) slice_of_.resize(records_.size());
   for (BodyId id = 0; id < records_.size(); ++id) {
-    if (!records_[id].prepared) continue;
-    SliceSlot& s = slice_of_[id];
-    s.stamp = predict_count_;
-    s.index = slice_used_++;
-    slice_fill_.push_back(id);
+    if (records_[id].prepared) slice_of_[id].stamp = predict_count_;
   }
-  if (slice_boxes_.size() < slice_used_ * stride) slice_boxes_.resize(slice_used_ * stride);
   frame_boxes_.resize(6 * records_.size());
-  detail::parallelFor(threads_, slice_fill_.size(), kBodiesPerThread, kBodyChunk, [&](size_t i) {
-    const BodyId id = slice_fill_[i];
-    double* parts = &slice_boxes_[slice_of_[id].index * stride];
-    fillPartBoxes(id, t0, t1, parts);
-    const double* part = parts;
-    double* box = &frame_boxes_[6 * static_cast<size_t>(id)];
-    std::copy_n(part, 6, box);
-    for (int k = 1; k < slices; ++k) {
-      part += 6;
-      for (int c = 0; c < 3; ++c) {
-        box[c] = std::min(box[c], part[c]);
-        box[3 + c] = std::max(box[3 + c], part[3 + c]);
-      }
-    }
-  });
+  fillSlots(t0, t1, true);
 }
 
 void World::fillPartBoxesOfPairs(const std::vector<Candidate>& tests, double t0, double t1) {
-  const size_t stride = 6 * static_cast<size_t>(config_.time_slices);
   ++predict_count_;
-  slice_used_ = 0;
   if (slice_of_.size() < records_.size()) slice_of_.resize(records_.size());
   // Slots in first-use order: a query touches a few bodies, whose boxes then share a few hot
   // lines instead of lying far apart in an array indexed by id.
+  slice_used_ = 0;
   slice_fill_.clear();
   auto assignSlot = [&](BodyId id) {
     SliceSlot& s = slice_of_[id];
@@ -658,23 +634,39 @@ void World::fillPartBoxesOfPairs(const std::vector<Candidate>& tests, double t0,
     assignSlot(pair.a);
     assignSlot(pair.b);
   }
-  if (4 * slice_used_ >= records_.size()) {
-    // Most bodies take part (a full predict of a crowded world): slots in id order instead, so
-    // that the bodies' motions and shapes are read in the order they are stored (in first-use
-    // order every body cost a few cache misses: half the cull's time at 10,000 bodies).
+  // Most bodies take part (a full predict of a crowded world): slots in id order instead, so
+  // that the bodies' motions and shapes are read in the order they are stored (in first-use
+  // order every body cost a few cache misses: half the cull's time at 10,000 bodies).
+  fillSlots(t0, t1, false, 4 * slice_used_ < records_.size());
+}
+
+void World::fillSlots(double t0, double t1, bool unions, bool slots_assigned) {
+  const int slices = config_.time_slices;
+  const size_t stride = 6 * static_cast<size_t>(slices);
+  if (!slots_assigned) {
+    slice_used_ = 0;
     slice_fill_.clear();
-    size_t next = 0;
     for (BodyId id = 0; id < records_.size(); ++id) {
       SliceSlot& s = slice_of_[id];
       if (s.stamp != predict_count_) continue;
-      s.index = next++;
+      s.index = slice_used_++;
       slice_fill_.push_back(id);
     }
   }
   if (slice_boxes_.size() < slice_used_ * stride) slice_boxes_.resize(slice_used_ * stride);
   detail::parallelFor(threads_, slice_fill_.size(), kBodiesPerThread, kBodyChunk, [&](size_t i) {
     const BodyId id = slice_fill_[i];
-    fillPartBoxes(id, t0, t1, &slice_boxes_[slice_of_[id].index * stride]);
+    double* parts = &slice_boxes_[slice_of_[id].index * stride];
+    fillPartBoxes(id, t0, t1, parts);
+    if (!unions) return;
+    double* box = &frame_boxes_[6 * static_cast<size_t>(id)];
+    std::copy_n(parts, 6, box);
+    for (const double* part = parts + 6; part < parts + stride; part += 6) {
+      for (int c = 0; c < 3; ++c) {
+        box[c] = std::min(box[c], part[c]);
+        box[3 + c] = std::max(box[3 + c], part[3 + c]);
+      }
+    }
   });
 }
 

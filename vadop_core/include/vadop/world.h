@@ -295,6 +295,9 @@ class World {
   void fillAllPartBoxes(double t0, double t1);
   // The part boxes of the bodies of `tests` only.
   void fillPartBoxesOfPairs(const std::vector<Candidate>& tests, double t0, double t1);
+  // Both of the above: the part boxes of the bodies stamped with predict_count_ (slots in id
+  // order unless `slots_assigned`), and with `unions` each body's union in frame_boxes_.
+  void fillSlots(double t0, double t1, bool unions, bool slots_assigned = false);
   // The boxes of body `id` over the config_.time_slices parts of [t0, t1] (6 doubles each) into
   // `out`: its padded shape's swept boxes, or pathBox of each part for a body on a path. Bodies
   // are independent: cullBySlices fills them on the threads when there are many.
