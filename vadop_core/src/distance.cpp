@@ -340,6 +340,7 @@ Gjk runGjk(const CA& A, const CB& B, Eigen::Vector3d guess, double abs_tol, doub
   // Scale for "numerically zero": the size of the coordinates involved.
   const double scale = 1.0 + A.p.norm() + B.p.norm() + A.lever + B.lever;
   const double tiny = 1e-14 * scale;
+  const double rounding = A.rounding + B.rounding;
 
   SVert s[4];
   int n = 1;
@@ -367,7 +368,10 @@ Gjk runGjk(const CA& A, const CB& B, Eigen::Vector3d guess, double abs_tol, doub
       r.best_lower = lower;
       r.best_dir = v / vn;
     }
-    if (vn - lower <= std::max(abs_tol, rel_tol * vn) || lower > stop_above) break;
+    // Relative to the gap of the padded shapes (the core distance less the roundings), the
+    // quantity callers ask about: relative to the core distance, a large rounding would let
+    // the estimate of a near-contact gap stay off by far more than that gap.
+    if (vn - lower <= std::max(abs_tol, rel_tol * (vn - rounding)) || lower > stop_above) break;
     bool duplicate = false;
     for (int k = 0; k < n; ++k) {
       if ((s[k].w - w.w).squaredNorm() <= tiny * tiny) duplicate = true;
@@ -1294,8 +1298,13 @@ AdvanceStep advanceStep(const PreparedShape& a, const Motion& ma, const Prepared
   const Side A = sideAt(da, ma, t);
   const Side B = sideAt(db, mb, t);
   // GJK accuracy: a small fraction of the band between the advance target and the touch
-  // threshold, so that the loop always reaches "touching" after landing on the target.
-  const Tolerances tol{0.01 * (touch_gap - advance_gap), 1e-7, 128};
+  // threshold, so that the loop always reaches "touching" after landing on the target; and,
+  // farther out, a small fraction of the gap (relative to the gap, not to the cores'
+  // distance): the step is certified by the exact separation along the direction found, so a
+  // direction a little off only shortens the step by about as much, while the last
+  // iterations of a curved shape cost as much as the first ones. At the touch threshold
+  // the relative part (4e-3 of the threshold) stays below the absolute one (1/200 of it).
+  const Tolerances tol{0.01 * (touch_gap - advance_gap), 4e-3, 128};
   if (A.mesh || B.mesh) return meshStep(A, B, horizon, touch_gap, advance_gap, tol);
 
   AdvanceStep out;
