@@ -1127,8 +1127,18 @@ Side makeSide(const PreparedShapeData& d, const Eigen::Matrix3d& R, const Eigen:
 // The side of a body moving with m, at time t: posed, seen from its rotation centre (the pivot;
 // the certified steps below bound every point's motion about it), with the pivot's velocity.
 Side sideAt(const PreparedShapeData& d, const Motion& m, double t) {
-  const Eigen::Matrix3d R = m.isRotating() ? m.orientationAt(t).toRotationMatrix() : m.orientation.toRotationMatrix();
-  Side s = m.hasPivot() ? makeSide(d, R, m.pivotAt(t), m.positionAt(t) - m.pivotAt(t)) : makeSide(d, R, m.positionAt(t));
+  // One rotation E = exp([w] (t - t_ref)) gives both the orientation (E R(t_ref), as
+  // orientationAt) and the origin's offset from the pivot (-E pivot_offset, as positionAt):
+  // every advancement step poses both bodies, and each exp costs a sincos.
+  Side s;
+  if (!m.isRotating()) {
+    s = makeSide(d, m.orientation.toRotationMatrix(), m.positionAt(t));
+  } else {
+    const Eigen::Matrix3d E = m.spin(t);
+    const Eigen::Matrix3d R = E * m.orientation.normalized().toRotationMatrix();
+    s = m.hasPivot() ? makeSide(d, R, m.pivotAt(t), -(E * m.pivot_offset))
+                     : makeSide(d, R, Eigen::Vector3d(m.position + m.linear_velocity * (t - m.t_ref)));
+  }
   s.kin.v = m.linear_velocity;
   s.kin.w = m.angular_velocity;
   return s;
