@@ -1130,15 +1130,11 @@ Side sideAt(const PreparedShapeData& d, const Motion& m, double t) {
   // One rotation E = exp([w] (t - t_ref)) gives both the orientation (E R(t_ref), as
   // orientationAt) and the origin's offset from the pivot (-E pivot_offset, as positionAt):
   // every advancement step poses both bodies, and each exp costs a sincos.
-  Side s;
-  if (!m.isRotating()) {
-    s = makeSide(d, m.orientation.toRotationMatrix(), m.positionAt(t));
-  } else {
-    const Eigen::Matrix3d E = m.spin(t);
-    const Eigen::Matrix3d R = E * m.orientation.normalized().toRotationMatrix();
-    s = m.hasPivot() ? makeSide(d, R, m.pivotAt(t), -(E * m.pivot_offset))
-                     : makeSide(d, R, Eigen::Vector3d(m.position + m.linear_velocity * (t - m.t_ref)));
-  }
+  const bool turning = m.isRotating();
+  const Eigen::Matrix3d E = turning ? m.spin(t) : Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d R = turning ? Eigen::Matrix3d(E * m.orientation.normalized().toRotationMatrix())
+                                    : m.orientation.toRotationMatrix();
+  Side s = m.hasPivot() ? makeSide(d, R, m.pivotAt(t), -(E * m.pivot_offset)) : makeSide(d, R, m.positionAt(t));
   s.kin.v = m.linear_velocity;
   s.kin.w = m.angular_velocity;
   return s;
