@@ -94,6 +94,11 @@ class LinkChain {
   // on the point, plus each revolute joint's rate times the point's largest distance from the
   // joint's axis point, plus each prismatic joint's rate.
   double speedBound(double t0, double t1, double radius) const;
+  // The same bound for the velocity's component along the unit vector n (fixed frame): n.v <=
+  // speedAlong(n) for every such point (it may be negative: a base driving away from n at a
+  // speed its turning and joints cannot make up). The base's linear velocity counts by its
+  // component along n, the turning and the joints by their speeds.
+  double speedAlong(const Eigen::Vector3d& n, double t0, double t1, double radius) const;
   // A bound on the distance of the link's origin from the base's origin over [t0, t1].
   double reach(double t0, double t1) const;
   // The velocity at t of the material point of the link at x (fixed frame).
@@ -102,6 +107,10 @@ class LinkChain {
   Eigen::Vector3d angularVelocity(double t) const;
 
  private:
+  // speedBound and speedAlong: `linear` maps the base's linear velocity to its share.
+  template <class Linear>
+  double pointSpeed(double t0, double t1, double radius, const Linear& linear) const;
+
   TimedPath base_;
   std::vector<ChainJoint> joints_;
   std::vector<double> offset_;  // |origin_i translation|
