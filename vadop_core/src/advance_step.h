@@ -7,6 +7,7 @@
 #include "vadop/motion.h"
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 namespace vadop {
 
@@ -34,6 +35,20 @@ struct AdvanceStep {
 AdvanceStep advanceStep(const PreparedShape& a, const Motion& ma, const PreparedShape& b,
                         const Motion& mb, double t, double horizon, double touch_gap,
                         double advance_gap, Eigen::Vector3d* hint);
+
+// The same step for bodies that only stay near a constant twist: each posed at t, with the
+// velocity of its pose's origin and its angular velocity at t, and every point of it within
+// deviation_x D^2 / 2 of where that twist takes it D later (`deviation` the sum over both, a
+// bound over [t, t + horizon]): links of joint chains (joint_chain.cpp). Convex shapes only;
+// throws vadop::InvalidArgument for a mesh.
+struct PosedTwist {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();
+};
+AdvanceStep advanceStepNearTwist(const PreparedShape& a, const PosedTwist& ta, const PreparedShape& b,
+                                 const PosedTwist& tb, double deviation, double horizon, double touch_gap,
+                                 double advance_gap, Eigen::Vector3d* hint);
 
 // The swept-volume certificate, used by timeOfImpact where rotation limits the steps above.
 // Over [ta, tb] (ta <= tb) each body lies in a convex set: a turning body in its revolution

@@ -744,10 +744,15 @@ double refineConcaveRoot(const F& f, double lo, double flo, double hi, double fh
 //     This follows a rotating face closely: its first-order term is the true rate.
 // (3) n attached to a: the same with the roles of a and b exchanged.
 // All three are concave in D.
+// `deviation`: for bodies whose motion only stays near the constant twist (v, w) of their
+// Kin -- every point within deviation_x D^2 / 2 of where the twist takes it, deviation the sum
+// over both bodies -- each bound less deviation D^2 / 2 bounds the true gap (a support
+// function moves by at most the largest displacement of a point), still concave.
 // `cap`: the caller only needs to know the step up to cap (a mesh's best step so far);
 // the refinements stop as soon as a certificate reaches it.
 double separationStep(const Convex& A, const Kin& ka, const Convex& B, const Kin& kb,
-                      const Eigen::Vector3d& n, double horizon, double adv, double cap, bool* clear) {
+                      const Eigen::Vector3d& n, double horizon, double adv, double cap, bool* clear,
+                      double deviation = 0.0) {
   *clear = false;
   const Eigen::Vector3d ua = ka.w.cross(n), ub = kb.w.cross(n);
   const double kA = ua.norm(), kB = ub.norm();
@@ -759,7 +764,9 @@ double separationStep(const Convex& A, const Kin& ka, const Convex& B, const Kin
   if (!(f0 > 0.0)) return 0.0;
   const double closing = -n.dot(V);
   const double mu = closing + A.lever * kA + B.lever * kB;
-  const double step_lin = mu > 0.0 ? f0 / mu : kInf;
+  // f0 - mu D - deviation D^2 / 2 = 0, cancellation-free (f0 / mu without deviation).
+  const double dev = 0.5 * deviation;
+  const double step_lin = dev > 0.0 ? 2.0 * f0 / (mu + std::sqrt(mu * mu + 4.0 * dev * f0)) : mu > 0.0 ? f0 / mu : kInf;
   if (step_lin >= horizon) {
     *clear = true;
     return horizon;
@@ -779,9 +786,9 @@ double separationStep(const Convex& A, const Kin& ka, const Convex& B, const Kin
   const double c3b = 0.5 * wb * kB * Vn, c3a = 0.5 * wa * kA * Vn;
   auto bound = [&](int which, double D) {
     switch (which) {
-      case 0: return base + D * nV - A.h(n - D * ua) - B.h(-n + D * ub) - q * D * D - adv;
-      case 1: return base + D * r1b - (c2b + c3b * D) * D * D - hB0 - A.h(n + D * rel) - adv;
-      default: return base + D * r1a - (c2a + c3a * D) * D * D - hA0 - B.h(-n + D * rel) - adv;
+      case 0: return base + D * nV - A.h(n - D * ua) - B.h(-n + D * ub) - (q + dev) * D * D - adv;
+      case 1: return base + D * r1b - (c2b + dev + c3b * D) * D * D - hB0 - A.h(n + D * rel) - adv;
+      default: return base + D * r1a - (c2a + dev + c3a * D) * D * D - hA0 - B.h(-n + D * rel) - adv;
     }
   };
   // Each bound at the horizon: one still positive there certifies it all. Otherwise the bound
@@ -1296,23 +1303,21 @@ Swept sweptVolume(const PreparedShapeData& d, const Motion& m, double ta, double
 
 // ---------------------------------------------------------------------------------------
 
-AdvanceStep advanceStep(const PreparedShape& a, const Motion& ma, const PreparedShape& b,
-                        const Motion& mb, double t, double horizon, double touch_gap,
-                        double advance_gap, Eigen::Vector3d* hint) {
-  const PreparedShapeData& da = a.data();
-  const PreparedShapeData& db = b.data();
-  const Side A = sideAt(da, ma, t);
-  const Side B = sideAt(db, mb, t);
-  // GJK accuracy: a small fraction of the band between the advance target and the touch
-  // threshold, so that the loop always reaches "touching" after landing on the target; and,
-  // farther out, a small fraction of the gap (relative to the gap, not to the cores'
-  // distance): the step is certified by the exact separation along the direction found, so a
-  // direction a little off only shortens the step by about as much, while the last
-  // iterations of a curved shape cost as much as the first ones. At the touch threshold
-  // the relative part (4e-3 of the threshold) stays below the absolute one (1/200 of it).
-  const Tolerances tol{0.01 * (touch_gap - advance_gap), 4e-3, 128};
-  if (A.mesh || B.mesh) return meshStep(A, B, horizon, touch_gap, advance_gap, tol);
+namespace {
 
+// GJK accuracy of the steps: a small fraction of the band between the advance target and the
+// touch threshold, so that the loop always reaches "touching" after landing on the target;
+// and, farther out, a small fraction of the gap (relative to the gap, not to the cores'
+// distance): the step is certified by the exact separation along the direction found, so a
+// direction a little off only shortens the step by about as much, while the last iterations
+// of a curved shape cost as much as the first ones. At the touch threshold the relative part
+// (4e-3 of the threshold) stays below the absolute one (1/200 of it).
+Tolerances stepTolerances(double touch_gap, double advance_gap) { return {0.01 * (touch_gap - advance_gap), 4e-3, 128}; }
+
+// advanceStep for two convex sides (kin set), with the deviation of separationStep.
+AdvanceStep convexStep(const Side& A, const Side& B, double deviation, double horizon, double touch_gap,
+                       double advance_gap, Eigen::Vector3d* hint) {
+  const Tolerances tol = stepTolerances(touch_gap, advance_gap);
   AdvanceStep out;
   const Convex ca = A.convex(0), cb = B.convex(0);
   const Eigen::Vector3d guess = (hint && hint->squaredNorm() > 0.0) ? *hint : Eigen::Vector3d(ca.origin() - cb.origin());
@@ -1324,8 +1329,30 @@ AdvanceStep advanceStep(const PreparedShape& a, const Motion& ma, const Prepared
     out.closest = refineContact(ca, cb, out.closest);
     return out;
   }
-  out.step = separationStep(ca, A.kin, cb, B.kin, cert, horizon, advance_gap, horizon, &out.clear);
+  out.step = separationStep(ca, A.kin, cb, B.kin, cert, horizon, advance_gap, horizon, &out.clear, deviation);
   return out;
+}
+
+}  // namespace
+
+AdvanceStep advanceStep(const PreparedShape& a, const Motion& ma, const PreparedShape& b,
+                        const Motion& mb, double t, double horizon, double touch_gap,
+                        double advance_gap, Eigen::Vector3d* hint) {
+  const Side A = sideAt(a.data(), ma, t);
+  const Side B = sideAt(b.data(), mb, t);
+  if (A.mesh || B.mesh) return meshStep(A, B, horizon, touch_gap, advance_gap, stepTolerances(touch_gap, advance_gap));
+  return convexStep(A, B, 0.0, horizon, touch_gap, advance_gap, hint);
+}
+
+AdvanceStep advanceStepNearTwist(const PreparedShape& a, const PosedTwist& ta, const PreparedShape& b,
+                                 const PosedTwist& tb, double deviation, double horizon, double touch_gap,
+                                 double advance_gap, Eigen::Vector3d* hint) {
+  Side A = makeSide(a.data(), ta.pose.linear(), ta.pose.translation());
+  Side B = makeSide(b.data(), tb.pose.linear(), tb.pose.translation());
+  if (A.mesh || B.mesh) throw InvalidArgument("advanceStepNearTwist: convex shapes only, not meshes");
+  A.kin = {ta.velocity, ta.angular_velocity};
+  B.kin = {tb.velocity, tb.angular_velocity};
+  return convexStep(A, B, deviation, horizon, touch_gap, advance_gap, hint);
 }
 
 SweptBound sweptLowerBound(const PreparedShape& a, const Motion& ma, const PreparedShape& b, const Motion& mb,

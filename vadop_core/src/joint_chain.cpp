@@ -12,6 +12,7 @@
 // gap is certified > tol/2: the contract of time_of_impact.h.
 #include "vadop/joint_chain.h"
 
+#include "advance_step.h"
 #include "vadop/error.h"
 
 #include <algorithm>
@@ -194,6 +195,18 @@ double JointPath::maxSpeed(double t0, double t1) const {
   return v;
 }
 
+double JointPath::maxAcceleration(double t0, double t1) const {
+  // A cubic piece's acceleration is linear in time: largest at one of its ends. Before the first
+  // time and after the last the velocity is constant.
+  double a = 0.0;
+  for (size_t k = pieceAt(t0), k1 = pieceAt(t1); k <= k1; ++k) {
+    if (k == 0 || k >= times_.size()) continue;
+    const Cubic c = cubic(k);
+    a = std::max(a, std::max(std::abs(2.0 * c.c[2]), std::abs(2.0 * c.c[2] + 6.0 * c.c[3])) / (c.h * c.h));
+  }
+  return a;
+}
+
 double JointPath::maxAbsPosition(double t0, double t1) const {
   // The extremes are at the ends, at the times in between, or where a cubic piece turns
   // (over each piece that holds in [t0, t1], a superset).
@@ -309,6 +322,92 @@ Eigen::Vector3d LinkChain::velocityOfPoint(const Eigen::Vector3d& x, double t) c
   return v;
 }
 
+LinkChain::State LinkChain::stateAt(double t) const {
+  // The velocity field of the link is affine, v(x) = lin + w x (x - c): accumulated about the
+  // base's pivot c at t (small lever arms, no cancellation of large coordinates).
+  const Motion& m = base_.motion(base_.pieceAt(t));
+  const Eigen::Vector3d c = m.pivotAt(t);
+  State s;
+  Eigen::Isometry3d frame = m.poseAt(t);
+  Eigen::Vector3d lin = m.linear_velocity, w = m.angular_velocity;
+  for (const ChainJoint& j : joints_) {
+    if (j.type == JointType::kFixed) {
+      frame = frame * j.origin;
+      continue;
+    }
+    const Eigen::Isometry3d at_joint = frame * j.origin;
+    const Eigen::Vector3d axis = at_joint.linear() * j.axis;
+    const double rate = j.path.velocityAt(t);
+    if (j.type == JointType::kRevolute) {
+      w += rate * axis;
+      lin -= rate * axis.cross(at_joint.translation() - c);
+    } else {
+      lin += rate * axis;
+    }
+    frame = at_joint;
+    if (j.type == JointType::kRevolute) {
+      frame.rotate(Eigen::AngleAxisd(j.path.positionAt(t), j.axis));
+    } else {
+      frame.translate(j.path.positionAt(t) * j.axis);
+    }
+  }
+  s.pose = frame;
+  s.angular_velocity = w;
+  s.velocity = lin + w.cross(frame.translation() - c);
+  return s;
+}
+
+double LinkChain::angularSpeedBound(double t0, double t1) const {
+  double w = 0.0;
+  base_.forEachPiece(t0, t1, [&](size_t k, double, double) { w = std::max(w, base_.motion(k).angular_velocity.norm()); });
+  for (const ChainJoint& j : joints_) {
+    if (j.type == JointType::kRevolute) w += j.path.maxSpeed(t0, t1);
+  }
+  return w;
+}
+
+double LinkChain::accelerationBound(double t0, double t1, double radius) const {
+  // A point x of the link moves with v = V + W x (x - c) + sum_j u_j (file header), with u_j =
+  // qdot_j a_j x (x - p_j) (revolute) or qdot_j a_j (prismatic); the axis a_j turns with the
+  // frame before joint j, at W_j = W + sum_{k < j} qdot_k a_k, and v - dp_j/dt = W_j x (x - p_j)
+  // + sum_{k >= j} u_k. Differentiating along the point's path:
+  //   |d/dt W x (x - c)| = |W x (v - V)| <= |W| (|W| rho_c + U_1)
+  //   revolute:   |d/dt u_j| <= |qddot_j| rho_j + |qdot_j| (2 |W_j| rho_j + U_j)
+  //   prismatic:  |d/dt u_j| <= |qddot_j| + |qdot_j| |W_j|
+  // with rho the largest distances of x from c and from p_j, U_j = sum_{k >= j} |u_k|.
+  const size_t n = joints_.size();
+  std::vector<double> rho(n), rate(n), accel(n), u_from(n + 1, 0.0);  // u_from[j] = U_j
+  double reach = 0.0;
+  for (size_t i = n; i-- > 0;) {
+    const ChainJoint& j = joints_[i];
+    rate[i] = j.type == JointType::kFixed ? 0.0 : j.path.maxSpeed(t0, t1);
+    accel[i] = j.type == JointType::kFixed ? 0.0 : j.path.maxAcceleration(t0, t1);
+    if (j.type == JointType::kPrismatic) reach += j.path.maxAbsPosition(t0, t1);
+    rho[i] = reach + radius;
+    u_from[i] = u_from[i + 1] + (j.type == JointType::kRevolute ? rate[i] * rho[i] : rate[i]);
+    reach += offset_[i];
+  }
+  double bound = 0.0;
+  base_.forEachPiece(t0, t1, [&](size_t k, double, double) {
+    const Motion& m = base_.motion(k);
+    const double W = m.angular_velocity.norm();
+    double total = 0.0;
+    double w_before = W;  // |W_j| bound, built from the base forward
+    for (size_t i = 0; i < n; ++i) {
+      const ChainJoint& j = joints_[i];
+      if (j.type == JointType::kRevolute) {
+        total += accel[i] * rho[i] + rate[i] * (2.0 * w_before * rho[i] + u_from[i]);
+        w_before += rate[i];
+      } else if (j.type == JointType::kPrismatic) {
+        total += accel[i] + rate[i] * w_before;
+      }
+    }
+    const double rho_c = m.pivot_offset.norm() + reach + radius;
+    bound = std::max(bound, total + W * (W * rho_c + u_from[0]));
+  });
+  return bound;
+}
+
 Eigen::Vector3d LinkChain::angularVelocity(double t) const {
   Eigen::Vector3d w = base_.motion(base_.pieceAt(t)).angular_velocity;
   Eigen::Isometry3d frame = base_.poseAt(t);
@@ -336,9 +435,9 @@ Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedS
   DistanceOptions dopt;
   dopt.tolerance = options.tolerance / 200.0;
   dopt.relative_tolerance = 4e-3;
-  // A mesh's exact separation along a direction visits all its vertices: its steps rest on
-  // the lower bound alone.
+  // A mesh: first-order steps on its distance's lower bound (the twist steps take convex shapes).
   const bool mesh = a.shape().type == ShapeType::kMesh || b.shape().type == ShapeType::kMesh;
+  Eigen::Vector3d hint = Eigen::Vector3d::Zero();  // the last separating direction
   Impact out;
   int used = 0;
   double t = t0;
@@ -374,19 +473,57 @@ Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedS
       continue;
     }
     const double mu = ca.speedBound(t, e, ra) + cb.speedBound(t, e, rb);
-    // Conservative advancement within the stretch (its speed bounds hold up to e only).
+    // Within the stretch each link stays within deviation D^2 / 2 of the constant twist it has
+    // at t (the screw's own points accelerate by at most |w|^2 r): the twist steps' certificates
+    // (advance_step.h) less that, which converge on a contact as fast as theirs.
+    double deviation = 0.0;
+    if (!mesh) {
+      const double wa = ca.angularSpeedBound(t, e), wb = cb.angularSpeedBound(t, e);
+      deviation = ca.accelerationBound(t, e, ra) + wa * wa * ra + cb.accelerationBound(t, e, rb) + wb * wb * rb;
+    }
+    // Conservative advancement within the stretch (its bounds hold up to e only).
     for (;;) {
-      const Eigen::Isometry3d pose_a = ca.poseAt(t), pose_b = cb.poseAt(t);
-      const DistanceResult d = distance(a, pose_a, b, pose_b, dopt);
-      ++used;
-      out.iterations = used;
-      if (d.distance <= touch) {
-        out.hit = true;
-        out.initially_touching = t == t0;
-        fill(t, d);
-        return out;
+      double step = 0.0;
+      DistanceResult d;
+      Eigen::Isometry3d pose_a, pose_b;
+      if (!mesh) {
+        const LinkChain::State sa = ca.stateAt(t), sb = cb.stateAt(t);
+        pose_a = sa.pose;
+        pose_b = sb.pose;
+        const detail::AdvanceStep s = detail::advanceStepNearTwist(
+            a, {sa.pose, sa.velocity, sa.angular_velocity}, b, {sb.pose, sb.velocity, sb.angular_velocity}, deviation,
+            e - t, touch, advance, &hint);
+        ++used;
+        out.iterations = used;
+        if (s.touching) {
+          out.hit = true;
+          out.initially_touching = t == t0;
+          fill(t, s.closest);
+          return out;
+        }
+        if (s.clear && e >= t1) {
+          fill(t1, s.closest);
+          return out;
+        }
+        d = s.closest;
+        step = s.clear ? e - t : s.step;
+      } else {
+        pose_a = ca.poseAt(t);
+        pose_b = cb.poseAt(t);
+        d = distance(a, pose_a, b, pose_b, dopt);
+        ++used;
+        out.iterations = used;
+        if (d.distance <= touch) {
+          out.hit = true;
+          out.initially_touching = t == t0;
+          fill(t, d);
+          return out;
+        }
       }
-      double step = mu > 0.0 ? (d.lower_bound - advance) / mu : kInf;
+      // First-order certificates over the stretch: the gap's lower bound at the links' speed
+      // bounds, and (not for a mesh: all its vertices) the exact separation along the
+      // direction found at the speeds along it.
+      step = std::max(step, mu > 0.0 ? (d.lower_bound - advance) / mu : kInf);
       if (!mesh) {
         const Eigen::Vector3d& n = d.normal;
         const double sep = separationAlong(a.shape(), pose_a, b.shape(), pose_b, n);

@@ -290,6 +290,46 @@ TEST(LinkChain, SpeedBoundHoldsForEveryPoint) {
   EXPECT_LT(worst_reach, 1e-12);
 }
 
+// Second differences of random points' paths never exceed the acceleration bound, nor the
+// link's turning its angular speed bound; stateAt agrees with poseAt, velocityOfPoint and
+// angularVelocity. The twist steps of the chain narrow phase rest on these bounds.
+TEST(LinkChain, AccelerationBoundHoldsForEveryPoint) {
+  toi_scenes::Rng r(13);
+  double worst = 0.0, worst_w = 0.0, worst_state = 0.0, ratio = 0.0;
+  int n = 0, cubic = 0;
+  for (int c = 0; c < 300; ++c) {
+    const TChain tc = randomChain(r, r.integer(1, 6));
+    const LinkChain chain = ours(tc);
+    const double radius = r.uni(0.0, 0.5);
+    for (int i = 0; i < 20; ++i) {
+      const double t = r.uni(-0.2, 2.5);
+      const double e = std::min(t + 0.2, chain.nextBreak(t));
+      const double h = 1e-4;
+      if (e - t < 4 * h) continue;
+      const double bound = chain.accelerationBound(t, e, radius);
+      const double tm = r.uni(t + 2 * h, e - 2 * h);
+      const Vector3d y = r.unit() * radius * std::cbrt(r.uni(0.0, 1.0));
+      auto at = [&](double s) { return Vector3d(truthPose(tc, s).R * y + truthPose(tc, s).p); };
+      const Vector3d a = (at(tm + h) - 2.0 * at(tm) + at(tm - h)) / (h * h);
+      worst = std::max(worst, a.norm() - bound);
+      if (bound > 0) ratio += a.norm() / bound, ++n;
+      worst_w = std::max(worst_w, chain.angularVelocity(tm).norm() - chain.angularSpeedBound(t, e));
+      const LinkChain::State st = chain.stateAt(tm);
+      const Isometry3d x = chain.poseAt(tm);
+      worst_state = std::max({worst_state, (st.pose.matrix() - x.matrix()).norm(),
+                              (st.velocity - chain.velocityOfPoint(x.translation(), tm)).norm(),
+                              (st.angular_velocity - chain.angularVelocity(tm)).norm()});
+      for (const TJoint& j : tc.joints) cubic += !j.qd.empty() && tm > j.times.front() && tm < j.times.back();
+    }
+  }
+  std::printf("[acceleration bound] worst excess %.3e m/s^2, mean |a| / bound %.2f over %d points (%d on cubic pieces)\n",
+              worst, ratio / n, n, cubic);
+  EXPECT_LT(worst, 1e-3);  // second differences, h = 1e-4 s
+  EXPECT_LT(worst_w, 1e-12);
+  EXPECT_LT(worst_state, 1e-12);
+  EXPECT_GT(cubic, 100);  // the joints' own accelerations are exercised
+}
+
 // A link 1 m out on a joint turning at 1 rad/s meets a post at angle 1 rad: both spheres of
 // radius 0.1, so the centres' chord is 0.2 at the angle 2 asin(0.1) before the post.
 TEST(LinkChain, ArmTurnsIntoThePostOnTime) {

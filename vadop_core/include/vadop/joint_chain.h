@@ -46,9 +46,11 @@ class JointPath {
   double velocityAfter() const { return velocity_after_; }
   // The first time > t at which the velocity may jump (+inf: none).
   double nextBreak(double t) const;
-  // Upper bounds over [t0, t1] of |velocity| and of |position|.
+  // Upper bounds over [t0, t1] of |velocity|, of |position| and, when no velocity jumps inside
+  // (t0, t1) (nextBreak), of |acceleration|.
   double maxSpeed(double t0, double t1) const;
   double maxAbsPosition(double t0, double t1) const;
+  double maxAcceleration(double t0, double t1) const;
 
  private:
   struct Cubic {
@@ -85,6 +87,14 @@ class LinkChain {
   Eigen::Isometry3d poseAt(double t) const;
   const TimedPath& base() const { return base_; }
   const std::vector<ChainJoint>& joints() const { return joints_; }
+  // The link's pose at t with the velocity of its origin and its angular velocity (fixed
+  // frame): poseAt, velocityOfPoint and angularVelocity in one pass over the joints.
+  struct State {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+    Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();
+  };
+  State stateAt(double t) const;
   // Whether some joint moves somewhere in [t0, t1].
   bool jointsMove(double t0, double t1) const;
   // The first time > t at which a velocity (the base's or a joint's) may jump; +inf when none.
@@ -99,6 +109,12 @@ class LinkChain {
   // speed its turning and joints cannot make up). The base's linear velocity counts by its
   // component along n, the turning and the joints by their speeds.
   double speedAlong(const Eigen::Vector3d& n, double t0, double t1, double radius) const;
+  // When no velocity jumps inside (t0, t1): a bound on the acceleration of every point within
+  // `radius` of the link's origin at every time of [t0, t1] (the centripetal and Coriolis terms
+  // of the base's turning and of the joints, and the joints' own accelerations), and on the
+  // link's angular speed.
+  double accelerationBound(double t0, double t1, double radius) const;
+  double angularSpeedBound(double t0, double t1) const;
   // A bound on the distance of the link's origin from the base's origin over [t0, t1].
   double reach(double t0, double t1) const;
   // The velocity at t of the material point of the link at x (fixed frame).
