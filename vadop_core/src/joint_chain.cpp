@@ -25,16 +25,6 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-Eigen::Isometry3d jointTransform(const ChainJoint& j, double q) {
-  Eigen::Isometry3d x = j.origin;
-  if (j.type == JointType::kRevolute) {
-    x.rotate(Eigen::AngleAxisd(q, j.axis));
-  } else if (j.type == JointType::kPrismatic) {
-    x.translate(q * j.axis);
-  }
-  return x;
-}
-
 // The base piece `m` carrying a link rigidly at `offset` (link frame in the base frame): the
 // link's own constant twist, turning about the base's pivot.
 Motion carried(const Motion& m, const Eigen::Isometry3d& offset) {
@@ -241,11 +231,7 @@ LinkChain::LinkChain(TimedPath base, std::vector<ChainJoint> joints)
   }
 }
 
-Eigen::Isometry3d LinkChain::poseAt(double t) const {
-  Eigen::Isometry3d x = base_.poseAt(t);
-  for (const ChainJoint& j : joints_) x = x * jointTransform(j, j.type == JointType::kFixed ? 0.0 : j.path.positionAt(t));
-  return x;
-}
+Eigen::Isometry3d LinkChain::poseAt(double t) const { return stateAt(t).pose; }
 
 bool LinkChain::jointsMove(double t0, double t1) const {
   for (const ChainJoint& j : joints_) {
@@ -305,22 +291,11 @@ double LinkChain::reach(double t0, double t1) const {
 }
 
 Eigen::Vector3d LinkChain::velocityOfPoint(const Eigen::Vector3d& x, double t) const {
-  Eigen::Vector3d v = base_.motion(base_.pieceAt(t)).velocityOfPoint(x, t);
-  Eigen::Isometry3d frame = base_.poseAt(t);
-  for (const ChainJoint& j : joints_) {
-    if (j.type == JointType::kFixed) {
-      frame = frame * j.origin;
-      continue;
-    }
-    const Eigen::Isometry3d at_joint = frame * j.origin;
-    const Eigen::Vector3d axis = at_joint.linear() * j.axis;
-    const double rate = j.path.velocityAt(t);
-    v += j.type == JointType::kRevolute ? Eigen::Vector3d(rate * axis.cross(x - at_joint.translation()))
-                                        : Eigen::Vector3d(rate * axis);
-    frame = frame * jointTransform(j, j.path.positionAt(t));
-  }
-  return v;
+  const State s = stateAt(t);
+  return s.velocity + s.angular_velocity.cross(x - s.pose.translation());
 }
+
+Eigen::Vector3d LinkChain::angularVelocity(double t) const { return stateAt(t).angular_velocity; }
 
 LinkChain::State LinkChain::stateAt(double t) const {
   // The velocity field of the link is affine, v(x) = lin + w x (x - c): accumulated about the
@@ -375,48 +350,41 @@ double LinkChain::accelerationBound(double t0, double t1, double radius) const {
   //   revolute:   |d/dt u_j| <= |qddot_j| rho_j + |qdot_j| (2 |W_j| rho_j + U_j)
   //   prismatic:  |d/dt u_j| <= |qddot_j| + |qdot_j| |W_j|
   // with rho the largest distances of x from c and from p_j, U_j = sum_{k >= j} |u_k|.
-  const size_t n = joints_.size();
-  std::vector<double> rho(n), rate(n), accel(n), u_from(n + 1, 0.0);  // u_from[j] = U_j
-  double reach = 0.0;
-  for (size_t i = n; i-- > 0;) {
+  // In one pass from the link back, with |W_j| = |W| + P_j (P_j the sum of the revolute rates
+  // before j): the sum is A_const + |W| A_w + A_cross, A_cross collecting the P_j terms through
+  // suffix sums (sum_j 2 |qdot_j| rho_j P_j = sum_k |qdot_k| 2 S_k, S_k = sum_{j > k} |qdot_j| rho_j
+  // over revolute j; the prismatic ones alike with |qdot_j|).
+  double reach = 0.0, u_from = 0.0, a_const = 0.0, a_w = 0.0, a_cross = 0.0;
+  double rev_after = 0.0, pri_after = 0.0;  // S_k, and the prismatic rates after k
+  for (size_t i = joints_.size(); i-- > 0;) {
     const ChainJoint& j = joints_[i];
-    rate[i] = j.type == JointType::kFixed ? 0.0 : j.path.maxSpeed(t0, t1);
-    accel[i] = j.type == JointType::kFixed ? 0.0 : j.path.maxAcceleration(t0, t1);
-    if (j.type == JointType::kPrismatic) reach += j.path.maxAbsPosition(t0, t1);
-    rho[i] = reach + radius;
-    u_from[i] = u_from[i + 1] + (j.type == JointType::kRevolute ? rate[i] * rho[i] : rate[i]);
+    if (j.type == JointType::kRevolute) {
+      const double rate = j.path.maxSpeed(t0, t1), rho = reach + radius;
+      u_from += rate * rho;
+      a_const += j.path.maxAcceleration(t0, t1) * rho + rate * u_from;
+      a_w += 2.0 * rate * rho;
+      a_cross += rate * (2.0 * rev_after + pri_after);
+      rev_after += rate * rho;
+    } else if (j.type == JointType::kPrismatic) {
+      const double rate = j.path.maxSpeed(t0, t1);
+      reach += j.path.maxAbsPosition(t0, t1);
+      u_from += rate;
+      a_const += j.path.maxAcceleration(t0, t1);
+      a_w += rate;
+      pri_after += rate;
+    }
     reach += offset_[i];
   }
   double bound = 0.0;
   base_.forEachPiece(t0, t1, [&](size_t k, double, double) {
     const Motion& m = base_.motion(k);
     const double W = m.angular_velocity.norm();
-    double total = 0.0;
-    double w_before = W;  // |W_j| bound, built from the base forward
-    for (size_t i = 0; i < n; ++i) {
-      const ChainJoint& j = joints_[i];
-      if (j.type == JointType::kRevolute) {
-        total += accel[i] * rho[i] + rate[i] * (2.0 * w_before * rho[i] + u_from[i]);
-        w_before += rate[i];
-      } else if (j.type == JointType::kPrismatic) {
-        total += accel[i] + rate[i] * w_before;
-      }
-    }
     const double rho_c = m.pivot_offset.norm() + reach + radius;
-    bound = std::max(bound, total + W * (W * rho_c + u_from[0]));
+    bound = std::max(bound, a_const + W * a_w + a_cross + W * (W * rho_c + u_from));
   });
   return bound;
 }
 
-Eigen::Vector3d LinkChain::angularVelocity(double t) const {
-  Eigen::Vector3d w = base_.motion(base_.pieceAt(t)).angular_velocity;
-  Eigen::Isometry3d frame = base_.poseAt(t);
-  for (const ChainJoint& j : joints_) {
-    if (j.type == JointType::kRevolute) w += j.path.velocityAt(t) * ((frame * j.origin).linear() * j.axis);
-    frame = frame * jointTransform(j, j.type == JointType::kFixed ? 0.0 : j.path.positionAt(t));
-  }
-  return w;
-}
 
 Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedShape& b, const LinkChain& cb,
                     double t0, double t1, const ToiOptions& options) {
