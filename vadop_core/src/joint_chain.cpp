@@ -38,15 +38,6 @@ Motion carried(const Motion& m, const Eigen::Isometry3d& offset) {
   return out;
 }
 
-// The separation of the posed shapes along unit n (from a to b), exact supports, less an
-// allowance for the rounding of coordinates of size `scale`: a lower bound of their gap.
-double separationAlong(const Shape& a, const Eigen::Isometry3d& pose_a, const Shape& b,
-                       const Eigen::Isometry3d& pose_b, const Eigen::Vector3d& n) {
-  const double scale = pose_a.translation().norm() + pose_b.translation().norm() + a.bounding_radius + b.bounding_radius;
-  return n.dot(pose_b.translation() - pose_a.translation()) - support(a, pose_a.linear().transpose() * n) -
-         support(b, -(pose_b.linear().transpose() * n)) - 1e-14 * scale;
-}
-
 }  // namespace
 
 JointPath::JointPath(std::vector<double> times, std::vector<double> positions, double velocity_after,
@@ -249,15 +240,6 @@ double LinkChain::nextBreak(double t) const {
 }
 
 double LinkChain::speedBound(double t0, double t1, double radius) const {
-  return pointSpeed(t0, t1, radius, [](const Eigen::Vector3d& v) { return v.norm(); });
-}
-
-double LinkChain::speedAlong(const Eigen::Vector3d& n, double t0, double t1, double radius) const {
-  return pointSpeed(t0, t1, radius, [&n](const Eigen::Vector3d& v) { return n.dot(v); });
-}
-
-template <class Linear>
-double LinkChain::pointSpeed(double t0, double t1, double radius, const Linear& linear) const {
   // reach = the largest distance from joint i's axis point to the link's origin, built from the
   // link back to the base.
   double speed = 0.0, reach = 0.0;
@@ -272,10 +254,10 @@ double LinkChain::pointSpeed(double t0, double t1, double radius, const Linear& 
     reach += offset_[i];
   }
   // The base: every piece that holds in [t0, t1].
-  double base = -kInf;
+  double base = 0.0;
   base_.forEachPiece(t0, t1, [&](size_t k, double, double) {
     const Motion& m = base_.motion(k);
-    base = std::max(base, linear(m.linear_velocity) +
+    base = std::max(base, m.linear_velocity.norm() +
                               m.angular_velocity.norm() * (m.pivot_offset.norm() + reach + radius));
   });
   return speed + base;
@@ -488,16 +470,9 @@ Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedS
           return out;
         }
       }
-      // First-order certificates over the stretch: the gap's lower bound at the links' speed
-      // bounds, and (not for a mesh: all its vertices) the exact separation along the
-      // direction found at the speeds along it.
+      // The first-order certificate over the stretch: the gap's lower bound at the links'
+      // speed bounds (far from a contact, with fast joints, at times longer than the above).
       step = std::max(step, mu > 0.0 ? (d.lower_bound - advance) / mu : kInf);
-      if (!mesh) {
-        const Eigen::Vector3d& n = d.normal;
-        const double sep = separationAlong(a.shape(), pose_a, b.shape(), pose_b, n);
-        const double mu_n = ca.speedAlong(n, t, e, ra) + cb.speedAlong(-n, t, e, rb);
-        if (sep > advance) step = std::max(step, mu_n > 0.0 ? (sep - advance) / mu_n : kInf);
-      }
       const double next = t + step;
       const bool stuck = !(step > 0.0) || !(next > t);  // no representable progress
       if (!stuck && next >= e) {

@@ -244,8 +244,8 @@ TEST(LinkChain, ForwardKinematicsMatchesTheTruthsOwn) {
 // Finite differences of random points' paths never exceed the bound.
 TEST(LinkChain, SpeedBoundHoldsForEveryPoint) {
   toi_scenes::Rng r(12);
-  double worst = 0.0, mean_ratio = 0.0, worst_velocity = 0.0, worst_reach = -1.0, worst_along = 0.0;
-  int n = 0, tighter = 0;
+  double worst = 0.0, mean_ratio = 0.0, worst_velocity = 0.0, worst_reach = -1.0;
+  int n = 0;
   for (int c = 0; c < 300; ++c) {
     const TChain tc = randomChain(r, r.integer(1, 6));
     const LinkChain chain = ours(tc);
@@ -261,16 +261,6 @@ TEST(LinkChain, SpeedBoundHoldsForEveryPoint) {
       const Vector3d v = (truthPose(tc, tm + h).R * y + truthPose(tc, tm + h).p -
                           truthPose(tc, tm - h).R * y - truthPose(tc, tm - h).p) / (2 * h);
       worst = std::max(worst, v.norm() - bound);
-      // Along a direction: mostly the base's or its opposite, so that speedAlong's signed share
-      // of the base's velocity is what is tested (and random ones).
-      for (int d = 0; d < 3; ++d) {
-        const Vector3d& base_v = tc.base.linear_velocity;
-        const Vector3d n = d == 2 || base_v.norm() == 0.0 ? r.unit() : Vector3d((d == 0 ? 1.0 : -1.0) * base_v.normalized());
-        const double along = chain.speedAlong(n, t, e, radius);
-        worst_along = std::max(worst_along, n.dot(v) - along);
-        EXPECT_LE(along, bound + 1e-12);
-        if (d == 1 && tc.base.linear_velocity.norm() > 0.1) tighter += along < bound - 0.1;
-      }
       // The exact velocity and the reach agree with the truth's kinematics.
       const Vector3d x = truthPose(tc, tm).R * y + truthPose(tc, tm).p;
       worst_velocity = std::max(worst_velocity, (chain.velocityOfPoint(x, tm) - v).norm());
@@ -282,10 +272,6 @@ TEST(LinkChain, SpeedBoundHoldsForEveryPoint) {
   }
   std::printf("[speed bound] worst excess %.3e m/s, mean |v| / bound %.2f over %d points\n", worst, mean_ratio / n, n);
   EXPECT_LT(worst, 1e-6);
-  EXPECT_LT(worst_along, 1e-6);
-  EXPECT_GT(tighter, 100) << "speedAlong: against the base's motion, below the speed bound";
-  std::printf("[speed along] worst excess %.3e m/s, %d of %d points well below the speed bound against the base's motion\n",
-              worst_along, tighter, n);
   EXPECT_LT(worst_velocity, 1e-5);  // finite differences, h = 1e-6 s
   EXPECT_LT(worst_reach, 1e-12);
 }

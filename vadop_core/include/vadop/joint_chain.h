@@ -104,11 +104,6 @@ class LinkChain {
   // on the point, plus each revolute joint's rate times the point's largest distance from the
   // joint's axis point, plus each prismatic joint's rate.
   double speedBound(double t0, double t1, double radius) const;
-  // The same bound for the velocity's component along the unit vector n (fixed frame): n.v <=
-  // speedAlong(n) for every such point (it may be negative: a base driving away from n at a
-  // speed its turning and joints cannot make up). The base's linear velocity counts by its
-  // component along n, the turning and the joints by their speeds.
-  double speedAlong(const Eigen::Vector3d& n, double t0, double t1, double radius) const;
   // When no velocity jumps inside (t0, t1): a bound on the acceleration of every point within
   // `radius` of the link's origin at every time of [t0, t1] (the centripetal and Coriolis terms
   // of the base's turning and of the joints, and the joints' own accelerations), and on the
@@ -123,10 +118,6 @@ class LinkChain {
   Eigen::Vector3d angularVelocity(double t) const;
 
  private:
-  // speedBound and speedAlong: `linear` maps the base's linear velocity to its share.
-  template <class Linear>
-  double pointSpeed(double t0, double t1, double radius, const Linear& linear) const;
-
   TimedPath base_;
   std::vector<ChainJoint> joints_;
   std::vector<double> offset_;  // |origin_i translation|
