@@ -7,7 +7,6 @@
 #include "vadop/motion.h"
 
 #include <Eigen/Core>
-#include <Eigen/Geometry>
 
 namespace vadop {
 
@@ -41,11 +40,6 @@ AdvanceStep advanceStep(const PreparedShape& a, const Motion& ma, const Prepared
 // deviation_x D^2 / 2 of where that twist takes it D later (`deviation` the sum over both, a
 // bound over [t, t + horizon]): links of joint chains (joint_chain.cpp). Convex shapes only;
 // throws vadop::InvalidArgument for a mesh.
-struct PosedTwist {
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
-  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();
-};
 AdvanceStep advanceStepNearTwist(const PreparedShape& a, const PosedTwist& ta, const PreparedShape& b,
                                  const PosedTwist& tb, double deviation, double horizon, double touch_gap,
                                  double advance_gap, Eigen::Vector3d* hint);

@@ -279,18 +279,18 @@ double LinkChain::reach(double t0, double t1) const {
 }
 
 Eigen::Vector3d LinkChain::velocityOfPoint(const Eigen::Vector3d& x, double t) const {
-  const State s = stateAt(t);
+  const PosedTwist s = stateAt(t);
   return s.velocity + s.angular_velocity.cross(x - s.pose.translation());
 }
 
 Eigen::Vector3d LinkChain::angularVelocity(double t) const { return stateAt(t).angular_velocity; }
 
-LinkChain::State LinkChain::stateAt(double t) const {
+PosedTwist LinkChain::stateAt(double t) const {
   // The velocity field of the link is affine, v(x) = lin + w x (x - c): accumulated about the
   // base's pivot c at t (small lever arms, no cancellation of large coordinates).
   const Motion& m = base_.motion(base_.pieceAt(t));
   const Eigen::Vector3d c = m.pivotAt(t);
-  State s;
+  PosedTwist s;
   Eigen::Isometry3d frame = m.poseAt(t);
   Eigen::Vector3d lin = m.linear_velocity, w = m.angular_velocity;
   for (const ChainJoint& j : joints_) {
@@ -440,10 +440,8 @@ Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedS
       double step = 0.0;
       DistanceResult d;
       if (!mesh) {
-        const LinkChain::State sa = ca.stateAt(t), sb = cb.stateAt(t);
-        const detail::AdvanceStep s = detail::advanceStepNearTwist(
-            a, {sa.pose, sa.velocity, sa.angular_velocity}, b, {sb.pose, sb.velocity, sb.angular_velocity}, deviation,
-            e - t, touch, advance, &hint);
+        const detail::AdvanceStep s =
+            detail::advanceStepNearTwist(a, ca.stateAt(t), b, cb.stateAt(t), deviation, e - t, touch, advance, &hint);
         ++used;
         out.iterations = used;
         if (s.touching) {

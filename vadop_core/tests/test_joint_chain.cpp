@@ -303,7 +303,7 @@ TEST(LinkChain, AccelerationBoundHoldsForEveryPoint) {
     worst = std::max(worst, a.norm() - bound);
     if (bound > 0) ratio += a.norm() / bound, ++n;
     worst_w = std::max(worst_w, chain.angularVelocity(tm).norm() - chain.angularSpeedBound(t, e));
-    const LinkChain::State st = chain.stateAt(tm);
+    const vadop::PosedTwist st = chain.stateAt(tm);
     const Isometry3d x = chain.poseAt(tm);
     worst_state = std::max({worst_state, (st.pose.matrix() - x.matrix()).norm(),
                             (st.velocity - chain.velocityOfPoint(x.translation(), tm)).norm(),

@@ -89,12 +89,7 @@ class LinkChain {
   const std::vector<ChainJoint>& joints() const { return joints_; }
   // The link's pose at t with the velocity of its origin and its angular velocity (fixed
   // frame): poseAt, velocityOfPoint and angularVelocity in one pass over the joints.
-  struct State {
-    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-    Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
-    Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();
-  };
-  State stateAt(double t) const;
+  PosedTwist stateAt(double t) const;
   // Whether some joint moves somewhere in [t0, t1].
   bool jointsMove(double t0, double t1) const;
   // The first time > t at which a velocity (the base's or a joint's) may jump; +inf when none.

@@ -16,6 +16,14 @@
 
 namespace vadop {
 
+// A body at an instant: its pose, the velocity of the pose's origin and its angular velocity
+// (fixed frame); e.g. a link of a joint chain (LinkChain::stateAt).
+struct PosedTwist {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();
+};
+
 struct Motion {
   double t_ref = 0.0;                                      // time at which the pose holds
   Eigen::Vector3d position = Eigen::Vector3d::Zero();      // body origin in the fixed frame
