@@ -5,13 +5,13 @@
 //   v(x) = v_pivot + w_base x (x - pivot) + sum_revolute qdot_i axis_i x (x - p_i) + sum_prismatic qdot_i axis_i
 // with p_i on joint i's axis. |x - p_i| is at most r plus the lengths of the joint origins after
 // i (and the prismatic travels from i on), whatever the joint angles; |x - pivot| at most that
-// from the base plus the base's pivot lever. So |v(x)| <= mu_a (speedBound) and the gap of two
+// from the base plus the base's pivot lever. So |v(x)| <= mu_a (LinkChain::bounds) and the gap of two
 // links shrinks no faster than mu_a + mu_b: from a certified lower bound lb > tol/2 of the gap
 // at t (distance.h's lower_bound), the gap stays > tol/2 on [t, t + (lb - tol/2) / (mu_a + mu_b)).
 // Near a contact that first-order step converges slowly; the second certificate follows each
 // link's twist at t (its pose, the velocity of its origin, its angular velocity): a point's
 // distance from where that constant twist takes it grows at most as (A + |w|^2 r) D^2 / 2 over
-// D, A bounding the point's acceleration on the stretch (accelerationBound) and |w|^2 r the
+// D, A bounding the point's acceleration on the stretch (LinkChain::bounds) and |w|^2 r the
 // twist's own, so the constant-twist certificates of advance_step.h less that bound the gap.
 // Each iteration either finds the gap <= tol at t (hit), or moves t to a time up to which the
 // gap is certified > tol/2, never past the stretch's end (its bounds hold there only): the
@@ -20,6 +20,7 @@
 
 #include "advance_step.h"
 #include "vadop/error.h"
+#include "vadop/vadop.h"
 
 #include <algorithm>
 #include <cmath>
@@ -42,6 +43,30 @@ Motion carried(const Motion& m, const Eigen::Isometry3d& offset) {
   out.pivot_offset = m.position + m.pivot_offset - out.position;
   if (!m.isRotating()) out.pivot_offset.setZero();
   return out;
+}
+
+// The u in (0, 1) where the cubic's derivative (degree d = 1: of the derivative itself) is zero.
+void stationary(const double* c, int count, double roots[2], int& n) {
+  // a u^2 + b u + e = 0 with (a, b, e) = (3 c3, 2 c2, c1) (count 2: the derivative's derivative,
+  // 6 c3 u + 2 c2 = 0).
+  n = 0;
+  if (count == 1) {
+    if (c[3] != 0.0) {
+      const double u = -c[2] / (3.0 * c[3]);
+      if (u > 0.0 && u < 1.0) roots[n++] = u;
+    }
+    return;
+  }
+  const double a = 3.0 * c[3], b = 2.0 * c[2], e = c[1];
+  if (a == 0.0) {
+    if (b != 0.0 && -e / b > 0.0 && -e / b < 1.0) roots[n++] = -e / b;
+    return;
+  }
+  const double disc = b * b - 4.0 * a * e;
+  if (disc < 0.0) return;
+  for (const double u : {(-b - std::sqrt(disc)) / (2.0 * a), (-b + std::sqrt(disc)) / (2.0 * a)}) {
+    if (u > 0.0 && u < 1.0) roots[n++] = u;
+  }
 }
 
 }  // namespace
@@ -75,6 +100,32 @@ JointPath::JointPath(std::vector<double> times, std::vector<double> positions, d
     }
   }
   if (!std::isfinite(velocity_after_)) throw InvalidArgument("JointPath: velocity_after is not finite");
+  // Piece k, in u = (t - times[k-1]) / h in [0, 1]: the Hermite cubic q(u) = c0 + c1 u + c2 u^2 +
+  // c3 u^3 (c2 = c3 = 0 without velocities). Its rate is largest at an end or where its
+  // derivative turns; its acceleration, linear in time, at an end.
+  pieces_.resize(times_.size() - 1);
+  for (size_t k = 1; k < times_.size(); ++k) {
+    Piece& piece = pieces_[k - 1];
+    Cubic& c = piece.cubic;
+    c.h = times_[k] - times_[k - 1];
+    const double p0 = positions_[k - 1], p1 = positions_[k];
+    c.c[0] = p0;
+    if (velocities_.empty()) {
+      c.c[1] = p1 - p0;
+    } else {
+      const double m0 = velocities_[k - 1] * c.h, m1 = velocities_[k] * c.h;
+      c.c[1] = m0;
+      c.c[2] = -3.0 * p0 - 2.0 * m0 + 3.0 * p1 - m1;
+      c.c[3] = 2.0 * p0 + m0 - 2.0 * p1 + m1;
+    }
+    double v = std::max(std::abs(c.rate(0.0)), std::abs(c.rate(1.0)));
+    double roots[2];
+    int n = 0;
+    stationary(c.c, 1, roots, n);
+    for (int i = 0; i < n; ++i) v = std::max(v, std::abs(c.rate(roots[i])));
+    piece.max_rate = v;
+    piece.max_acceleration = std::max(std::abs(2.0 * c.c[2]), std::abs(2.0 * c.c[2] + 6.0 * c.c[3])) / (c.h * c.h);
+  }
 }
 
 JointPath JointPath::constantVelocity(double t_ref, double position, double velocity, double lower, double upper) {
@@ -98,78 +149,27 @@ size_t JointPath::pieceAt(double t) const {
   return static_cast<size_t>(std::upper_bound(times_.begin(), times_.end(), t) - times_.begin());
 }
 
-// Piece k in 1 .. n-1, in u = (t - times[k-1]) / h in [0, 1]: the Hermite cubic
-// q(u) = c0 + c1 u + c2 u^2 + c3 u^3 (c2 = c3 = 0 without velocities).
-JointPath::Cubic JointPath::cubic(size_t k) const {
-  Cubic c;
-  c.h = times_[k] - times_[k - 1];
-  const double p0 = positions_[k - 1], p1 = positions_[k];
-  c.c[0] = p0;
-  if (velocities_.empty()) {
-    c.c[1] = p1 - p0;
-    return c;
-  }
-  const double m0 = velocities_[k - 1] * c.h, m1 = velocities_[k] * c.h;
-  c.c[1] = m0;
-  c.c[2] = -3.0 * p0 - 2.0 * m0 + 3.0 * p1 - m1;
-  c.c[3] = 2.0 * p0 + m0 - 2.0 * p1 + m1;
-  return c;
-}
-
 double JointPath::Cubic::at(double u) const { return c[0] + u * (c[1] + u * (c[2] + u * c[3])); }
 double JointPath::Cubic::rate(double u) const { return (c[1] + u * (2.0 * c[2] + u * 3.0 * c[3])) / h; }
-
-// The u in (0, 1) where the cubic's derivative (degree d = 1: of the derivative itself) is zero.
-static void stationary(const double* c, int count, double roots[2], int& n) {
-  // a u^2 + b u + e = 0 with (a, b, e) = (3 c3, 2 c2, c1) (count 2: the derivative's derivative,
-  // 6 c3 u + 2 c2 = 0).
-  n = 0;
-  if (count == 1) {
-    if (c[3] != 0.0) {
-      const double u = -c[2] / (3.0 * c[3]);
-      if (u > 0.0 && u < 1.0) roots[n++] = u;
-    }
-    return;
-  }
-  const double a = 3.0 * c[3], b = 2.0 * c[2], e = c[1];
-  if (a == 0.0) {
-    if (b != 0.0 && -e / b > 0.0 && -e / b < 1.0) roots[n++] = -e / b;
-    return;
-  }
-  const double disc = b * b - 4.0 * a * e;
-  if (disc < 0.0) return;
-  for (const double u : {(-b - std::sqrt(disc)) / (2.0 * a), (-b + std::sqrt(disc)) / (2.0 * a)}) {
-    if (u > 0.0 && u < 1.0) roots[n++] = u;
-  }
-}
 
 double JointPath::maxRate(size_t k) const {
   if (k == 0) return 0.0;
   if (k >= times_.size()) return std::abs(velocity_after_);
-  const Cubic c = cubic(k);
-  double v = std::max(std::abs(c.rate(0.0)), std::abs(c.rate(1.0)));
-  double roots[2];
-  int n = 0;
-  stationary(c.c, 1, roots, n);
-  for (int i = 0; i < n; ++i) v = std::max(v, std::abs(c.rate(roots[i])));
-  return v;
+  return pieces_[k - 1].max_rate;
 }
 
-double JointPath::positionAt(double t) const {
+JointPath::State JointPath::stateAt(double t) const {
   const size_t k = pieceAt(t);
-  if (k == 0) return positions_.front();
-  if (k == times_.size()) return positions_.back() + velocity_after_ * (t - times_.back());
-  const Cubic c = cubic(k);
-  return c.at((t - times_[k - 1]) / c.h);
+  if (k == 0) return {positions_.front(), 0.0};
+  if (k == times_.size()) return {positions_.back() + velocity_after_ * (t - times_.back()), velocity_after_};
+  const Cubic& c = cubic(k);
+  const double u = (t - times_[k - 1]) / c.h;
+  return {c.at(u), c.rate(u)};
 }
 
-double JointPath::velocityAt(double t) const {
-  const size_t k = pieceAt(t);
-  if (k == 0) return 0.0;
-  if (k == times_.size()) return velocity_after_;
-  const Cubic c = cubic(k);
-  return c.rate((t - times_[k - 1]) / c.h);
-}
+double JointPath::positionAt(double t) const { return stateAt(t).position; }
+
+double JointPath::velocityAt(double t) const { return stateAt(t).velocity; }
 
 double JointPath::nextBreak(double t) const {
   const auto it = std::upper_bound(times_.begin(), times_.end(), t);
@@ -187,9 +187,7 @@ double JointPath::maxAcceleration(double t0, double t1) const {
   // time and after the last the velocity is constant.
   double a = 0.0;
   for (size_t k = pieceAt(t0), k1 = pieceAt(t1); k <= k1; ++k) {
-    if (k == 0 || k >= times_.size()) continue;
-    const Cubic c = cubic(k);
-    a = std::max(a, std::max(std::abs(2.0 * c.c[2]), std::abs(2.0 * c.c[2] + 6.0 * c.c[3])) / (c.h * c.h));
+    if (k > 0 && k < times_.size()) a = std::max(a, pieces_[k - 1].max_acceleration);
   }
   return a;
 }
@@ -200,7 +198,7 @@ double JointPath::maxAbsPosition(double t0, double t1) const {
   double m = std::max(std::abs(positionAt(t0)), std::abs(positionAt(t1)));
   for (size_t k = pieceAt(t0), k1 = pieceAt(t1); k <= k1; ++k) {
     if (k == 0 || k >= times_.size()) continue;
-    const Cubic c = cubic(k);
+    const Cubic& c = cubic(k);
     if (times_[k] < t1) m = std::max(m, std::abs(positions_[k]));
     double roots[2];
     int n = 0;
@@ -245,28 +243,83 @@ double LinkChain::nextBreak(double t) const {
   return e;
 }
 
-double LinkChain::speedBound(double t0, double t1, double radius) const {
-  // reach = the largest distance from joint i's axis point to the link's origin, built from the
-  // link back to the base.
-  double speed = 0.0, reach = 0.0;
+LinkChain::StretchBounds LinkChain::bounds(double t0, double t1, double radius) const {
+  // Speed: reach = the largest distance from joint i's axis point to the link's origin, built
+  // from the link back to the base; a point x within radius of the origin then moves at most at
+  // sum_revolute |qdot_i| (reach_i + radius) + sum_prismatic |qdot_i| + the base's twist on it.
+  // Acceleration: x moves with v = V + W x (x - c) + sum_j u_j (file header), with u_j =
+  // qdot_j a_j x (x - p_j) (revolute) or qdot_j a_j (prismatic); the axis a_j turns with the
+  // frame before joint j, at W_j = W + sum_{k < j} qdot_k a_k, and v - dp_j/dt = W_j x (x - p_j)
+  // + sum_{k >= j} u_k. Differentiating along the point's path:
+  //   |d/dt W x (x - c)| = |W x (v - V)| <= |W| (|W| rho_c + U_1)
+  //   revolute:   |d/dt u_j| <= |qddot_j| rho_j + |qdot_j| (2 |W_j| rho_j + U_j)
+  //   prismatic:  |d/dt u_j| <= |qddot_j| + |qdot_j| |W_j|
+  // with rho the largest distances of x from c and from p_j, U_j = sum_{k >= j} |u_k|.
+  // In one pass from the link back, with |W_j| = |W| + P_j (P_j the sum of the revolute rates
+  // before j): the sum is A_const + |W| A_w + A_cross, A_cross collecting the P_j terms through
+  // suffix sums (sum_j 2 |qdot_j| rho_j P_j = sum_k |qdot_k| 2 S_k, S_k = sum_{j > k} |qdot_j| rho_j
+  // over revolute j; the prismatic ones alike with |qdot_j|). U_1 is also the joints' share of
+  // the speed bound.
+  double reach = 0.0, u_from = 0.0, a_const = 0.0, a_w = 0.0, a_cross = 0.0, joint_w = 0.0;
+  double rev_after = 0.0, pri_after = 0.0;  // S_k, and the prismatic rates after k
   for (size_t i = joints_.size(); i-- > 0;) {
     const ChainJoint& j = joints_[i];
-    if (j.type == JointType::kPrismatic) {
+    if (j.type == JointType::kRevolute) {
+      const double rate = j.path.maxSpeed(t0, t1), rho = reach + radius;
+      u_from += rate * rho;
+      a_const += j.path.maxAcceleration(t0, t1) * rho + rate * u_from;
+      a_w += 2.0 * rate * rho;
+      a_cross += rate * (2.0 * rev_after + pri_after);
+      rev_after += rate * rho;
+      joint_w += rate;
+    } else if (j.type == JointType::kPrismatic) {
+      const double rate = j.path.maxSpeed(t0, t1);
       reach += j.path.maxAbsPosition(t0, t1);
-      speed += j.path.maxSpeed(t0, t1);
-    } else if (j.type == JointType::kRevolute) {
-      speed += j.path.maxSpeed(t0, t1) * (reach + radius);
+      u_from += rate;
+      a_const += j.path.maxAcceleration(t0, t1);
+      a_w += rate;
+      pri_after += rate;
     }
     reach += offset_[i];
   }
   // The base: every piece that holds in [t0, t1].
-  double base = 0.0;
+  StretchBounds out;
+  double base_speed = 0.0, base_w = 0.0;
   base_.forEachPiece(t0, t1, [&](size_t k, double, double) {
     const Motion& m = base_.motion(k);
-    base = std::max(base, m.linear_velocity.norm() +
-                              m.angular_velocity.norm() * (m.pivot_offset.norm() + reach + radius));
+    const double W = m.angular_velocity.norm();
+    const double rho_c = m.pivot_offset.norm() + reach + radius;
+    base_speed = std::max(base_speed, m.linear_velocity.norm() + W * rho_c);
+    base_w = std::max(base_w, W);
+    out.acceleration = std::max(out.acceleration, a_const + W * a_w + a_cross + W * (W * rho_c + u_from));
   });
-  return speed + base;
+  out.speed = u_from + base_speed;
+  out.angular_speed = base_w + joint_w;
+  return out;
+}
+
+void LinkChain::sweptBox(const Shape& shape, double t0, double t1, double* box) const {
+  // Every point moves at most at sup |v| <= the largest speed bound of the stretches, so it stays
+  // within that times half the window of where it is at the mid time.
+  double speed = 0.0;
+  for (double s = t0;;) {
+    const double e = std::min(t1, nextBreak(s));
+    speed = std::max(speed, bounds(s, e, shape.bounding_radius).speed);
+    if (!(e < t1)) break;
+    s = e;
+  }
+  const double mid = 0.5 * (t0 + t1);
+  const Eigen::Isometry3d pose = stateAt(mid).pose;
+  const double grow = speed * std::max(mid - t0, t1 - mid);
+  for (int k = 0; k < 3; ++k) {
+    const Eigen::Vector3d axis = pose.linear().row(k).transpose();  // the fixed axis k in the link frame
+    const double c = pose.translation()[k];
+    const double lo = c - support(shape, -axis) - grow, hi = c + support(shape, axis) + grow;
+    // Rounding of the pose and the supports: a few ulps of the magnitudes involved.
+    const double widen = SweptBody::kRoundingWiden * (1.0 + std::max(std::abs(lo), std::abs(hi)) + grow);
+    box[k] = lo - widen;
+    box[3 + k] = hi + widen;
+  }
 }
 
 double LinkChain::reach(double t0, double t1) const {
@@ -294,83 +347,28 @@ PosedTwist LinkChain::stateAt(double t) const {
   Eigen::Isometry3d frame = m.poseAt(t);
   Eigen::Vector3d lin = m.linear_velocity, w = m.angular_velocity;
   for (const ChainJoint& j : joints_) {
-    if (j.type == JointType::kFixed) {
-      frame = frame * j.origin;
+    frame = frame * j.origin;  // the joint's frame
+    if (j.type == JointType::kFixed) continue;
+    const JointPath::State q = j.path.stateAt(t);
+    const Eigen::Vector3d axis = frame.linear() * j.axis;
+    if (j.type == JointType::kPrismatic) {
+      lin += q.velocity * axis;
+      frame.translation() += q.position * axis;
       continue;
     }
-    const Eigen::Isometry3d at_joint = frame * j.origin;
-    const Eigen::Vector3d axis = at_joint.linear() * j.axis;
-    const double rate = j.path.velocityAt(t);
-    if (j.type == JointType::kRevolute) {
-      w += rate * axis;
-      lin -= rate * axis.cross(at_joint.translation() - c);
-    } else {
-      lin += rate * axis;
-    }
-    frame = at_joint;
-    if (j.type == JointType::kRevolute) {
-      frame.rotate(Eigen::AngleAxisd(j.path.positionAt(t), j.axis));
-    } else {
-      frame.translate(j.path.positionAt(t) * j.axis);
+    w += q.velocity * axis;
+    lin -= q.velocity * axis.cross(frame.translation() - c);
+    // R Rot(k, q) = cos q R + sin q [R k]x R + (1 - cos q) (R k) k^T (Rodrigues), column by column.
+    const double cq = std::cos(q.position), sq = std::sin(q.position);
+    for (int i = 0; i < 3; ++i) {
+      const Eigen::Vector3d r = frame.linear().col(i);
+      frame.linear().col(i) = cq * r + sq * axis.cross(r) + ((1.0 - cq) * j.axis[i]) * axis;
     }
   }
   s.pose = frame;
   s.angular_velocity = w;
   s.velocity = lin + w.cross(frame.translation() - c);
   return s;
-}
-
-double LinkChain::angularSpeedBound(double t0, double t1) const {
-  double w = 0.0;
-  base_.forEachPiece(t0, t1, [&](size_t k, double, double) { w = std::max(w, base_.motion(k).angular_velocity.norm()); });
-  for (const ChainJoint& j : joints_) {
-    if (j.type == JointType::kRevolute) w += j.path.maxSpeed(t0, t1);
-  }
-  return w;
-}
-
-double LinkChain::accelerationBound(double t0, double t1, double radius) const {
-  // A point x of the link moves with v = V + W x (x - c) + sum_j u_j (file header), with u_j =
-  // qdot_j a_j x (x - p_j) (revolute) or qdot_j a_j (prismatic); the axis a_j turns with the
-  // frame before joint j, at W_j = W + sum_{k < j} qdot_k a_k, and v - dp_j/dt = W_j x (x - p_j)
-  // + sum_{k >= j} u_k. Differentiating along the point's path:
-  //   |d/dt W x (x - c)| = |W x (v - V)| <= |W| (|W| rho_c + U_1)
-  //   revolute:   |d/dt u_j| <= |qddot_j| rho_j + |qdot_j| (2 |W_j| rho_j + U_j)
-  //   prismatic:  |d/dt u_j| <= |qddot_j| + |qdot_j| |W_j|
-  // with rho the largest distances of x from c and from p_j, U_j = sum_{k >= j} |u_k|.
-  // In one pass from the link back, with |W_j| = |W| + P_j (P_j the sum of the revolute rates
-  // before j): the sum is A_const + |W| A_w + A_cross, A_cross collecting the P_j terms through
-  // suffix sums (sum_j 2 |qdot_j| rho_j P_j = sum_k |qdot_k| 2 S_k, S_k = sum_{j > k} |qdot_j| rho_j
-  // over revolute j; the prismatic ones alike with |qdot_j|).
-  double reach = 0.0, u_from = 0.0, a_const = 0.0, a_w = 0.0, a_cross = 0.0;
-  double rev_after = 0.0, pri_after = 0.0;  // S_k, and the prismatic rates after k
-  for (size_t i = joints_.size(); i-- > 0;) {
-    const ChainJoint& j = joints_[i];
-    if (j.type == JointType::kRevolute) {
-      const double rate = j.path.maxSpeed(t0, t1), rho = reach + radius;
-      u_from += rate * rho;
-      a_const += j.path.maxAcceleration(t0, t1) * rho + rate * u_from;
-      a_w += 2.0 * rate * rho;
-      a_cross += rate * (2.0 * rev_after + pri_after);
-      rev_after += rate * rho;
-    } else if (j.type == JointType::kPrismatic) {
-      const double rate = j.path.maxSpeed(t0, t1);
-      reach += j.path.maxAbsPosition(t0, t1);
-      u_from += rate;
-      a_const += j.path.maxAcceleration(t0, t1);
-      a_w += rate;
-      pri_after += rate;
-    }
-    reach += offset_[i];
-  }
-  double bound = 0.0;
-  base_.forEachPiece(t0, t1, [&](size_t k, double, double) {
-    const Motion& m = base_.motion(k);
-    const double W = m.angular_velocity.norm();
-    const double rho_c = m.pivot_offset.norm() + reach + radius;
-    bound = std::max(bound, a_const + W * a_w + a_cross + W * (W * rho_c + u_from));
-  });
-  return bound;
 }
 
 Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedShape& b, const LinkChain& cb,
@@ -426,15 +424,14 @@ Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedS
       t = e;
       continue;
     }
-    const double mu = ca.speedBound(t, e, ra) + cb.speedBound(t, e, rb);
+    const LinkChain::StretchBounds ba = ca.bounds(t, e, ra), bb = cb.bounds(t, e, rb);
+    const double mu = ba.speed + bb.speed;
     // Within the stretch each link stays within deviation D^2 / 2 of the constant twist it has
     // at t (the screw's own points accelerate by at most |w|^2 r): the twist steps' certificates
     // (advance_step.h) less that, which converge on a contact as fast as theirs.
-    double deviation = 0.0;
-    if (!mesh) {
-      const double wa = ca.angularSpeedBound(t, e), wb = cb.angularSpeedBound(t, e);
-      deviation = ca.accelerationBound(t, e, ra) + wa * wa * ra + cb.accelerationBound(t, e, rb) + wb * wb * rb;
-    }
+    const double deviation = mesh ? 0.0
+                                  : ba.acceleration + ba.angular_speed * ba.angular_speed * ra + bb.acceleration +
+                                        bb.angular_speed * bb.angular_speed * rb;
     // Conservative advancement within the stretch (its bounds hold up to e only).
     for (;;) {
       double step = 0.0;

@@ -119,9 +119,18 @@ Eigen::Vector3d screwPivotVelocity(const Eigen::Vector3d& origin_velocity, const
 }
 
 Eigen::Isometry3d Motion::poseAt(double t) const {
+  // One rotation exp([w] (t - t_ref)) for both the orientation and the origin's turn about the
+  // pivot (positionAt and orientationAt would each compute it).
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.linear() = orientationAt(t).toRotationMatrix();
-  pose.translation() = positionAt(t);
+  const Eigen::Vector3d p = position + linear_velocity * (t - t_ref);
+  if (!isRotating()) {
+    pose.linear() = orientation.toRotationMatrix();
+    pose.translation() = p;
+    return pose;
+  }
+  const Eigen::Matrix3d e = spin(t);
+  pose.linear() = e * orientation.toRotationMatrix();
+  pose.translation() = hasPivot() ? Eigen::Vector3d(p + pivot_offset - e * pivot_offset) : p;
   return pose;
 }
 

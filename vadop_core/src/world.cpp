@@ -453,6 +453,15 @@ void World::pathBox(BodyId p, double t0, double t1, double* box) const {
       box[3 + c] = std::max(box[3 + c], piece[3 + c]);
     }
   });
+  if (!ball) return;
+  // Over a short window (a time slice) the link's own box grown by its speed is far smaller than
+  // the ball of its reach; both hold the link, so their intersection does.
+  double link[6];
+  records_[p].chain->sweptBox(broad_phase_->shape(p), t0, t1, link);
+  for (int c = 0; c < 3; ++c) {
+    box[c] = std::max(box[c], link[c]);
+    box[3 + c] = std::min(box[3 + c], link[3 + c]);
+  }
 }
 
 std::vector<double> World::pathBoxes(double t0, double t1) const {

@@ -269,7 +269,7 @@ TEST(LinkChain, SpeedBoundHoldsForEveryPoint) {
   const double h = 1e-6;
   forEachSampledPoint(r, h, [&](const TChain& tc, const LinkChain& chain, double radius, double t, double e, double tm,
                                 const Vector3d& y) {
-    const double bound = chain.speedBound(t, e, radius);
+    const double bound = chain.bounds(t, e, radius).speed;
     const Vector3d v = (truthPose(tc, tm + h).R * y + truthPose(tc, tm + h).p -
                         truthPose(tc, tm - h).R * y - truthPose(tc, tm - h).p) / (2 * h);
     worst = std::max(worst, v.norm() - bound);
@@ -297,12 +297,13 @@ TEST(LinkChain, AccelerationBoundHoldsForEveryPoint) {
   const double h = 1e-4;
   forEachSampledPoint(r, h, [&](const TChain& tc, const LinkChain& chain, double radius, double t, double e, double tm,
                                 const Vector3d& y) {
-    const double bound = chain.accelerationBound(t, e, radius);
+    const LinkChain::StretchBounds bounds = chain.bounds(t, e, radius);
+    const double bound = bounds.acceleration;
     auto at = [&](double s) { return Vector3d(truthPose(tc, s).R * y + truthPose(tc, s).p); };
     const Vector3d a = (at(tm + h) - 2.0 * at(tm) + at(tm - h)) / (h * h);
     worst = std::max(worst, a.norm() - bound);
     if (bound > 0) ratio += a.norm() / bound, ++n;
-    worst_w = std::max(worst_w, chain.angularVelocity(tm).norm() - chain.angularSpeedBound(t, e));
+    worst_w = std::max(worst_w, chain.angularVelocity(tm).norm() - bounds.angular_speed);
     const vadop::PosedTwist st = chain.stateAt(tm);
     const Isometry3d x = chain.poseAt(tm);
     worst_state = std::max({worst_state, (st.pose.matrix() - x.matrix()).norm(),
@@ -316,6 +317,43 @@ TEST(LinkChain, AccelerationBoundHoldsForEveryPoint) {
   EXPECT_LT(worst_w, 1e-12);
   EXPECT_LT(worst_state, 1e-12);
   EXPECT_GT(cubic, 100);  // the joints' own accelerations are exercised
+}
+
+// LinkChain::sweptBox (the world's part boxes of moving links) holds the link, every point of
+// its shape sampled densely against the truth's own kinematics, over windows as long as a time
+// slice and over whole horizons, breaks inside included; and it is tighter than the ball of the
+// link's reach over a slice.
+TEST(LinkChain, SweptBoxHoldsTheLinkOverEveryWindow) {
+  toi_scenes::Rng r(14);
+  double worst = -1.0, slice_extent = 0.0, ball_extent = 0.0;
+  int windows = 0;
+  for (int c = 0; c < 300; ++c) {
+    const TChain tc = randomChain(r, r.integer(1, 6));
+    const LinkChain chain = ours(tc);
+    const vadop::Shape shape = randomLinkShape(r);
+    for (int i = 0; i < 4; ++i) {
+      const double t0 = r.uni(-0.3, 2.0), t1 = t0 + (i % 2 ? 0.25 : r.uni(0.0, 2.5));
+      double box[6];
+      chain.sweptBox(shape, t0, t1, box);
+      for (int s = 0; s <= 200; ++s) {
+        const toi_truth::Pose P = truthPose(tc, t0 + (t1 - t0) * s / 200.0);
+        for (int k = 0; k < 3; ++k) {
+          const Vector3d axis = P.R.row(k).transpose();
+          const double hi = P.p[k] + vadop::support(shape, axis), lo = P.p[k] - vadop::support(shape, -axis);
+          worst = std::max({worst, hi - box[3 + k], box[k] - lo});
+        }
+      }
+      if (i % 2) {
+        slice_extent += box[3] - box[0];
+        ball_extent += 2.0 * (shape.bounding_radius + chain.reach(t0, t1));
+      }
+      ++windows;
+    }
+  }
+  std::printf("[swept box] worst excess %.3e m over %d windows; x extent over a 0.25 s slice %.2f of the reach ball's\n",
+              worst, windows, slice_extent / ball_extent);
+  EXPECT_LE(worst, 1e-12);  // the truth's rounding
+  EXPECT_LT(slice_extent, 0.8 * ball_extent);
 }
 
 // A link 1 m out on a joint turning at 1 rad/s meets a post at angle 1 rad: both spheres of

@@ -40,6 +40,11 @@ class JointPath {
   double positionAt(double t) const;
   // The velocity at t (of the piece that holds from t on).
   double velocityAt(double t) const;
+  // Both at t, from one lookup of the piece.
+  struct State {
+    double position = 0.0, velocity = 0.0;
+  };
+  State stateAt(double t) const;
   const std::vector<double>& times() const { return times_; }
   const std::vector<double>& positions() const { return positions_; }
   const std::vector<double>& velocities() const { return velocities_; }
@@ -59,11 +64,18 @@ class JointPath {
     double at(double u) const;
     double rate(double u) const;  // dq/dt
   };
+  // Piece k in 1 .. n-1, with the largest |dq/dt| and |d2q/dt2| over it (computed once: the
+  // narrow phase asks for them at every stretch of every pair).
+  struct Piece {
+    Cubic cubic;
+    double max_rate = 0.0, max_acceleration = 0.0;
+  };
   size_t pieceAt(double t) const;  // piece k holds on [times[k-1], times[k]); 0 before, n after
-  Cubic cubic(size_t k) const;     // k in 1 .. n-1
+  const Cubic& cubic(size_t k) const { return pieces_[k - 1].cubic; }  // k in 1 .. n-1
   double maxRate(size_t k) const;  // max |dq/dt| over piece k
   std::vector<double> times_, positions_, velocities_;
   double velocity_after_ = 0.0;
+  std::vector<Piece> pieces_;
 };
 
 enum class JointType { kFixed, kRevolute, kPrismatic };  // a URDF continuous joint is kRevolute
@@ -94,17 +106,23 @@ class LinkChain {
   bool jointsMove(double t0, double t1) const;
   // The first time > t at which a velocity (the base's or a joint's) may jump; +inf when none.
   double nextBreak(double t) const;
-  // A bound on the speed of every point within `radius` of the link's origin at every time of
-  // [t0, t1], when no velocity jumps inside (t0, t1) (see nextBreak): the base's twist acting
-  // on the point, plus each revolute joint's rate times the point's largest distance from the
-  // joint's axis point, plus each prismatic joint's rate.
-  double speedBound(double t0, double t1, double radius) const;
-  // When no velocity jumps inside (t0, t1): a bound on the acceleration of every point within
-  // `radius` of the link's origin at every time of [t0, t1] (the centripetal and Coriolis terms
-  // of the base's turning and of the joints, and the joints' own accelerations), and on the
-  // link's angular speed.
-  double accelerationBound(double t0, double t1, double radius) const;
-  double angularSpeedBound(double t0, double t1) const;
+  // Bounds over [t0, t1], when no velocity jumps inside (t0, t1) (see nextBreak), for every
+  // point within `radius` of the link's origin:
+  // - speed: the base's twist acting on the point, plus each revolute joint's rate times the
+  //   point's largest distance from the joint's axis point, plus each prismatic joint's rate;
+  // - acceleration: the centripetal and Coriolis terms of the base's turning and of the joints,
+  //   and the joints' own accelerations;
+  // - angular_speed: the link's angular speed.
+  // One pass over the joints (the narrow phase takes all three at every stretch).
+  struct StretchBounds {
+    double speed = 0.0, acceleration = 0.0, angular_speed = 0.0;
+  };
+  StretchBounds bounds(double t0, double t1, double radius) const;
+  // An axis-aligned box (lo x y z, hi x y z) holding `shape` (link frame) at every time of
+  // [t0, t1], velocity breaks inside included: the shape's box at the mid time grown by the
+  // largest speed bound of the window's stretches times half the window. Tight over short
+  // windows (the world's time slices), loose over long ones; conservative in floating point.
+  void sweptBox(const Shape& shape, double t0, double t1, double* box) const;
   // A bound on the distance of the link's origin from the base's origin over [t0, t1].
   double reach(double t0, double t1) const;
   // The velocity at t of the material point of the link at x (fixed frame).
@@ -122,7 +140,7 @@ class LinkChain {
 // contract of time_of_impact.h (never after the first contact, a certified clear window, or
 // undecided when the budget runs out). While no joint moves, each stretch is the TimedPath
 // narrow phase; otherwise conservative advancement on the certified GJK lower bound with the
-// chains' speed bounds (speedBound) over each stretch of constant velocities.
+// chains' bounds (LinkChain::bounds) over each stretch of constant velocities.
 // Throws as timeOfImpact.
 Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedShape& b, const LinkChain& cb,
                     double t0, double t1, const ToiOptions& options = {});

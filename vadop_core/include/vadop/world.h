@@ -272,7 +272,8 @@ class World {
   // link whose joints move, the ball within its reach of the base's origin.
   std::optional<Shape> pathVolume(BodyId p, double t0, double t1) const;
   // A box (lo x y z, hi x y z) holding that volume along every piece of p's base path over
-  // [t0, t1]: the union of its swept boxes (SweptBody).
+  // [t0, t1]: the union of its swept boxes (SweptBody); for a link whose joints move,
+  // intersected with LinkChain::sweptBox (far smaller over a time slice).
   void pathBox(BodyId p, double t0, double t1, double* box) const;
   // pathBox of every path body (6 doubles each, in path_bodies_'s order).
   std::vector<double> pathBoxes(double t0, double t1) const;
