@@ -299,6 +299,32 @@ TEST(JointStates, TrajectoryIsFollowedThenItsLastPointHeld) {
   }
 }
 
+// Odometry of the forearm: the upper arm hangs above it in the tree, reached by undoing the
+// elbow, whose trajectory (cubic, with velocities) the chain must follow backwards too.
+TEST(JointStates, ALinkAboveTheOdometryFrameFollowsTheTrajectoryBackwards) {
+  BodyRegistry r = makeRegistry();
+  FakeTf tf;
+  nav_msgs::Odometry odom = baseOdom(100.0);
+  odom.child_frame_id = "fore";
+  ASSERT_EQ(r.onOdometry(0, odom, ros::Time(100.0)), InputResult::kAccepted);
+  r.onJointState(0, joints(100.0, 0.0, 0.0, 0.0, 0.0), ros::Time(100.0));
+  trajectory_msgs::JointTrajectory elbow = trajectory(0.0, true);
+  elbow.joint_names = {"elbow"};
+  ASSERT_EQ(r.onJointTrajectory(0, elbow, ros::Time(100.2)), InputResult::kAccepted);
+  r.update(ros::Time(100.3), tf);
+  const auto& upper = element(r, "upper");
+  ASSERT_TRUE(upper.chain);
+  double worst = 0.0;
+  for (double t = 100.3; t <= 102.3; t += 0.0041) {
+    // The forearm's frame holds at (2, 1), turned 0.5; the upper arm's is that frame turned by
+    // -q_elbow and moved 1 m back along its x, the box 0.5 m forward along it.
+    const double a = 0.5 - shoulderOnTrajectory(t - 100.2, true);
+    const Eigen::Vector3d want = Eigen::Vector3d(2.0, 1.0, 0.0) - 0.5 * Eigen::Vector3d(std::cos(a), std::sin(a), 0.0);
+    worst = std::max(worst, (centreAt(r, upper, t) - want).norm());
+  }
+  EXPECT_LT(worst, 1e-9);
+}
+
 TEST(JointStates, BadTrajectoriesAreDroppedNamingTheField) {
   BodyRegistry r = makeRegistry();
   FakeTf tf;

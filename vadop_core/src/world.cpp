@@ -178,13 +178,15 @@ World::Handle World::handle(const std::string& id) const {
   return Handle{static_cast<uint32_t>(bid), records_[bid].key, serial_};
 }
 
-void World::setMotion(const Handle& body, const Motion& motion) {
+void World::setMotion(const Handle& body, const Motion& motion) { setMotionOf(handleId(body, "setMotion"), motion); }
+
+BodyId World::handleId(const Handle& body, const char* operation) const {
   if (body.world != serial_ || body.index >= records_.size() || !records_[body.index].prepared ||
       records_[body.index].key != body.key) {
-    throw InvalidArgument("setMotion: the handle (key " + std::to_string(body.key) +
+    throw InvalidArgument(std::string(operation) + ": the handle (key " + std::to_string(body.key) +
                           ") names no body of this World: removed, or another World's");
   }
-  setMotionOf(body.index, motion);
+  return body.index;
 }
 
 void World::setMotionOf(BodyId bid, const Motion& motion) {
@@ -203,12 +205,20 @@ void World::setPath(const std::string& id, const TimedPath& path) {
 }
 
 void World::setChain(const std::string& id, const LinkChain& chain) {
-  const BodyId bid = bodyId(id, "setChain");
-  auto copy = std::make_shared<const LinkChain>(chain);
+  setChainOf(bodyId(id, "setChain"), std::make_shared<const LinkChain>(chain));
+}
+
+void World::setChain(const Handle& body, std::shared_ptr<const LinkChain> chain) {
+  const BodyId bid = handleId(body, "setChain");
+  if (!chain) throw InvalidArgument("setChain: body " + quoted(records_[bid].name) + ": no chain (null)");
+  setChainOf(bid, std::move(chain));
+}
+
+void World::setChainOf(BodyId bid, std::shared_ptr<const LinkChain> chain) {
   path_bodies_.reserve(path_bodies_.size() + 1);
-  broad_phase_->setMotion(bid, chain.base().motion(0));  // strong guarantee; nothing below throws
+  broad_phase_->setMotion(bid, chain->base().motion(0));  // strong guarantee; nothing below throws
   if (!records_[bid].chain) path_bodies_.insert(std::lower_bound(path_bodies_.begin(), path_bodies_.end(), bid), bid);
-  records_[bid].chain = std::move(copy);
+  records_[bid].chain = std::move(chain);
 }
 
 const TimedPath* World::path(const std::string& id) const {
@@ -441,6 +451,19 @@ std::optional<Shape> World::pathVolume(BodyId p, double t0, double t1) const {
 void World::pathBox(BodyId p, double t0, double t1, double* box) const {
   const std::optional<Shape> ball = pathVolume(p, t0, t1);
   const TimedPath& path = records_[p].chain->base();
+  // A link whose joints move: its own swept box (LinkChain::sweptBox), far smaller than the ball
+  // of its reach over a short window (a time slice). Both hold the link, so their intersection
+  // does; the ball's boxes are computed only when the link's is wider than the ball on some axis
+  // (a long window), where they may cut it.
+  double link[6];
+  if (ball) {
+    records_[p].chain->sweptBox(broad_phase_->shape(p), t0, t1, link);
+    const double diameter = 2.0 * ball->bounding_radius;
+    if (link[3] - link[0] <= diameter && link[4] - link[1] <= diameter && link[5] - link[2] <= diameter) {
+      std::copy_n(link, 6, box);
+      return;
+    }
+  }
   for (int k = 0; k < 3; ++k) {
     box[k] = std::numeric_limits<double>::infinity();
     box[3 + k] = -std::numeric_limits<double>::infinity();
@@ -454,10 +477,6 @@ void World::pathBox(BodyId p, double t0, double t1, double* box) const {
     }
   });
   if (!ball) return;
-  // Over a short window (a time slice) the link's own box grown by its speed is far smaller than
-  // the ball of its reach; both hold the link, so their intersection does.
-  double link[6];
-  records_[p].chain->sweptBox(broad_phase_->shape(p), t0, t1, link);
   for (int c = 0; c < 3; ++c) {
     box[c] = std::max(box[c], link[c]);
     box[3 + c] = std::min(box[3 + c], link[3 + c]);
@@ -475,11 +494,15 @@ void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std
   std::vector<BodyId> found;
   const size_t n = path_bodies_.size();
   // Two path bodies are paired when their boxes over the window overlap (cullBySlices then
-  // tests their boxes over its parts, as for every pair).
+  // tests their boxes over its parts, as for every pair). The broad phase is queried for the
+  // other bodies only: none when every body is on a path (a fleet of robots on joint states).
+  const bool others = broad_phase_->size() > n;
   constexpr size_t stride = 6;
   std::vector<double> boxes(stride * n);
   for (size_t i = 0; i < n; ++i) {
     const BodyId p = path_bodies_[i];
+    pathBox(p, t0, t1, &boxes[stride * i]);
+    if (!others) continue;
     const TimedPath& path = records_[p].chain->base();
     const bool p_only = in_only(p);
     const std::optional<Shape> ball = pathVolume(p, t0, t1);
@@ -490,7 +513,6 @@ void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std
         if (!onPath(other) && (p_only || in_only(other))) out.push_back(makePair(p, other));
       }
     });
-    pathBox(p, t0, t1, &boxes[stride * i]);
   }
   // Sweep and prune on x: a fleet of arms or of robots on plans is not O(n^2).
   std::vector<uint32_t> order(n);

@@ -777,9 +777,10 @@ void BodyRegistry::updateJointBody(Body& b, const ros::Time& now, double t_now, 
           if (st.sign > 0.0) {
             c.path = jp;
           } else {
-            std::vector<double> negated = jp.positions();
+            std::vector<double> negated = jp.positions(), negated_rates = jp.velocities();
             for (double& q : negated) q = -q;
-            c.path = vadop::JointPath(jp.times(), std::move(negated), -jp.velocityAfter());
+            for (double& v : negated_rates) v = -v;
+            c.path = vadop::JointPath(jp.times(), std::move(negated), -jp.velocityAfter(), std::move(negated_rates));
           }
         }
         joints.push_back(std::move(c));
@@ -788,9 +789,8 @@ void BodyRegistry::updateJointBody(Body& b, const ros::Time& now, double t_now, 
       shape_offset.origin = e.offset;
       joints.push_back(shape_offset);
       auto chain = std::make_shared<const vadop::LinkChain>(vadop::TimedPath(frame), std::move(joints));
-      const Eigen::Isometry3d pe = chain->poseAt(t_now);
-      const vadop::Motion now_motion =
-          twistMotion(pe, chain->velocityOfPoint(pe.translation(), t_now), chain->angularVelocity(t_now), t_now);
+      const vadop::PosedTwist now = chain->stateAt(t_now);
+      const vadop::Motion now_motion = twistMotion(now.pose, now.velocity, now.angular_velocity, t_now);
       accept(e, now_motion, std::move(chain));
     } catch (const vadop::InvalidArgument& ex) {
       rejectInput(b, "link \"" + e.link + "\": joint motion out of range: " + ex.what(), now, false);

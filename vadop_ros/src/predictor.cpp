@@ -76,13 +76,16 @@ bool Predictor::set(size_t i, const std::string& id, const vadop::Shape& shape, 
       s.motion = motion;
       s.chain = nullptr;
       impl_->by_key[s.key] = i;
-    } else if (!sameMotion(s.motion, motion) || (s.chain && !chain)) {
+    } else if (!chain && (!sameMotion(s.motion, motion) || s.chain)) {
       impl_->world.setMotion(s.handle, motion);  // ends a chain
       s.motion = motion;
       s.chain = nullptr;
     }
-    if (chain && chain != s.chain) {
-      impl_->world.setChain(s.id, *chain);
+    // A chain replaces the motion (no setMotion first: it would end the chain only for this
+    // to start it again, moving the world's list of path bodies twice per link per cycle).
+    if (chain) {
+      if (chain != s.chain) impl_->world.setChain(s.handle, chain);
+      s.motion = motion;
       s.chain = chain;
     }
     return true;

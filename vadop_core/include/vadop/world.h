@@ -131,7 +131,7 @@ class World {
   void setMotion(const std::string& id, const Motion& motion);
   // A body's handle, for what a caller does to every body every cycle: setMotion by handle
   // skips the name's lookup. Valid until the body is removed (added again under the same id, it
-  // has a new handle); setMotion throws for a stale handle or one of another World.
+  // has a new handle); setMotion and setChain throw for a stale handle or one of another World.
   struct Handle {
     uint32_t index = ~uint32_t{0};
     uint64_t key = 0;
@@ -149,6 +149,10 @@ class World {
   // base's path: meant for the links of a few arms, not thousands. Throws when the id is unknown
   // (nothing changed).
   void setChain(const std::string& id, const LinkChain& chain);
+  // The same without copying the chain (it is immutable: the World shares it) and, with a
+  // handle, without the name's lookup: for a caller that sets every link every cycle. Throws
+  // for a null chain or a handle that names no body of this World (nothing changed).
+  void setChain(const Handle& body, std::shared_ptr<const LinkChain> chain);
   // The body's path (for a link of a chain, its base's path), or nullptr when it moves with one
   // Motion.
   const TimedPath* path(const std::string& id) const;
@@ -273,7 +277,8 @@ class World {
   std::optional<Shape> pathVolume(BodyId p, double t0, double t1) const;
   // A box (lo x y z, hi x y z) holding that volume along every piece of p's base path over
   // [t0, t1]: the union of its swept boxes (SweptBody); for a link whose joints move,
-  // intersected with LinkChain::sweptBox (far smaller over a time slice).
+  // LinkChain::sweptBox (far smaller over a time slice), intersected with that union when the
+  // link's box is wider than the ball.
   void pathBox(BodyId p, double t0, double t1, double* box) const;
   // pathBox of every path body (6 doubles each, in path_bodies_'s order).
   std::vector<double> pathBoxes(double t0, double t1) const;
@@ -319,6 +324,9 @@ class World {
   static constexpr BodyId kUnknownBody = ~BodyId{0};
   BodyId findBody(const std::string& id) const;  // or kUnknownBody
   void setMotionOf(BodyId bid, const Motion& motion);
+  void setChainOf(BodyId bid, std::shared_ptr<const LinkChain> chain);
+  // The body a handle names; throws, naming `operation`, for a stale handle or another World's.
+  BodyId handleId(const Handle& body, const char* operation) const;
   struct NameOf;  // the name of a BodyId (in its record), for by_name_
   // Throws InvalidArgument when this World was moved from (no broad phase).
   void requireEngine(const char* operation) const;
