@@ -299,26 +299,49 @@ LinkChain::StretchBounds LinkChain::bounds(double t0, double t1, double radius) 
 }
 
 void LinkChain::sweptBox(const Shape& shape, double t0, double t1, double* box) const {
-  // Every point moves at most at sup |v| <= the largest speed bound of the stretches, so it stays
-  // within that times half the window of where it is at the mid time.
-  double speed = 0.0;
-  for (double s = t0;;) {
-    const double e = std::min(t1, nextBreak(s));
-    speed = std::max(speed, bounds(s, e, shape.bounding_radius).speed);
-    if (!(e < t1)) break;
-    s = e;
-  }
-  const double mid = 0.5 * (t0 + t1);
-  const Eigen::Isometry3d pose = stateAt(mid).pose;
-  const double grow = speed * std::max(mid - t0, t1 - mid);
-  for (int k = 0; k < 3; ++k) {
-    const Eigen::Vector3d axis = pose.linear().row(k).transpose();  // the fixed axis k in the link frame
-    const double c = pose.translation()[k];
-    const double lo = c - support(shape, -axis) - grow, hi = c + support(shape, axis) + grow;
-    // Rounding of the pose and the supports: a few ulps of the magnitudes involved.
-    const double widen = SweptBody::kRoundingWiden * (1.0 + std::max(std::abs(lo), std::abs(hi)) + grow);
-    box[k] = lo - widen;
-    box[3 + k] = hi + widen;
+  partBoxes(shape, t0, t1, 1, box);
+}
+
+void LinkChain::partBoxes(const Shape& shape, double t0, double t1, int parts, double* out) const {
+  // On a stretch [a, b] without velocity jumps every point's path is within A (b - a)^2 / 8 of
+  // the chord between where it is at a and at b (|x''| <= A, the stretch's acceleration bound:
+  // the interpolation error of a C1 path with A-Lipschitz velocity), so the link stays in the
+  // boxes of its shape at a and at b grown by that. Over a time slice the growth is millimetres.
+  // The shape's box at each end is computed once (a part's end is the next one's start).
+  auto shapeBox = [&](double t, double* b) {
+    const Eigen::Isometry3d pose = stateAt(t).pose;
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d axis = pose.linear().row(k).transpose();  // the fixed axis k in the link frame
+      const double c = pose.translation()[k];
+      b[k] = c - support(shape, -axis);
+      b[3 + k] = c + support(shape, axis);
+    }
+  };
+  double at_a[6], at_b[6];
+  shapeBox(t0, at_a);
+  double a = t0;
+  for (int p = 0; p < parts; ++p) {
+    const double end = SweptBody::partEnd(t0, t1, p, parts);
+    double* box = out + 6 * p;
+    for (int k = 0; k < 3; ++k) {
+      box[k] = std::numeric_limits<double>::infinity();
+      box[3 + k] = -std::numeric_limits<double>::infinity();
+    }
+    for (;;) {
+      const double b = std::min(end, nextBreak(a));
+      const double grow = bounds(a, b, shape.bounding_radius).acceleration * (b - a) * (b - a) / 8.0;
+      shapeBox(b, at_b);
+      for (int k = 0; k < 3; ++k) {
+        const double lo = std::min(at_a[k], at_b[k]) - grow, hi = std::max(at_a[3 + k], at_b[3 + k]) + grow;
+        // Rounding of the poses and the supports: a few ulps of the magnitudes involved.
+        const double widen = SweptBody::kRoundingWiden * (1.0 + std::max(std::abs(lo), std::abs(hi)) + grow);
+        box[k] = std::min(box[k], lo - widen);
+        box[3 + k] = std::max(box[3 + k], hi + widen);
+      }
+      a = b;
+      std::copy_n(at_b, 6, at_a);
+      if (!(b < end)) break;
+    }
   }
 }
 

@@ -450,36 +450,37 @@ std::optional<Shape> World::pathVolume(BodyId p, double t0, double t1) const {
 
 void World::pathBox(BodyId p, double t0, double t1, double* box) const {
   const std::optional<Shape> ball = pathVolume(p, t0, t1);
+  if (!ball) return sweptAlongPath(p, broad_phase_->shape(p), t0, t1, box);
+  records_[p].chain->sweptBox(broad_phase_->shape(p), t0, t1, box);
+  clipToReach(p, *ball, t0, t1, box);
+}
+
+void World::sweptAlongPath(BodyId p, const Shape& shape, double t0, double t1, double* box) const {
   const TimedPath& path = records_[p].chain->base();
-  // A link whose joints move: its own swept box (LinkChain::sweptBox), far smaller than the ball
-  // of its reach over a short window (a time slice). Both hold the link, so their intersection
-  // does; the ball's boxes are computed only when the link's is wider than the ball on some axis
-  // (a long window), where they may cut it.
-  double link[6];
-  if (ball) {
-    records_[p].chain->sweptBox(broad_phase_->shape(p), t0, t1, link);
-    const double diameter = 2.0 * ball->bounding_radius;
-    if (link[3] - link[0] <= diameter && link[4] - link[1] <= diameter && link[5] - link[2] <= diameter) {
-      std::copy_n(link, 6, box);
-      return;
-    }
-  }
   for (int k = 0; k < 3; ++k) {
     box[k] = std::numeric_limits<double>::infinity();
     box[3 + k] = -std::numeric_limits<double>::infinity();
   }
   path.forEachPiece(t0, t1, [&](size_t k, double s, double e) {
     double piece[6];
-    SweptBody(ball ? *ball : broad_phase_->shape(p), path.motion(k), s, e).box(piece);
+    SweptBody(shape, path.motion(k), s, e).box(piece);
     for (int c = 0; c < 3; ++c) {
       box[c] = std::min(box[c], piece[c]);
       box[3 + c] = std::max(box[3 + c], piece[3 + c]);
     }
   });
-  if (!ball) return;
+}
+
+void World::clipToReach(BodyId p, const Shape& ball, double t0, double t1, double* box) const {
+  // Both boxes hold the link; the ball's, at least its diameter wide, can cut the link's only
+  // where that is wider (a long window): computed then only.
+  const double diameter = 2.0 * ball.bounding_radius;
+  if (box[3] - box[0] <= diameter && box[4] - box[1] <= diameter && box[5] - box[2] <= diameter) return;
+  double reach[6];
+  sweptAlongPath(p, ball, t0, t1, reach);
   for (int c = 0; c < 3; ++c) {
-    box[c] = std::max(box[c], link[c]);
-    box[3 + c] = std::min(box[3 + c], link[3 + c]);
+    box[c] = std::max(box[c], reach[c]);
+    box[3 + c] = std::min(box[3 + c], reach[3 + c]);
   }
 }
 
@@ -728,10 +729,17 @@ void World::fillPartBoxes(BodyId id, double t0, double t1, double* out) const {
     SweptBody::partBoxes(broad_phase_->shape(id), broad_phase_->motion(id), t0, t1, slices, out);
     return;
   }
+  // A link whose joints move: its boxes over the parts in one pass (LinkChain::partBoxes).
+  const std::optional<Shape> ball = pathVolume(id, t0, t1);
+  if (ball) records_[id].chain->partBoxes(broad_phase_->shape(id), t0, t1, slices, out);
   double s = t0;
   for (int k = 0; k < slices; ++k) {
     const double e = SweptBody::partEnd(t0, t1, k, slices);
-    pathBox(id, s, e, out + 6 * k);
+    if (ball) {
+      clipToReach(id, *ball, s, e, out + 6 * k);
+    } else {
+      sweptAlongPath(id, broad_phase_->shape(id), s, e, out + 6 * k);
+    }
     s = e;
   }
 }

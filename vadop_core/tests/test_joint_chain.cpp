@@ -11,6 +11,7 @@
 
 #include "vadop/error.h"
 #include "vadop/joint_chain.h"
+#include "vadop/vadop.h"
 #include "vadop/world.h"
 
 #include "impact_compare.h"
@@ -319,10 +320,10 @@ TEST(LinkChain, AccelerationBoundHoldsForEveryPoint) {
   EXPECT_GT(cubic, 100);  // the joints' own accelerations are exercised
 }
 
-// LinkChain::sweptBox (the world's part boxes of moving links) holds the link, every point of
-// its shape sampled densely against the truth's own kinematics, over windows as long as a time
-// slice and over whole horizons, breaks inside included; and it is tighter than the ball of the
-// link's reach over a slice.
+// LinkChain::sweptBox and partBoxes (the world's part boxes of moving links) hold the link,
+// every point of its shape sampled densely against the truth's own kinematics, over windows as
+// long as a time slice, over whole horizons and over their parts, breaks inside included; and a
+// slice's box is tighter than the ball of the link's reach.
 TEST(LinkChain, SweptBoxHoldsTheLinkOverEveryWindow) {
   toi_scenes::Rng r(14);
   double worst = -1.0, slice_extent = 0.0, ball_extent = 0.0;
@@ -332,22 +333,33 @@ TEST(LinkChain, SweptBoxHoldsTheLinkOverEveryWindow) {
     const LinkChain chain = ours(tc);
     const vadop::Shape shape = randomLinkShape(r);
     for (int i = 0; i < 4; ++i) {
+      // A slice, a window of up to 2.5 s, and the same split in 8 parts by partBoxes.
       const double t0 = r.uni(-0.3, 2.0), t1 = t0 + (i % 2 ? 0.25 : r.uni(0.0, 2.5));
-      double box[6];
-      chain.sweptBox(shape, t0, t1, box);
-      for (int s = 0; s <= 200; ++s) {
-        const toi_truth::Pose P = truthPose(tc, t0 + (t1 - t0) * s / 200.0);
-        for (int k = 0; k < 3; ++k) {
-          const Vector3d axis = P.R.row(k).transpose();
-          const double hi = P.p[k] + vadop::support(shape, axis), lo = P.p[k] - vadop::support(shape, -axis);
-          worst = std::max({worst, hi - box[3 + k], box[k] - lo});
+      const int parts = i == 2 ? 8 : 1;
+      std::vector<double> boxes(6 * static_cast<size_t>(parts));
+      if (parts == 1) {
+        chain.sweptBox(shape, t0, t1, boxes.data());
+      } else {
+        chain.partBoxes(shape, t0, t1, parts, boxes.data());
+      }
+      for (int p = 0; p < parts; ++p) {
+        const double s0 = p == 0 ? t0 : vadop::SweptBody::partEnd(t0, t1, p - 1, parts);
+        const double s1 = vadop::SweptBody::partEnd(t0, t1, p, parts);
+        const double* box = &boxes[6 * static_cast<size_t>(p)];
+        for (int s = 0; s <= 200; ++s) {
+          const toi_truth::Pose P = truthPose(tc, s0 + (s1 - s0) * s / 200.0);
+          for (int k = 0; k < 3; ++k) {
+            const Vector3d axis = P.R.row(k).transpose();
+            const double hi = P.p[k] + vadop::support(shape, axis), lo = P.p[k] - vadop::support(shape, -axis);
+            worst = std::max({worst, hi - box[3 + k], box[k] - lo});
+          }
         }
+        ++windows;
       }
       if (i % 2) {
-        slice_extent += box[3] - box[0];
+        slice_extent += boxes[3] - boxes[0];
         ball_extent += 2.0 * (shape.bounding_radius + chain.reach(t0, t1));
       }
-      ++windows;
     }
   }
   std::printf("[swept box] worst excess %.3e m over %d windows; x extent over a 0.25 s slice %.2f of the reach ball's\n",

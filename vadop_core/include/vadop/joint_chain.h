@@ -119,10 +119,14 @@ class LinkChain {
   };
   StretchBounds bounds(double t0, double t1, double radius) const;
   // An axis-aligned box (lo x y z, hi x y z) holding `shape` (link frame) at every time of
-  // [t0, t1], velocity breaks inside included: the shape's box at the mid time grown by the
-  // largest speed bound of the window's stretches times half the window. Tight over short
-  // windows (the world's time slices), loose over long ones; conservative in floating point.
+  // [t0, t1], velocity breaks inside included: over each stretch, the shape's boxes at its two
+  // ends grown by its acceleration bound times its length squared over 8 (every point stays
+  // that close to its chord). Tight over short windows (the world's time slices), loose over
+  // long ones; conservative in floating point.
   void sweptBox(const Shape& shape, double t0, double t1, double* box) const;
+  // sweptBox of each of `parts` consecutive parts of [t0, t1] (SweptBody::partEnd), 6 doubles
+  // each: the world's time slices, the shape's box at each part's end computed once.
+  void partBoxes(const Shape& shape, double t0, double t1, int parts, double* out) const;
   // A bound on the distance of the link's origin from the base's origin over [t0, t1].
   double reach(double t0, double t1) const;
   // The velocity at t of the material point of the link at x (fixed frame).

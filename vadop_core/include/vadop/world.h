@@ -275,11 +275,15 @@ class World {
   // What the broad phase tests for path body p over [t0, t1]: its shape (nullopt) or, for a
   // link whose joints move, the ball within its reach of the base's origin.
   std::optional<Shape> pathVolume(BodyId p, double t0, double t1) const;
-  // A box (lo x y z, hi x y z) holding that volume along every piece of p's base path over
-  // [t0, t1]: the union of its swept boxes (SweptBody); for a link whose joints move,
-  // LinkChain::sweptBox (far smaller over a time slice), intersected with that union when the
-  // link's box is wider than the ball.
+  // A box (lo x y z, hi x y z) holding p over [t0, t1]: the union of its shape's swept boxes
+  // along each piece of its base path; for a link whose joints move, LinkChain::sweptBox (far
+  // smaller over a time slice), clipped by the swept boxes of that ball (clipToReach).
   void pathBox(BodyId p, double t0, double t1, double* box) const;
+  // The union of `shape`'s swept boxes (SweptBody) along each piece of p's base path.
+  void sweptAlongPath(BodyId p, const Shape& shape, double t0, double t1, double* box) const;
+  // Intersects a box holding link p over [t0, t1] with sweptAlongPath of `ball`, the ball of its
+  // reach (pathVolume), when the box is wider than the ball on some axis.
+  void clipToReach(BodyId p, const Shape& ball, double t0, double t1, double* box) const;
   // pathBox of every path body (6 doubles each, in path_bodies_'s order).
   std::vector<double> pathBoxes(double t0, double t1) const;
   // A candidate pair for the narrow phase and the parts of the window it searches: bit k of
