@@ -212,14 +212,16 @@ LinkChain::LinkChain(TimedPath base, std::vector<ChainJoint> joints)
     : base_(std::move(base)), joints_(std::move(joints)) {
   for (size_t i = 0; i < joints_.size(); ++i) {
     ChainJoint& j = joints_[i];
-    const std::string what = "LinkChain: joint " + std::to_string(i);
-    if (!j.origin.matrix().allFinite()) throw InvalidArgument(what + ": origin is not finite");
+    auto fail = [i](const char* what) {
+      throw InvalidArgument("LinkChain: joint " + std::to_string(i) + ": " + what);
+    };
+    if (!j.origin.matrix().allFinite()) fail("origin is not finite");
     const Eigen::Matrix3d r = j.origin.linear();
     if (!((r.transpose() * r - Eigen::Matrix3d::Identity()).norm() <= 1e-6 && r.determinant() > 0.0)) {
-      throw InvalidArgument(what + ": origin rotation is not a rotation");
+      fail("origin rotation is not a rotation");
     }
     if (j.type != JointType::kFixed) {
-      if (!j.axis.allFinite() || j.axis.norm() < 1e-9) throw InvalidArgument(what + ": axis is zero or not finite");
+      if (!j.axis.allFinite() || j.axis.norm() < 1e-9) fail("axis is zero or not finite");
       j.axis.normalize();
     }
     offset_.push_back(j.origin.translation().norm());

@@ -89,7 +89,8 @@ TimedPath::TimedPath(std::vector<Keyframe> keyframes, AfterPath after) : keyfram
 }
 
 TimedPath::TimedPath(const Motion& motion) {
-  validateMotion(motion, "TimedPath: motion");
+  // The message is built only for a motion the quick test refuses (a chain per link per cycle).
+  if (!isValidMotion(motion)) validateMotion(motion, "TimedPath: motion");
   Keyframe k;
   k.time = motion.t_ref;
   k.position = motion.position;

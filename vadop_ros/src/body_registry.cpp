@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <map>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -758,9 +759,11 @@ void BodyRegistry::updateJointBody(Body& b, const ros::Time& now, double t_now, 
       joint_paths[j] = vadop::JointPath(point_time, std::move(positions), 0.0, std::move(velocities));
     }
   }
+  std::optional<vadop::TimedPath> base_path;  // each link's chain starts from a copy
   for (size_t k = 0; k < b.elements.size(); ++k) {
     Element& e = elements_[b.elements[k]];
     try {
+      if (!base_path) base_path.emplace(frame);
       std::vector<JointKinematics::Step> steps;
       if (!kin.chain(b.reference_link, e.link, steps)) steps.clear();  // not in the tree: rigid
       std::vector<vadop::ChainJoint> joints;
@@ -788,7 +791,7 @@ void BodyRegistry::updateJointBody(Body& b, const ros::Time& now, double t_now, 
       vadop::ChainJoint shape_offset;  // the collision geometry in its link
       shape_offset.origin = e.offset;
       joints.push_back(shape_offset);
-      auto chain = std::make_shared<const vadop::LinkChain>(vadop::TimedPath(frame), std::move(joints));
+      auto chain = std::make_shared<const vadop::LinkChain>(*base_path, std::move(joints));
       const vadop::PosedTwist now = chain->stateAt(t_now);
       const vadop::Motion now_motion = twistMotion(now.pose, now.velocity, now.angular_velocity, t_now);
       accept(e, now_motion, std::move(chain));
