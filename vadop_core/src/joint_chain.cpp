@@ -300,10 +300,6 @@ LinkChain::StretchBounds LinkChain::bounds(double t0, double t1, double radius) 
   return out;
 }
 
-void LinkChain::sweptBox(const Shape& shape, double t0, double t1, double* box) const {
-  partBoxes(shape, t0, t1, 1, box);
-}
-
 void LinkChain::partBoxes(const Shape& shape, double t0, double t1, int parts, double* out) const {
   // On a stretch [a, b] without velocity jumps every point's path is within A (b - a)^2 / 8 of
   // the chord between where it is at a and at b (|x''| <= A, the stretch's acceleration bound:

@@ -448,10 +448,10 @@ std::optional<Shape> World::pathVolume(BodyId p, double t0, double t1) const {
   return makeSphere(broad_phase_->shape(p).bounding_radius + chain.reach(t0, t1));
 }
 
-void World::pathBox(BodyId p, double t0, double t1, double* box) const {
+void World::pathBox(BodyId p, double t0, double t1, double* box, bool tight) const {
   const std::optional<Shape> ball = pathVolume(p, t0, t1);
-  if (!ball) return sweptAlongPath(p, broad_phase_->shape(p), t0, t1, box);
-  records_[p].chain->sweptBox(broad_phase_->shape(p), t0, t1, box);
+  if (!ball || !tight) return sweptAlongPath(p, ball ? *ball : broad_phase_->shape(p), t0, t1, box);
+  records_[p].chain->partBoxes(broad_phase_->shape(p), t0, t1, 1, box);
   clipToReach(p, *ball, t0, t1, box);
 }
 
@@ -486,7 +486,7 @@ void World::clipToReach(BodyId p, const Shape& ball, double t0, double t1, doubl
 
 std::vector<double> World::pathBoxes(double t0, double t1) const {
   std::vector<double> boxes(6 * path_bodies_.size());
-  for (size_t k = 0; k < path_bodies_.size(); ++k) pathBox(path_bodies_[k], t0, t1, &boxes[6 * k]);
+  for (size_t k = 0; k < path_bodies_.size(); ++k) pathBox(path_bodies_[k], t0, t1, &boxes[6 * k], false);
   return boxes;
 }
 
@@ -502,7 +502,7 @@ void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std
   std::vector<double> boxes(stride * n);
   for (size_t i = 0; i < n; ++i) {
     const BodyId p = path_bodies_[i];
-    pathBox(p, t0, t1, &boxes[stride * i]);
+    pathBox(p, t0, t1, &boxes[stride * i], true);
     if (!others) continue;
     const TimedPath& path = records_[p].chain->base();
     const bool p_only = in_only(p);

@@ -320,11 +320,11 @@ TEST(LinkChain, AccelerationBoundHoldsForEveryPoint) {
   EXPECT_GT(cubic, 100);  // the joints' own accelerations are exercised
 }
 
-// LinkChain::sweptBox and partBoxes (the world's part boxes of moving links) hold the link,
+// LinkChain::partBoxes (the world's part boxes of moving links) hold the link,
 // every point of its shape sampled densely against the truth's own kinematics, over windows as
 // long as a time slice, over whole horizons and over their parts, breaks inside included; and a
 // slice's box is tighter than the ball of the link's reach.
-TEST(LinkChain, SweptBoxHoldsTheLinkOverEveryWindow) {
+TEST(LinkChain, PartBoxesHoldTheLinkOverEveryWindow) {
   toi_scenes::Rng r(14);
   double worst = -1.0, slice_extent = 0.0, ball_extent = 0.0;
   int windows = 0;
@@ -337,11 +337,7 @@ TEST(LinkChain, SweptBoxHoldsTheLinkOverEveryWindow) {
       const double t0 = r.uni(-0.3, 2.0), t1 = t0 + (i % 2 ? 0.25 : r.uni(0.0, 2.5));
       const int parts = i == 2 ? 8 : 1;
       std::vector<double> boxes(6 * static_cast<size_t>(parts));
-      if (parts == 1) {
-        chain.sweptBox(shape, t0, t1, boxes.data());
-      } else {
-        chain.partBoxes(shape, t0, t1, parts, boxes.data());
-      }
+      chain.partBoxes(shape, t0, t1, parts, boxes.data());
       for (int p = 0; p < parts; ++p) {
         const double s0 = p == 0 ? t0 : vadop::SweptBody::partEnd(t0, t1, p - 1, parts);
         const double s1 = vadop::SweptBody::partEnd(t0, t1, p, parts);
@@ -362,7 +358,7 @@ TEST(LinkChain, SweptBoxHoldsTheLinkOverEveryWindow) {
       }
     }
   }
-  std::printf("[swept box] worst excess %.3e m over %d windows; x extent over a 0.25 s slice %.2f of the reach ball's\n",
+  std::printf("[part boxes] worst excess %.3e m over %d windows; x extent over a 0.25 s slice %.2f of the reach ball's\n",
               worst, windows, slice_extent / ball_extent);
   EXPECT_LE(worst, 1e-12);  // the truth's rounding
   EXPECT_LT(slice_extent, 0.8 * ball_extent);

@@ -118,14 +118,12 @@ class LinkChain {
     double speed = 0.0, acceleration = 0.0, angular_speed = 0.0;
   };
   StretchBounds bounds(double t0, double t1, double radius) const;
-  // An axis-aligned box (lo x y z, hi x y z) holding `shape` (link frame) at every time of
-  // [t0, t1], velocity breaks inside included: over each stretch, the shape's boxes at its two
-  // ends grown by its acceleration bound times its length squared over 8 (every point stays
-  // that close to its chord). Tight over short windows (the world's time slices), loose over
-  // long ones; conservative in floating point.
-  void sweptBox(const Shape& shape, double t0, double t1, double* box) const;
-  // sweptBox of each of `parts` consecutive parts of [t0, t1] (SweptBody::partEnd), 6 doubles
-  // each: the world's time slices, the shape's box at each part's end computed once.
+  // Axis-aligned boxes (lo x y z, hi x y z) holding `shape` (link frame) over each of `parts`
+  // consecutive parts of [t0, t1] (SweptBody::partEnd), 6 doubles each, velocity breaks inside
+  // included: over each stretch, the shape's boxes at its two ends grown by its acceleration
+  // bound times its length squared over 8 (every point stays that close to its chord). Tight
+  // over short parts (the world's time slices), loose over long ones; conservative in floating
+  // point.
   void partBoxes(const Shape& shape, double t0, double t1, int parts, double* out) const;
   // A bound on the distance of the link's origin from the base's origin over [t0, t1].
   double reach(double t0, double t1) const;

@@ -275,16 +275,18 @@ class World {
   // What the broad phase tests for path body p over [t0, t1]: its shape (nullopt) or, for a
   // link whose joints move, the ball within its reach of the base's origin.
   std::optional<Shape> pathVolume(BodyId p, double t0, double t1) const;
-  // A box (lo x y z, hi x y z) holding p over [t0, t1]: the union of its shape's swept boxes
-  // along each piece of its base path; for a link whose joints move, LinkChain::sweptBox (far
-  // smaller over a time slice), clipped by the swept boxes of that ball (clipToReach).
-  void pathBox(BodyId p, double t0, double t1, double* box) const;
+  // A box (lo x y z, hi x y z) holding that volume along every piece of p's base path over
+  // [t0, t1] (sweptAlongPath). `tight`, for a link whose joints move: its own box over the
+  // window instead (LinkChain::partBoxes, one part) clipped by the ball's (clipToReach), at the
+  // cost of two poses: once a predict, not for every query of a gate (pathBoxes).
+  // fillPartBoxes takes the link's own boxes over the time slices.
+  void pathBox(BodyId p, double t0, double t1, double* box, bool tight) const;
   // The union of `shape`'s swept boxes (SweptBody) along each piece of p's base path.
   void sweptAlongPath(BodyId p, const Shape& shape, double t0, double t1, double* box) const;
   // Intersects a box holding link p over [t0, t1] with sweptAlongPath of `ball`, the ball of its
   // reach (pathVolume), when the box is wider than the ball on some axis.
   void clipToReach(BodyId p, const Shape& ball, double t0, double t1, double* box) const;
-  // pathBox of every path body (6 doubles each, in path_bodies_'s order).
+  // pathBox of every path body (6 doubles each, in path_bodies_'s order), not tight.
   std::vector<double> pathBoxes(double t0, double t1) const;
   // A candidate pair for the narrow phase and the parts of the window it searches: bit k of
   // `parts` set when the two boxes over part k of config_.time_slices overlap (every part
