@@ -11,6 +11,7 @@
 
 #include "vadop/error.h"
 #include "vadop/joint_chain.h"
+#include "vadop/scene_io.h"
 #include "vadop/vadop.h"
 #include "vadop/world.h"
 
@@ -597,6 +598,35 @@ TEST(LinkChain, AFleetOfArmsIsPrunedAndNoPairIsMissed) {
     EXPECT_GE(contacts, 10) << vadop::toString(kind);
   }
   EXPECT_GE(expected.size(), 20u);  // not vacuous: links meet links
+}
+
+// setChain by handle shares the caller's chain (no copy) and predicts what setChain by name
+// does; a null chain or a stale handle is refused naming what was wrong, the body unchanged.
+TEST(LinkChain, SetChainByHandleSharesTheChainAndRefusesBadInput) {
+  toi_scenes::Rng r(41);
+  const ArmFleet fleet = spreadArmFleet(r);
+  vadop::World by_name, by_handle;
+  std::vector<std::shared_ptr<const LinkChain>> shared;
+  for (size_t i = 0; i < fleet.ids.size(); ++i) {
+    for (vadop::World* w : {&by_name, &by_handle}) w->add(fleet.ids[i], fleet.shapes[i], fleet.truth[i].base);
+    by_name.setChain(fleet.ids[i], fleet.chains[i]);
+    shared.push_back(std::make_shared<const LinkChain>(fleet.chains[i]));
+    by_handle.setChain(by_handle.handle(fleet.ids[i]), shared.back());
+    EXPECT_EQ(by_handle.chain(fleet.ids[i]), shared.back().get());
+  }
+  EXPECT_EQ(vadop::impactsToJsonLines(by_handle.predict(0.0, 2.0)), vadop::impactsToJsonLines(by_name.predict(0.0, 2.0)));
+  const vadop::World::Handle h = by_handle.handle(fleet.ids[0]);
+  try {
+    by_handle.setChain(h, nullptr);
+    ADD_FAILURE() << "a null chain was taken";
+  } catch (const vadop::InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("\"" + fleet.ids[0] + "\": no chain"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(by_handle.chain(fleet.ids[0]), shared[0].get());
+  by_handle.remove(fleet.ids[0]);
+  by_handle.add(fleet.ids[0], fleet.shapes[0], fleet.truth[0].base);
+  EXPECT_THROW(by_handle.setChain(h, shared[0]), vadop::InvalidArgument);  // the body was removed since
+  EXPECT_EQ(by_handle.chain(fleet.ids[0]), nullptr);
 }
 
 class ChainTruthTest : public testing::TestWithParam<int> {};

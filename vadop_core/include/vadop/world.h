@@ -144,10 +144,11 @@ class World {
   // setMotion. Throws when the id is unknown (nothing changed).
   void setPath(const std::string& id, const TimedPath& path);
   // The body is a link of `chain` (its joints moving over time on the chain's base) from the
-  // next predict on, until setMotion. Its partners are found by queries of a ball about the
-  // base's origin of the link's bounding radius plus the chain's reach, along each piece of the
-  // base's path: meant for the links of a few arms, not thousands. Throws when the id is unknown
-  // (nothing changed).
+  // next predict on, until setMotion. Its partners among the bodies with one motion are found
+  // by queries of a ball about the base's origin of the link's bounding radius plus the chain's
+  // reach, along each piece of the base's path; among the other path bodies, by the link's own
+  // boxes over the window and its time slices (LinkChain::partBoxes): a fleet of thousands of
+  // links costs what their neighbours cost. Throws when the id is unknown (nothing changed).
   void setChain(const std::string& id, const LinkChain& chain);
   // The same without copying the chain (it is immutable: the World shares it) and, with a
   // handle, without the name's lookup: for a caller that sets every link every cycle. Throws
