@@ -16,6 +16,7 @@
 #include <set>
 
 using vadop_ros::MonitorCore;
+using vadop_ros::MonitorParams;
 using vadop_test::FakeTf;
 
 namespace {
@@ -322,6 +323,32 @@ static_obstacles:
 TEST(MonitorCore, RejectsABadVadopConfiguration) {
   // Checked where they are used: by the VADOP broad phase.
   EXPECT_THROW(makeCore("broad_phase: vadop\naxes: 3\nphi_deg: 1.0\n"), vadop_ros::ParamError);
+}
+
+TEST(MonitorCore, ParamsBuiltInCodeAreRejectedUnderTheirOwnNames) {
+  // A program (the bench, a test) may fill MonitorParams without parseParams: a bad predictor
+  // setting is named as the parser names it, not as the VADOP pool's (~axes / ~phi_deg).
+  auto errorOf = [](void (*spoil)(MonitorParams&)) -> std::string {
+    MonitorParams p;
+    spoil(p);
+    try {
+      MonitorCore core(p, noParams());
+    } catch (const vadop_ros::ParamError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_EQ(errorOf([](MonitorParams& p) { p.time_slices = 0; }),
+            "~time_slices: must be an integer in [1, 64] (1: no cull), got 0");
+  EXPECT_EQ(errorOf([](MonitorParams& p) { p.threads = -2; }),
+            "~threads: must be an integer in [0, 256] (0: one per hardware thread), got -2");
+  EXPECT_EQ(errorOf([](MonitorParams& p) { p.broad_phase = "octree"; }),
+            "~broad_phase: unknown broad phase \"octree\" (expected vadop, vadop_sap, sap, grid or brute)");
+  EXPECT_EQ(errorOf([](MonitorParams& p) { p.coherence_lookahead = -1.0; }),
+            "~coherence_lookahead: must be in [0, 10], got -1");
+  EXPECT_EQ(errorOf([](MonitorParams& p) { p.coherence_clearance = std::nan(""); }),
+            "~coherence_clearance: must be in [0, 10], got nan");
+  EXPECT_EQ(errorOf([](MonitorParams&) {}), "");
 }
 
 TEST(MonitorCore, RobotDrivingACurveIsPredictedOnItsArc) {

@@ -31,6 +31,7 @@ double secondsSince(std::chrono::steady_clock::time_point t) {
 }
 
 Predictor makePredictor(const MonitorParams& p, bool queries_only = false) {
+  checkPredictorParams(p);  // params built in code name the parameter as parsed ones do
   try {
     PredictorConfig c = predictorConfig(p);
     c.queries_only = queries_only;

@@ -513,6 +513,35 @@ vadop::Shape parseShape(const XmlRpcValue& v, const std::string& path) {
   fail(path + ".type", "must be sphere, box, cylinder or capsule, got \"" + t + "\"");
 }
 
+void checkPredictorParams(const MonitorParams& p) {
+  // The library validates the pair (pool size, phi >= covering radius) when the world is
+  // built; the monitor builds it with these values and reports its message under ~axes/~phi_deg.
+  if (p.axes < 3 || p.axes > 4096) fail("~axes", "must be an integer in [3, 4096], got " + std::to_string(p.axes));
+  if (!(p.phi_deg >= 0.0 && p.phi_deg < 90.0)) fail("~phi_deg", "must be in [0, 90), got " + num(p.phi_deg));
+  try {
+    vadop::parseBroadPhaseKind(p.broad_phase);
+  } catch (const vadop::InvalidArgument& e) {
+    fail("~broad_phase", e.what());
+  }
+  if (p.time_slices < 1 || p.time_slices > vadop::kMaxTimeSlices) {
+    fail("~time_slices", "must be an integer in [1, " + std::to_string(vadop::kMaxTimeSlices) +
+                             "] (1: no cull), got " + std::to_string(p.time_slices));
+  }
+  if (p.threads < 0 || p.threads > vadop::kMaxThreads) {
+    fail("~threads", "must be an integer in [0, " + std::to_string(vadop::kMaxThreads) +
+                         "] (0: one per hardware thread), got " + std::to_string(p.threads));
+  }
+  if (!(p.coherence_clearance >= 0.0 && p.coherence_clearance <= 10.0)) {
+    fail("~coherence_clearance", "must be in [0, 10], got " + num(p.coherence_clearance));
+  }
+  if (p.coherence_clearance > 0.0 && p.coherence_clearance < 0.001) {
+    fail("~coherence_clearance", "must be 0 (off) or in [0.001, 10] m, got " + num(p.coherence_clearance));
+  }
+  if (!(p.coherence_lookahead >= 0.0 && p.coherence_lookahead <= 10.0)) {
+    fail("~coherence_lookahead", "must be in [0, 10], got " + num(p.coherence_lookahead));
+  }
+}
+
 MonitorParams parseParams(const XmlRpcValue& root) {
   MonitorParams p;
   if (root.getType() == XmlRpcValue::TypeInvalid) return p;
@@ -534,35 +563,16 @@ MonitorParams parseParams(const XmlRpcValue& root) {
   p.phi_deg = vadop_defaults.phi_deg;
   if (const XmlRpcValue* v = member(root, "axes")) p.axes = toInt(*v, "~axes");
   if (const XmlRpcValue* v = member(root, "phi_deg")) p.phi_deg = toDouble(*v, "~phi_deg");
-  // The library validates the pair (pool size, phi >= covering radius) when the world is
-  // built; the monitor builds it with these values and reports its message under ~axes/~phi_deg.
-  if (p.axes < 3 || p.axes > 4096) fail("~axes", "must be an integer in [3, 4096], got " + std::to_string(p.axes));
   if (const XmlRpcValue* v = member(root, "threads")) p.threads = toInt(*v, "~threads");
-  if (const XmlRpcValue* v = member(root, "broad_phase")) {
-    p.broad_phase = toString(*v, "~broad_phase");
-    try {
-      vadop::parseBroadPhaseKind(p.broad_phase);
-    } catch (const vadop::InvalidArgument& e) {
-      fail("~broad_phase", e.what());
-    }
-  }
+  if (const XmlRpcValue* v = member(root, "broad_phase")) p.broad_phase = toString(*v, "~broad_phase");
   if (const XmlRpcValue* v = member(root, "time_slices")) p.time_slices = toInt(*v, "~time_slices");
-  if (p.time_slices < 1 || p.time_slices > vadop::kMaxTimeSlices) {
-    fail("~time_slices", "must be an integer in [1, " + std::to_string(vadop::kMaxTimeSlices) +
-                             "] (1: no cull), got " + std::to_string(p.time_slices));
+  if (const XmlRpcValue* v = member(root, "coherence_clearance")) {
+    p.coherence_clearance = toDouble(*v, "~coherence_clearance");
   }
-  if (p.threads < 0 || p.threads > vadop::kMaxThreads) {
-    fail("~threads", "must be an integer in [0, " + std::to_string(vadop::kMaxThreads) +
-                         "] (0: one per hardware thread), got " + std::to_string(p.threads));
+  if (const XmlRpcValue* v = member(root, "coherence_lookahead")) {
+    p.coherence_lookahead = toDouble(*v, "~coherence_lookahead");
   }
-  p.coherence_clearance =
-      ranged(member(root, "coherence_clearance"), p.coherence_clearance, 0.0, 10.0, false, "~coherence_clearance");
-  if (p.coherence_clearance > 0.0 && p.coherence_clearance < 0.001) {
-    fail("~coherence_clearance", "must be 0 (off) or in [0.001, 10] m, got " + num(p.coherence_clearance));
-  }
-  p.coherence_lookahead =
-      ranged(member(root, "coherence_lookahead"), p.coherence_lookahead, 0.0, 10.0, false, "~coherence_lookahead");
-  if (!(p.phi_deg >= 0.0 && p.phi_deg < 90.0)) fail("~phi_deg", "must be in [0, 90), got " + num(p.phi_deg));
+  checkPredictorParams(p);
   if (const XmlRpcValue* v = member(root, "self_collision")) p.self_collision = toBool(*v, "~self_collision");
   if (const XmlRpcValue* v = member(root, "log_impacts")) p.log_impacts = toBool(*v, "~log_impacts");
   if (const XmlRpcValue* v = member(root, "publish_markers")) p.publish_markers = toBool(*v, "~publish_markers");

@@ -546,6 +546,18 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "bad arguments\n");
     return 2;
   }
+  try {  // the predictor's settings, named as the node names them
+    vadop_ros::MonitorParams p;
+    p.threads = threads;
+    p.broad_phase = broad_phase;
+    p.time_slices = o.time_slices;
+    p.coherence_clearance = o.clearance;
+    p.coherence_lookahead = o.lookahead;
+    vadop_ros::checkPredictorParams(p);
+  } catch (const vadop_ros::ParamError& e) {
+    std::fprintf(stderr, "bad arguments: %s\n", e.what());
+    return 2;
+  }
   const double period_ms = 1e3 / rate;
   std::printf("vadop_monitor_bench: MonitorCore cycle (odometry in + registry + world + ImpactArray), prediction on "
               "%d thread(s)%s\n", threads, threads == 1 ? "" : " (cpu = the cycle thread's only: read wall)");

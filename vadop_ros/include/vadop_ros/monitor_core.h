@@ -98,7 +98,8 @@ struct CommandCheck {
 
 class MonitorCore {
  public:
-  // Throws ParamError when ~axes / ~phi_deg are rejected by the library.
+  // Throws ParamError naming the parameter when a predictor setting is out of range
+  // (checkPredictorParams) or ~axes / ~phi_deg are rejected by the library.
   MonitorCore(const MonitorParams& params, const ParamReader& read_param,
               const MeshLoader& load_mesh = makeDefaultMeshLoader());
 

@@ -154,6 +154,11 @@ struct MonitorParams {
 // Throws ParamError.
 MonitorParams parseParams(const XmlRpc::XmlRpcValue& root);
 
+// The predictor's settings (~axes, ~phi_deg, ~broad_phase, ~time_slices, ~threads,
+// ~coherence_*) in their ranges; parseParams calls it, and MonitorCore for params built in code.
+// Throws ParamError naming the parameter.
+void checkPredictorParams(const MonitorParams& params);
+
 // Top-level keys parseParams does not know (to warn about).
 std::vector<std::string> unknownTopLevelKeys(const XmlRpc::XmlRpcValue& root);
 
