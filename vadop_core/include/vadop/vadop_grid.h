@@ -123,10 +123,8 @@ class VadopGridBroadPhase : public BroadPhase {
       shared_tests = 0;
     }
   };
-  // A pair whose boxes overlap, into `hits`: after its shared-axis test when fused_, else
-  // for testSharedAxes.
+  // A pair whose boxes overlap, into `hits` for testSharedAxes.
   void boxHit(uint32_t a, uint32_t b, SlotPairs& hits);
-  bool fused_ = false;  // this update tests shared axes at once (one thread)
   void clearAxes(BodyId id);
   // Each slot of `large` (ascending not required) against every other slot, each pair once.
   void testLargeAgainstAll(const std::vector<uint32_t>& large, SlotPairs& hits);
@@ -137,9 +135,8 @@ class VadopGridBroadPhase : public BroadPhase {
   double expectedEscapeRate(double step) const;
   bool boxesOverlap(uint32_t a, uint32_t b) const;
   bool overlapOnShared(uint32_t a, uint32_t b) const;  // needs both slots' intervals
-  // The pairs of hits_ whose intervals overlap on every shared pool axis, into `out` (unless
-  // fused_ tested them already); the intervals of their slots first (each once). Counts the
-  // tests in stats_.
+  // The pairs of hits_ whose intervals overlap on every shared pool axis, into `out`; the
+  // intervals of their slots first (each once, in slot order). Counts the tests in stats_.
   void testSharedAxes(int threads, std::vector<Pair>& out);
   // f(axis, interval) for each pool axis of slot s: its body's swept volume over the last
   // update's frame moving with `motion` (the update's), projected now.
@@ -147,9 +144,6 @@ class VadopGridBroadPhase : public BroadPhase {
   void forEachProjected(uint32_t s, const Motion& motion, F&& f) const;
   // The slot's pool-axis intervals (see intervals_); slots are independent.
   void projectSlot(uint32_t s);
-  void requireIntervals(uint32_t s) {
-    if (interval_ready_[s] != kIntervalsSet) projectSlot(s);
-  }
 
   std::unique_ptr<AxisPool> pool_;
   VadopConfig config_;
