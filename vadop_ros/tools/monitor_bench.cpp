@@ -208,26 +208,30 @@ struct Options {
   double lookahead = vadop_ros::MonitorParams{}.coherence_lookahead;
 };
 
-Result run(size_t n, const Options& o) {
-  const int cycles = o.cycles, warmup = o.warmup, links = o.links, threads = o.threads;
-  const double rate = o.rate, horizon = o.horizon, area = o.area, turn = o.turn, churn = o.churn, fast = o.fast,
-               ceiling = o.ceiling;
-  const bool markers = o.markers, tracks = o.tracks;
-  const unsigned seed = o.seed;
-  const size_t gates = o.gates;
-  const std::string& broad_phase = o.broad_phase;
-  std::mt19937 rng(seed);
-
+// The node's parameters the options set (bodies and tracks are added by run).
+vadop_ros::MonitorParams monitorParams(const Options& o) {
   vadop_ros::MonitorParams p;
   p.fixed_frame = "odom";
-  p.rate = rate;
-  p.horizon = horizon;
+  p.rate = o.rate;
+  p.horizon = o.horizon;
   p.stale_timeout = 0.5;
-  p.threads = threads;
-  p.broad_phase = broad_phase;
+  p.threads = o.threads;
+  p.broad_phase = o.broad_phase;
   p.time_slices = o.time_slices;
   p.coherence_clearance = o.clearance;
   p.coherence_lookahead = o.lookahead;
+  return p;
+}
+
+Result run(size_t n, const Options& o) {
+  const int cycles = o.cycles, warmup = o.warmup, links = o.links;
+  const double rate = o.rate, area = o.area, turn = o.turn, churn = o.churn, fast = o.fast, ceiling = o.ceiling;
+  const bool markers = o.markers, tracks = o.tracks;
+  const unsigned seed = o.seed;
+  const size_t gates = o.gates;
+  std::mt19937 rng(seed);
+
+  vadop_ros::MonitorParams p = monitorParams(o);
   if (tracks) {
     vadop_ros::TrackParams t;
     t.topic = "/people/tracks";
@@ -343,6 +347,7 @@ Result run(size_t n, const Options& o) {
     // paired core).
     for (size_t i = 0; i < (tracks ? 0 : n); ++i) reported[i] = {noisy(sim[i].v), noisy(sim[i].w)};
     auto feed = [&](vadop_ros::MonitorCore& into) {
+      if (tracks) into.tracks().onArray(0, objects, now, tf);
       for (size_t i = 0; i < (tracks ? 0 : n); ++i) {
         const vadop_ros::WanderingFleet::Body& s = sim[i];
         msg.header.stamp = now;
@@ -381,7 +386,6 @@ Result run(size_t n, const Options& o) {
     if (shadow && c % 2 == 0) pairedCycle();
     const double cpu0 = threadCpuMs();
     const auto t0 = std::chrono::steady_clock::now();
-    if (tracks) core.tracks().onArray(0, objects, now, tf);
     feed(core);
     const auto t1 = std::chrono::steady_clock::now();
     core.cycle(now, tf);
@@ -538,6 +542,10 @@ int main(int argc, char** argv) {
     startup(startup_sizes);
     return 0;
   }
+  if (o.gates > 0 && tracks) {
+    std::fprintf(stderr, "--gates needs robots on odometry; with --tracks every body is a tracked object\n");
+    return 2;
+  }
   if (o.paired && !(o.clearance > 0)) {
     std::fprintf(stderr, "--paired compares against coherence off: give --coherence C[,L] with C > 0\n");
     return 2;
@@ -547,13 +555,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {  // the predictor's settings, named as the node names them
-    vadop_ros::MonitorParams p;
-    p.threads = threads;
-    p.broad_phase = broad_phase;
-    p.time_slices = o.time_slices;
-    p.coherence_clearance = o.clearance;
-    p.coherence_lookahead = o.lookahead;
-    vadop_ros::checkPredictorParams(p);
+    vadop_ros::checkPredictorParams(monitorParams(o));
   } catch (const vadop_ros::ParamError& e) {
     std::fprintf(stderr, "bad arguments: %s\n", e.what());
     return 2;
