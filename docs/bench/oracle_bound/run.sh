@@ -5,7 +5,7 @@
 # narrow phase's per pair, split by whether the pair collides; printed at exit), e.g.
 #   git worktree add /tmp/wt_oracle HEAD && git -C /tmp/wt_oracle apply "$PWD/instrument.patch"
 #   (configure /tmp/wt_oracle as in README "Building by hand", Release; make vadop_monitor_bench)
-# usage: run.sh BENCH ROUNDS   (one CSV line per run; summarise.py turns them into the bound)
+# usage: bash run.sh BENCH ROUNDS   (one CSV line per run; summarise.py turns them into the bound)
 bench=$1; rounds=${2:-3}
 echo "round,bodies,broad_phase,time_slices,wall_med_ms,predict_ms,candidates,impacts,predict_tsc,hit_tsc,hit_pairs,miss_tsc,miss_pairs"
 for r in $(seq 1 "$rounds"); do
