@@ -360,12 +360,13 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
     queried.erase(std::unique(queried.begin(), queried.end()), queried.end());
   }
   // A crowded world's full predict: every body's part boxes first, their unions the broad
-  // phase's boxes (a body on a path is held at rest there: not with paths).
-  const bool all_parts = !only && !paths && parts_for_all_ && config_.time_slices > 1 && t1 > t0;
+  // phase's boxes, and the path bodies' boxes in pathPairs (the broad phase holds those at rest:
+  // with paths it computes the others' boxes itself).
+  const bool all_parts = !only && parts_for_all_ && config_.time_slices > 1 && t1 > t0;
   if (!only) {
     if (all_parts) {
       fillAllPartBoxes(t0, t1);
-      broad_phase_->setFrameBoxes(frame_boxes_.data());
+      if (!paths) broad_phase_->setFrameBoxes(frame_boxes_.data());
     }
     broad_phase_->update(t0, t1);
     if (paths) {
@@ -373,7 +374,7 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
       for (const Pair& p : broad_phase_->pairs()) {
         if (!onPath(p.a) && !onPath(p.b)) queried.push_back(p);
       }
-      pathPairs(t0, t1, nullptr, queried);
+      pathPairs(t0, t1, nullptr, queried, all_parts);
       std::sort(queried.begin(), queried.end());
       queried.erase(std::unique(queried.begin(), queried.end()), queried.end());
     }
@@ -490,7 +491,7 @@ std::vector<double> World::pathBoxes(double t0, double t1) const {
   return boxes;
 }
 
-void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std::vector<Pair>& out) {
+void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std::vector<Pair>& out, bool unions) {
   auto in_only = [only](BodyId id) { return !only || std::binary_search(only->begin(), only->end(), id); };
   std::vector<BodyId> found;
   const size_t n = path_bodies_.size();
@@ -502,7 +503,11 @@ void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std
   std::vector<double> boxes(stride * n);
   for (size_t i = 0; i < n; ++i) {
     const BodyId p = path_bodies_[i];
-    pathBox(p, t0, t1, &boxes[stride * i], true);
+    if (unions) {
+      std::copy_n(&frame_boxes_[stride * p], stride, &boxes[stride * i]);
+    } else {
+      pathBox(p, t0, t1, &boxes[stride * i], true);
+    }
     if (!others) continue;
     const TimedPath& path = records_[p].chain->base();
     const bool p_only = in_only(p);

@@ -546,18 +546,23 @@ TEST(LinkChain, AFleetOfArmsIsPrunedAndNoPairIsMissed) {
       w.add(ids[i], shapes[i], tchains[i].base);
       w.setChain(ids[i], chains[i]);
     }
-    const std::vector<vadop::WorldImpact> got = w.predict(0.0, 2.0);
-    std::vector<std::pair<std::string, double>> found;
-    for (const auto& x : got) found.emplace_back(x.a + "-" + x.b, x.impact.time);
-    std::sort(found.begin(), found.end());
-    ASSERT_EQ(found.size(), expected.size()) << vadop::toString(kind);
-    for (size_t k = 0; k < found.size(); ++k) {
-      EXPECT_EQ(found[k].first, expected[k].first) << vadop::toString(kind);
-      EXPECT_NEAR(found[k].second, expected[k].second, vadop::testing_compare::kContactTime);
+    // Twice: the first predict finds the world crowded (more pairs than bodies), so the second
+    // takes the path bodies' boxes from the unions of their part boxes.
+    std::vector<vadop::WorldImpact> got;
+    for (int pass = 0; pass < 2; ++pass) {
+      got = w.predict(0.0, 2.0);
+      std::vector<std::pair<std::string, double>> found;
+      for (const auto& x : got) found.emplace_back(x.a + "-" + x.b, x.impact.time);
+      std::sort(found.begin(), found.end());
+      ASSERT_EQ(found.size(), expected.size()) << vadop::toString(kind) << " pass " << pass;
+      for (size_t k = 0; k < found.size(); ++k) {
+        EXPECT_EQ(found[k].first, expected[k].first) << vadop::toString(kind) << " pass " << pass;
+        EXPECT_NEAR(found[k].second, expected[k].second, vadop::testing_compare::kContactTime);
+      }
+      EXPECT_LT(w.lastCandidateCount(), all_pairs / 5) << vadop::toString(kind);
+      std::printf("%s, pass %d: %zu impacts, %zu candidates of %zu pairs\n", vadop::toString(kind), pass, got.size(),
+                  w.lastCandidateCount(), all_pairs);
     }
-    EXPECT_LT(w.lastCandidateCount(), all_pairs / 5) << vadop::toString(kind);
-    std::printf("%s: %zu impacts, %zu candidates of %zu pairs\n", vadop::toString(kind), got.size(),
-                w.lastCandidateCount(), all_pairs);
 
     // A sphere sent at a moving link's position at t = 1 from up to 1 m away (a body with one
     // Motion among them).

@@ -270,9 +270,10 @@ class World {
     std::optional<PreparedShape> prepared;
   };
   // The pairs of the path bodies in [t0, t1] (the caller sorts and dedups): each piece's query
-  // against the other bodies, and the pairs of two path bodies whose pathBoxes overlap; with
-  // `only`, those involving one of them.
-  void pathPairs(double t0, double t1, const std::vector<BodyId>* only, std::vector<Pair>& out);
+  // against the other bodies, and the pairs of two path bodies whose boxes overlap: their
+  // pathBoxes, or with `unions` the unions of their part boxes in frame_boxes_ (fillAllPartBoxes
+  // ran: tighter, and computed on the threads); with `only`, those involving one of them.
+  void pathPairs(double t0, double t1, const std::vector<BodyId>* only, std::vector<Pair>& out, bool unions = false);
   // What the broad phase tests for path body p over [t0, t1]: its shape (nullopt) or, for a
   // link whose joints move, the ball within its reach of the base's origin.
   std::optional<Shape> pathVolume(BodyId p, double t0, double t1) const;
