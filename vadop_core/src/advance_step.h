@@ -29,11 +29,23 @@ struct AdvanceStep {
   DistanceResult closest;  // at t
 };
 
-// Requires 0 <= advance_gap < touch_gap. `hint` (may be null) carries a warm-start
-// direction from one call to the next for convex pairs.
+// What one step of a convex pair leaves to the next step of the same advancement: the last
+// separating direction, and the simplex GJK ended on, its points in each core's body frame.
+// Points of the cores stay points of the cores wherever the bodies move, so the next GJK
+// starts from that simplex re-posed (near the answer when the closest features stay the same:
+// a box's corner, a cylinder's rim point) and its answer and certificate are as exact as from
+// scratch. Empty (n = 0) at first; meshes do not use it.
+struct WarmStart {
+  Eigen::Vector3d dir = Eigen::Vector3d::Zero();
+  Eigen::Vector3d a[3], b[3];
+  int n = 0;
+};
+
+// Requires 0 <= advance_gap < touch_gap. `warm` (may be null) carries the warm start from one
+// call to the next for convex pairs.
 AdvanceStep advanceStep(const PreparedShape& a, const Motion& ma, const PreparedShape& b,
                         const Motion& mb, double t, double horizon, double touch_gap,
-                        double advance_gap, Eigen::Vector3d* hint);
+                        double advance_gap, WarmStart* warm);
 
 // The same step for bodies that only stay near a constant twist: each posed at t, with the
 // velocity of its pose's origin and its angular velocity at t, and every point of it within
@@ -42,7 +54,7 @@ AdvanceStep advanceStep(const PreparedShape& a, const Motion& ma, const Prepared
 // throws vadop::InvalidArgument for a mesh.
 AdvanceStep advanceStepNearTwist(const PreparedShape& a, const PosedTwist& ta, const PreparedShape& b,
                                  const PosedTwist& tb, double deviation, double horizon, double touch_gap,
-                                 double advance_gap, Eigen::Vector3d* hint);
+                                 double advance_gap, WarmStart* warm);
 
 // The swept-volume certificate, used by timeOfImpact where rotation limits the steps above.
 // Over [ta, tb] (ta <= tb) each body lies in a convex set: a turning body in its revolution

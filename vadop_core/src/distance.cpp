@@ -169,8 +169,8 @@ struct Gjk {
   // The direction (along a - b) that certified the largest lower bound of the core distance.
   double best_lower = -std::numeric_limits<double>::infinity();
   Eigen::Vector3d best_dir = Eigen::Vector3d::Zero();
-  // overlap: the final simplex, holding the origin (a tetrahedron, or a triangle, a
-  // segment or a point passing through it).
+  // The final simplex: with overlap, holding the origin (a tetrahedron, or a triangle, a
+  // segment or a point passing through it); else the support of the closest point.
   SVert simplex[4];
   int simplex_n = 0;
 };
@@ -331,9 +331,11 @@ bool closestOnSimplex(SVert* s, int& n, double* lambda) {
 
 // CA, CB: Convex or Swept (support(d), origin(), p, lever). Stops early once the certified
 // lower bound of the core distance exceeds stop_above.
+// `seed` (seed_n <= 3 points of A - B, e.g. the last simplex of the pair re-posed): the start
+// instead of the support along -guess.
 template <class CA, class CB>
 Gjk runGjk(const CA& A, const CB& B, Eigen::Vector3d guess, double abs_tol, double rel_tol, int max_iter,
-           double stop_above = kInf) {
+           double stop_above = kInf, const SVert* seed = nullptr, int seed_n = 0) {
   Gjk r;
   if (!(guess.squaredNorm() > 0.0) || !guess.allFinite()) guess = A.origin() - B.origin();
   if (!(guess.squaredNorm() > 0.0)) guess = Eigen::Vector3d::UnitX();
@@ -344,10 +346,20 @@ Gjk runGjk(const CA& A, const CB& B, Eigen::Vector3d guess, double abs_tol, doub
 
   SVert s[4];
   int n = 1;
-  s[0] = makeVert(A, B, -guess);
   double lambda[4] = {1.0, 0.0, 0.0, 0.0};
-  Eigen::Vector3d v = s[0].w;
-  Eigen::Vector3d pa = s[0].a, pb = s[0].b;
+  if (seed_n > 0) {
+    n = seed_n;
+    for (int k = 0; k < n; ++k) s[k] = seed[k];
+    closestOnSimplex(s, n, lambda);  // at most a triangle: never "inside"
+  } else {
+    s[0] = makeVert(A, B, -guess);
+  }
+  Eigen::Vector3d v = closestPoint(s, n, lambda);
+  Eigen::Vector3d pa = Eigen::Vector3d::Zero(), pb = Eigen::Vector3d::Zero();
+  for (int k = 0; k < n; ++k) {
+    pa += lambda[k] * s[k].a;
+    pb += lambda[k] * s[k].b;
+  }
   // Overlap: the simplex holding the origin, for the penetration direction.
   auto overlapping = [&]() {
     r.overlap = true;
@@ -405,6 +417,10 @@ Gjk runGjk(const CA& A, const CB& B, Eigen::Vector3d guess, double abs_tol, doub
   r.a = pa;
   r.b = pb;
   r.dist = r.overlap ? 0.0 : v.norm();
+  if (!r.overlap) {
+    for (int k = 0; k < n; ++k) r.simplex[k] = s[k];
+    r.simplex_n = n;
+  }
   return r;
 }
 
@@ -646,9 +662,29 @@ Eigen::Vector3d penetrationDirection(const Convex& A, const Convex& B, const Gjk
 // which lower_bound was certified; it can differ from the witness normal by the GJK's
 // angular accuracy (near contact the witness direction is the better contact normal, the
 // certified one the better separating plane).
+// `warm` (primitives only, may be null): started from its simplex, re-posed, when it has one;
+// the final simplex stored back in the cores' body frames (none after an overlap).
 DistanceResult convexDistance(const Convex& A, const Convex& B, const Eigen::Vector3d& guess,
-                              double abs_tol, double rel_tol, int max_iter, Eigen::Vector3d* cert) {
-  const Gjk g = runGjk(A, B, guess, abs_tol, rel_tol, max_iter);
+                              double abs_tol, double rel_tol, int max_iter, Eigen::Vector3d* cert,
+                              WarmStart* warm = nullptr) {
+  SVert seed[3];
+  int seed_n = 0;
+  if (warm) {
+    for (; seed_n < warm->n; ++seed_n) {
+      SVert& v = seed[seed_n];
+      v.a = A.R * warm->a[seed_n] + A.p + A.shift;
+      v.b = B.R * warm->b[seed_n] + B.p + B.shift;
+      v.w = v.a - v.b;
+    }
+  }
+  const Gjk g = runGjk(A, B, guess, abs_tol, rel_tol, max_iter, kInf, seed, seed_n);
+  if (warm) {
+    warm->n = g.simplex_n;
+    for (int k = 0; k < g.simplex_n; ++k) {
+      warm->a[k] = A.R.transpose() * (g.simplex[k].a - A.p - A.shift);
+      warm->b[k] = B.R.transpose() * (g.simplex[k].b - B.p - B.shift);
+    }
+  }
   DistanceResult r;
   r.iterations = g.iterations;
   const double rounding = A.rounding + B.rounding;
@@ -1316,14 +1352,14 @@ Tolerances stepTolerances(double touch_gap, double advance_gap) { return {0.01 *
 
 // advanceStep for two convex sides (kin set), with the deviation of separationStep.
 AdvanceStep convexStep(const Side& A, const Side& B, double deviation, double horizon, double touch_gap,
-                       double advance_gap, Eigen::Vector3d* hint) {
+                       double advance_gap, WarmStart* warm) {
   const Tolerances tol = stepTolerances(touch_gap, advance_gap);
   AdvanceStep out;
   const Convex ca = A.convex(0), cb = B.convex(0);
-  const Eigen::Vector3d guess = (hint && hint->squaredNorm() > 0.0) ? *hint : Eigen::Vector3d(ca.origin() - cb.origin());
+  const Eigen::Vector3d guess = (warm && warm->dir.squaredNorm() > 0.0) ? warm->dir : Eigen::Vector3d(ca.origin() - cb.origin());
   Eigen::Vector3d cert;
-  out.closest = convexDistance(ca, cb, guess, tol.abs_tol, tol.rel_tol, tol.max_iter, &cert);
-  if (hint) *hint = -out.closest.normal;
+  out.closest = convexDistance(ca, cb, guess, tol.abs_tol, tol.rel_tol, tol.max_iter, &cert, warm);
+  if (warm) warm->dir = -out.closest.normal;
   if (out.closest.cores_overlap || out.closest.distance <= touch_gap) {
     out.touching = true;
     out.closest = refineContact(ca, cb, out.closest);
@@ -1337,22 +1373,22 @@ AdvanceStep convexStep(const Side& A, const Side& B, double deviation, double ho
 
 AdvanceStep advanceStep(const PreparedShape& a, const Motion& ma, const PreparedShape& b,
                         const Motion& mb, double t, double horizon, double touch_gap,
-                        double advance_gap, Eigen::Vector3d* hint) {
+                        double advance_gap, WarmStart* warm) {
   const Side A = sideAt(a.data(), ma, t);
   const Side B = sideAt(b.data(), mb, t);
   if (A.mesh || B.mesh) return meshStep(A, B, horizon, touch_gap, advance_gap, stepTolerances(touch_gap, advance_gap));
-  return convexStep(A, B, 0.0, horizon, touch_gap, advance_gap, hint);
+  return convexStep(A, B, 0.0, horizon, touch_gap, advance_gap, warm);
 }
 
 AdvanceStep advanceStepNearTwist(const PreparedShape& a, const PosedTwist& ta, const PreparedShape& b,
                                  const PosedTwist& tb, double deviation, double horizon, double touch_gap,
-                                 double advance_gap, Eigen::Vector3d* hint) {
+                                 double advance_gap, WarmStart* warm) {
   Side A = makeSide(a.data(), ta.pose.linear(), ta.pose.translation());
   Side B = makeSide(b.data(), tb.pose.linear(), tb.pose.translation());
   if (A.mesh || B.mesh) throw InvalidArgument("advanceStepNearTwist: convex shapes only, not meshes");
   A.kin = {ta.velocity, ta.angular_velocity};
   B.kin = {tb.velocity, tb.angular_velocity};
-  return convexStep(A, B, deviation, horizon, touch_gap, advance_gap, hint);
+  return convexStep(A, B, deviation, horizon, touch_gap, advance_gap, warm);
 }
 
 SweptBound sweptLowerBound(const PreparedShape& a, const Motion& ma, const PreparedShape& b, const Motion& mb,

@@ -410,7 +410,7 @@ Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedS
   DistanceOptions dopt;
   dopt.tolerance = options.tolerance / 200.0;
   dopt.relative_tolerance = 4e-3;
-  Eigen::Vector3d hint = Eigen::Vector3d::Zero();  // the last separating direction
+  detail::WarmStart warm;  // from one twist step to the next
   Impact out;
   int used = 0;
   double t = t0;
@@ -459,7 +459,7 @@ Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedS
       DistanceResult d;
       if (!mesh) {
         const detail::AdvanceStep s =
-            detail::advanceStepNearTwist(a, ca.stateAt(t), b, cb.stateAt(t), deviation, e - t, touch, advance, &hint);
+            detail::advanceStepNearTwist(a, ca.stateAt(t), b, cb.stateAt(t), deviation, e - t, touch, advance, &warm);
         ++used;
         out.iterations = used;
         if (s.touching) {

@@ -180,11 +180,11 @@ Impact conservativeAdvancement(const PreparedShape& a, const Motion& ma, const P
     out.distance = c.distance;
   };
   double t = t0;
-  Eigen::Vector3d hint = Eigen::Vector3d::Zero();
+  detail::WarmStart warm;
   int used = 0;  // evaluations: CA steps and swept-volume tests
   int small = 0, patience = kPatience;
   for (;;) {
-    const detail::AdvanceStep s = detail::advanceStep(a, ma, b, mb, t, t1 - t, touch, advance, &hint);
+    const detail::AdvanceStep s = detail::advanceStep(a, ma, b, mb, t, t1 - t, touch, advance, &warm);
     const bool first = used == 0;
     ++used;
     out.iterations = used;
