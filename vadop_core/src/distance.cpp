@@ -679,8 +679,8 @@ DistanceResult convexDistance(const Convex& A, const Convex& B, const Eigen::Vec
   }
   const Gjk g = runGjk(A, B, guess, abs_tol, rel_tol, max_iter, kInf, seed, seed_n);
   if (warm) {
-    warm->n = g.simplex_n;
-    for (int k = 0; k < g.simplex_n; ++k) {
+    warm->n = g.overlap ? 0 : g.simplex_n;  // an overlap's simplex may be a tetrahedron: not kept
+    for (int k = 0; k < warm->n; ++k) {
       warm->a[k] = A.R.transpose() * (g.simplex[k].a - A.p - A.shift);
       warm->b[k] = B.R.transpose() * (g.simplex[k].b - B.p - B.shift);
     }
@@ -956,10 +956,15 @@ DistanceResult meshDistance(const Side& A, const Side& B, const Tolerances& tol)
 // gap accuracy delta can be off by about sqrt(2 delta / gap) radians (the closest point
 // slides along a flat or ruled patch of the Minkowski difference at second order), so the
 // contact that ends the advancement is recomputed to rounding accuracy.
-DistanceResult refineContact(const Convex& A, const Convex& B, const DistanceResult& coarse) {
+DistanceResult refineContact(const Convex& A, const Convex& B, const DistanceResult& coarse,
+                             const WarmStart* coarse_simplex = nullptr) {
   if (coarse.cores_overlap) return coarse;
   const double scale = 1.0 + A.p.norm() + B.p.norm() + A.lever + B.lever;
-  DistanceResult fine = convexDistance(A, B, -coarse.normal, 1e-15 * scale, 0.0, 256, nullptr);
+  // From the coarse GJK's final simplex when there is one (the same poses): it continues
+  // that iteration to the tighter tolerance instead of starting over.
+  WarmStart seed;
+  if (coarse_simplex) seed = *coarse_simplex;
+  DistanceResult fine = convexDistance(A, B, -coarse.normal, 1e-15 * scale, 0.0, 256, nullptr, &seed);
   if (fine.cores_overlap || !(fine.distance <= coarse.distance)) return coarse;
   fine.iterations += coarse.iterations;
   return fine;
@@ -1362,7 +1367,7 @@ AdvanceStep convexStep(const Side& A, const Side& B, double deviation, double ho
   if (warm) warm->dir = -out.closest.normal;
   if (out.closest.cores_overlap || out.closest.distance <= touch_gap) {
     out.touching = true;
-    out.closest = refineContact(ca, cb, out.closest);
+    out.closest = refineContact(ca, cb, out.closest, warm);
     return out;
   }
   out.step = separationStep(ca, A.kin, cb, B.kin, cert, horizon, advance_gap, horizon, &out.clear, deviation);
