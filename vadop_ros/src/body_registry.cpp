@@ -918,7 +918,7 @@ void BodyRegistry::resolveReference(Body& b, const std::string& body_frame) {
 }
 
 bool BodyRegistry::bodyMotion(Body& b, const ros::Time& now, TransformSource& tf, Eigen::Isometry3d& pose,
-                              Eigen::Vector3d& v, Eigen::Vector3d& w, ros::Time& t_ref, std::string& frame) {
+                              Eigen::Vector3d& v, Eigen::Vector3d& w, ros::Time& t_ref, const std::string*& frame) {
   std::string error;
   ros::Time stamp;
   if (b.params.source == VelocitySource::kOdometry) {
@@ -937,7 +937,7 @@ bool BodyRegistry::bodyMotion(Body& b, const ros::Time& now, TransformSource& tf
     v = r * b.v;
     w = r * b.w;
     pose = fixed_child;
-    frame = b.child_frame;
+    frame = &b.child_frame;
     if (!b.params.frame.empty() && b.params.frame != b.child_frame && !b.child_frame.empty()) {
       // The body frame is another frame rigid with the child frame.
       Eigen::Isometry3d child_body;
@@ -947,19 +947,19 @@ bool BodyRegistry::bodyMotion(Body& b, const ros::Time& now, TransformSource& tf
       }
       pose = fixed_child * child_body;
       v += w.cross(pose.translation() - fixed_child.translation());
-      frame = b.params.frame;
+      frame = &b.params.frame;
     } else if (!b.params.frame.empty()) {
-      frame = b.params.frame;
+      frame = &b.params.frame;
     }
     t_ref = b.stamp;
   } else {
-    frame = b.params.frame;
-    if (!lookup(tf, fixed_frame_, frame, ros::Time(0), pose, stamp, error)) {
+    frame = &b.params.frame;
+    if (!lookup(tf, fixed_frame_, *frame, ros::Time(0), pose, stamp, error)) {
       warnTf(b, error, now);
       return false;
     }
     Eigen::Matrix3d r = pose.linear();
-    if (!b.twist_frame.empty() && b.twist_frame != frame) {
+    if (!b.twist_frame.empty() && b.twist_frame != *frame) {
       Eigen::Isometry3d fixed_twist;
       ros::Time s2;
       if (!lookup(tf, fixed_frame_, b.twist_frame, ros::Time(0), fixed_twist, s2, error)) {
@@ -1040,8 +1040,8 @@ void BodyRegistry::updateMoving(Body& b, const ros::Time& now, double t_now, dou
   Eigen::Isometry3d fb;
   Eigen::Vector3d v, w;
   ros::Time t_ref;
-  std::string body_frame;
-  if (!bodyMotion(b, now, tf, fb, v, w, t_ref, body_frame)) {
+  const std::string* body_frame_name = nullptr;
+  if (!bodyMotion(b, now, tf, fb, v, w, t_ref, body_frame_name)) {
     b.status.state = BodyState::kTfMissing;
     return;
   }
@@ -1050,6 +1050,7 @@ void BodyRegistry::updateMoving(Body& b, const ros::Time& now, double t_now, dou
     v.setZero();
     w.setZero();
   }
+  const std::string& body_frame = *body_frame_name;
   resolveReference(b, body_frame);
   // A stale body stands still: its pose holds at any time, so its motion is referred to
   // `now` (its stamp may be hours old, beyond the library's time range).

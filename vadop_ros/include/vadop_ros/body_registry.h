@@ -381,8 +381,9 @@ class BodyRegistry {
                      const ros::Time& time, Eigen::Isometry3d& pose, ros::Time& stamp, std::string& error);
   void resolveReference(Body& b, const std::string& body_frame);
   void updateMoving(Body& b, const ros::Time& now, double t_now, double t_check_end, TransformSource& tf);
+  // `frame`: the body frame's name, one of b's own strings (no copy per body per cycle).
   bool bodyMotion(Body& b, const ros::Time& now, TransformSource& tf, Eigen::Isometry3d& pose,
-                  Eigen::Vector3d& v, Eigen::Vector3d& w, ros::Time& t_ref, std::string& frame);
+                  Eigen::Vector3d& v, Eigen::Vector3d& w, ros::Time& t_ref, const std::string*& frame);
   void warnTf(Body& b, const std::string& error, const ros::Time& now);
   // Puts the body's active elements on its plan when it reaches beyond `now` (see the header).
   void followPlan(Body& b, const ros::Time& now, double t_now, double t_check_end, const Eigen::Isometry3d& frame_now);
