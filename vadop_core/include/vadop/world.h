@@ -304,8 +304,9 @@ class World {
   // `filled`: fillAllPartBoxes ran for this window (the boxes are there already).
   void cullBySlices(std::vector<Candidate>& tests, double t0, double t1, bool filled);
   // The part boxes of every body (slots in id order) and, in frame_boxes_, the union of each
-  // body's parts: the broad phase's boxes in a crowded world's full predict, so that no body's
-  // swept volume is bounded twice (the union is its swept box over [t0, t1], or tighter).
+  // body's parts: the broad phase's boxes in a crowded world's full predict (the path bodies'
+  // boxes in pathPairs when there are some), so that no body's swept volume is bounded twice
+  // (the union is its swept box over [t0, t1], or tighter).
   void fillAllPartBoxes(double t0, double t1);
   // The part boxes of the bodies of `tests` only.
   void fillPartBoxesOfPairs(const std::vector<Candidate>& tests, double t0, double t1);
