@@ -196,8 +196,10 @@ void turnRotation(const Eigen::Matrix3d& step, Eigen::Matrix3d& r) {
 void SweptBody::partBoxes(const Shape& shape, const Motion& motion, double t0, double t1, int parts, double* out) {
   // The bounds of one SweptBody per part, without building one: what does not depend on the
   // part (spin axis, chord, the rotation term of each coordinate axis) is computed once, and
-  // the parts' mid-frame orientations are stepped by one turn increment.
+  // the parts' mid-frame orientations are stepped by one turn increment. A body that turns by
+  // at most kEndsMaxTurn a part takes partBoxesFromEnds instead (tighter there).
   const double w = motion.angular_velocity.norm();
+  if (w > 0.0 && w * (t1 - t0) / parts <= kEndsMaxTurn) return partBoxesFromEnds(shape, motion, t0, t1, parts, out);
   const bool pivot = motion.hasPivot();
   const bool sphere = shape.type == ShapeType::kSphere;  // its extent does not depend on orientation
   const double core_radius = std::max(0.0, shape.bounding_radius - shape.margin) + motion.pivotArm();
@@ -242,6 +244,67 @@ void SweptBody::partBoxes(const Shape& shape, const Motion& motion, double t0, d
       if (!sphere) stepRotation(rotation_t, turn_t);
     }
     c0 = c1;
+  }
+}
+
+void SweptBody::partBoxesFromEnds(const Shape& shape, const Motion& motion, double t0, double t1, int parts,
+                                  double* out) {
+  // A point at distance rho from the line the body turns about accelerates at |w|^2 rho, so
+  // over a part of length h it stays within |w|^2 rho h^2 / 8 of the segment between where it
+  // is at the part's two ends (each coordinate has |x''| <= |w|^2 rho: the interpolation error
+  // of a C2 function), hence in the union of the shape's boxes at the ends grown by that. rho
+  // <= the pivot's arm plus the bounding radius; for a sphere, whose box does not depend on
+  // its orientation, the path of its centre is what matters (rho = the arm). Over a time slice
+  // of a vehicle (a small turn about a far pivot) that is millimetres, where the chord bound
+  // of partBoxes grows the box by the turn's chord at the whole lever arm on every side.
+  // The ends' rotations are stepped by one turn increment, with the margin partBoxes takes for
+  // that (1e-12 rad plus 1e-12 s of turning, here at rho) and the usual relative widening.
+  const double w = motion.angular_velocity.norm();
+  const bool pivot = motion.hasPivot();
+  const bool sphere = shape.type == ShapeType::kSphere;
+  const bool symmetric = shape.type != ShapeType::kConvex && shape.type != ShapeType::kMesh;
+  const double rho = (sphere ? 0.0 : shape.bounding_radius) + motion.pivotArm();
+  const double accel = w * w * rho;
+  const double rounding = rho * (1e-12 + w * 1e-12 * (1.0 + std::abs(t0) + std::abs(t1)));
+  const Eigen::Vector3d spin_axis = motion.angular_velocity / w;
+  const Eigen::Matrix3d turn = Eigen::AngleAxisd(w * (t1 - t0) / parts, spin_axis).toRotationMatrix();
+  const Eigen::Matrix3d turn_t = turn.transpose();
+  Eigen::Matrix3d spin = motion.spin(t0);                                                // exp([w] (t - t_ref)) at the end
+  Eigen::Matrix3d rotation_t = (spin * motion.orientation.toRotationMatrix()).transpose();  // R(t)^T (not read for a sphere)
+  const Eigen::Vector3d centre_ref = pivot ? Eigen::Vector3d(motion.position + motion.pivot_offset) : motion.position;
+  auto endBox = [&](double t, double* b) {
+    const Eigen::Vector3d c = centre_ref + motion.linear_velocity * (t - motion.t_ref);
+    const Eigen::Vector3d o = pivot ? Eigen::Vector3d(c - spin * motion.pivot_offset) : c;
+    for (int k = 0; k < 3; ++k) {
+      double up, down;
+      if (sphere) {
+        up = down = shape.radius + shape.margin;
+      } else {
+        up = unitSupport(shape, rotation_t.col(k));
+        down = symmetric ? up : unitSupport(shape, -rotation_t.col(k));
+      }
+      b[k] = o[k] - down;
+      b[3 + k] = o[k] + up;
+    }
+  };
+  double ends[2][6];
+  endBox(t0, ends[0]);
+  double s = t0;
+  for (int k = 0; k < parts; ++k, out += 6) {
+    const double e = partEnd(t0, t1, k, parts);
+    if (pivot) turnRotation(turn, spin);
+    if (!sphere) stepRotation(rotation_t, turn_t);
+    const double* a = ends[k % 2];
+    double* b = ends[(k + 1) % 2];
+    endBox(e, b);
+    const double grow = accel * (e - s) * (e - s) / 8.0 + rounding;
+    for (int c = 0; c < 3; ++c) {
+      const double lo = std::min(a[c], b[c]) - grow, hi = std::max(a[3 + c], b[3 + c]) + grow;
+      const double widen = kRoundingWiden * (1.0 + std::max(std::abs(lo), std::abs(hi)) + grow);
+      out[c] = lo - widen;
+      out[3 + c] = hi + widen;
+    }
+    s = e;
   }
 }
 

@@ -393,7 +393,7 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
   }
   const size_t found = tests.size();
   cullBySlices(tests, t0, t1, all_parts);
-  if (!only) parts_for_all_ = found >= records_.size();
+  if (!only) parts_for_all_ = (all_parts ? 2 * found : found) >= records_.size();
   std::vector<Impact> results;
   if (certificates_ && !only) certificates_->beginPass();
   narrowAll(tests, t0, t1, results);

@@ -102,8 +102,13 @@ class SweptBody {
   }
   // The boxes of `parts` consecutive parts of [t0, t1] (part k ends at t0 + (t1 - t0) (k + 1) /
   // parts, the last at t1), 6 doubles each as box(): the bounds of one SweptBody per part, the
-  // parts' mid-frame rotations stepped by one turn increment instead of evaluated one by one.
+  // parts' mid-frame rotations stepped by one turn increment instead of evaluated one by one;
+  // for a body turning by at most kEndsMaxTurn a part, the boxes of its shape at the parts'
+  // ends grown by its curvature (partBoxesFromEnds: tighter for a vehicle over a time slice).
   static void partBoxes(const Shape& shape, const Motion& motion, double t0, double t1, int parts, double* out);
+  // Up to this turn a part (rad), the end boxes' growth |w|^2 rho h^2 / 8 stays under a quarter
+  // of the chord bound's |w| rho h / 2.
+  static constexpr double kEndsMaxTurn = 1.0;
   // Where part k (from 0) of those parts ends.
   static double partEnd(double t0, double t1, int k, int parts) {
     return k + 1 == parts ? t1 : t0 + (t1 - t0) * (k + 1) / parts;
@@ -148,6 +153,8 @@ class SweptBody {
   // reach along axis k: boxGeneral's and each part's of partBoxes.
   static void boxOf(const Shape& shape, const Eigen::Matrix3d& rotation_t, const Eigen::Vector3d& p0,
                     const Eigen::Vector3d& p1, const Eigen::Vector3d& shift, const double* rot, double* out);
+  // partBoxes for a turning body (|w| > 0) from its boxes at the parts' ends.
+  static void partBoxesFromEnds(const Shape& shape, const Motion& motion, double t0, double t1, int parts, double* out);
   // The fields that do not depend on the window (shape, radii, spin axis); returns |w|.
   double setBody(const Shape& shape, const Motion& motion);
 
