@@ -301,6 +301,16 @@ LinkChain::StretchBounds LinkChain::bounds(double t0, double t1, double radius) 
 }
 
 void LinkChain::partBoxes(const Shape& shape, double t0, double t1, int parts, double* out) const {
+  // No joint moves over the window and the base stays on one piece (a mobile manipulator's
+  // base link, an arm at rest): the link is a rigid body on that piece's twist, whose boxes
+  // SweptBody computes without posing the chain at every part's end.
+  const size_t piece = base_.pieceAt(t0);
+  if (piece == base_.pieceAt(t1) && !jointsMove(t0, t1)) {
+    const Motion& m = base_.motion(piece);
+    const double mid = 0.5 * (t0 + t1);
+    SweptBody::partBoxes(shape, carried(m, m.poseAt(mid).inverse() * poseAt(mid)), t0, t1, parts, out);
+    return;
+  }
   // On a stretch [a, b] without velocity jumps every point's path is within A (b - a)^2 / 8 of
   // the chord between where it is at a and at b (|x''| <= A, the stretch's acceleration bound:
   // the interpolation error of a C1 path with A-Lipschitz velocity), so the link stays in the

@@ -368,11 +368,16 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
       fillAllPartBoxes(t0, t1);
       if (!paths) broad_phase_->setFrameBoxes(frame_boxes_.data());
     }
-    broad_phase_->update(t0, t1);
+    // Every body on a path (a fleet of arms on joint states): the broad phase would find only
+    // pairs of path bodies, all dropped, so it is not updated (no query of this world asks it
+    // then: othersThanPaths).
+    if (othersThanPaths()) broad_phase_->update(t0, t1);
     if (paths) {
       // The broad phase's pairs without the path bodies (it holds them at rest), and theirs.
-      for (const Pair& p : broad_phase_->pairs()) {
-        if (!onPath(p.a) && !onPath(p.b)) queried.push_back(p);
+      if (othersThanPaths()) {
+        for (const Pair& p : broad_phase_->pairs()) {
+          if (!onPath(p.a) && !onPath(p.b)) queried.push_back(p);
+        }
       }
       pathPairs(t0, t1, nullptr, queried, all_parts);
       std::sort(queried.begin(), queried.end());
@@ -791,8 +796,10 @@ World::Reachable World::reachable(const std::vector<std::string>& movers, const 
     const Shape ball = makeSphere(broad_phase_->shape(ids[i]).bounding_radius + reach[i]);
     const Motion still = makeMotion(origins[i], Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero(),
                                     Eigen::Vector3d::Zero(), t0);
-    broad_phase_->query(ball, still, t0, t0 + horizon, found);
-    out.ids.insert(out.ids.end(), found.begin(), found.end());
+    if (othersThanPaths()) {
+      broad_phase_->query(ball, still, t0, t0 + horizon, found);
+      out.ids.insert(out.ids.end(), found.begin(), found.end());
+    }
     double box[6];
     SweptBody(ball, still, t0, t0 + horizon).box(box);
     for (size_t k = 0; k < path_bodies_.size(); ++k) {
@@ -852,7 +859,8 @@ std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::
         if (broad_phase_->contains(b)) found.push_back(b);
       }
     } else {
-      broad_phase_->query(broad_phase_->shape(ids[i]), motions[i], t0, t1, found);
+      found.clear();
+      if (othersThanPaths()) broad_phase_->query(broad_phase_->shape(ids[i]), motions[i], t0, t1, found);
       // The broad phase holds the path bodies at rest: those whose boxes over the window
       // (pathBox, computed once a call) overlap the mover's swept box are candidates.
       if (!path_bodies_.empty()) {

@@ -328,6 +328,9 @@ class World {
   // of the smallest k that threw.
   void parallelFor(size_t n, const std::function<void(size_t)>& f) const;
   bool onPath(BodyId id) const { return records_[id].chain != nullptr; }
+  // Some body is not on a path: only then can the broad phase find a pair or a partner that
+  // the path bodies' own boxes do not (it holds a path body on its base's first piece only).
+  bool othersThanPaths() const { return broad_phase_->size() > path_bodies_.size(); }
   const Record& record(const std::string& id, const char* operation) const;
   BodyId bodyId(const std::string& id, const char* operation) const;
   static constexpr BodyId kUnknownBody = ~BodyId{0};
