@@ -15,6 +15,17 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
+// The box of `s` moved by `m` at time t (lo x y z, hi x y z): the truth the swept boxes hold.
+void boxAt(const Shape& s, const Motion& m, double t, double* box) {
+  const Eigen::Matrix3d R = m.orientationAt(t).toRotationMatrix();
+  const Eigen::Vector3d o = m.positionAt(t);
+  for (int c = 0; c < 3; ++c) {
+    const Eigen::Vector3d a = R.transpose() * Eigen::Vector3d::Unit(c);
+    box[c] = o[c] - support(s, -a);
+    box[3 + c] = o[c] + support(s, a);
+  }
+}
+
 Motion linear(const Eigen::Vector3d& p, const Eigen::Vector3d& v) {
   return makeMotion(p, Eigen::Quaterniond::Identity(), v, Eigen::Vector3d::Zero());
 }
@@ -142,13 +153,11 @@ TEST(SweptInterval, PartBoxesBoundSampledPosesAndMatchOneSweptBodyPerPart) {
           ASSERT_NEAR(b[c], one[c], 1e-9 * (1.0 + std::abs(one[c]))) << toString(s.type) << " trial " << trial << " part " << k;
         }
         for (int j = 0; j <= 16; ++j) {
-          const double t = start + (end - start) * j / 16.0;
-          const Eigen::Matrix3d R = m.orientationAt(t).toRotationMatrix();
-          const Eigen::Vector3d o = m.positionAt(t);
+          double at[6];
+          boxAt(s, m, start + (end - start) * j / 16.0, at);
           for (int c = 0; c < 3; ++c) {
-            const Eigen::Vector3d a = Eigen::Vector3d::Unit(c);
-            ASSERT_LE(o[c] + support(s, R.transpose() * a), b[3 + c]) << toString(s.type) << " trial " << trial << " part " << k;
-            ASSERT_GE(o[c] - support(s, -(R.transpose() * a)), b[c]) << toString(s.type) << " trial " << trial << " part " << k;
+            ASSERT_LE(at[3 + c], b[3 + c]) << toString(s.type) << " trial " << trial << " part " << k;
+            ASSERT_GE(at[c], b[c]) << toString(s.type) << " trial " << trial << " part " << k;
           }
           ++samples;
         }
@@ -180,13 +189,11 @@ TEST(SweptInterval, PartBoxesOfATurningRobotAreTight) {
         const double end = SweptBody::partEnd(10.0, 12.0, k, parts);
         double truth[6] = {1e9, 1e9, 1e9, -1e9, -1e9, -1e9};
         for (int j = 0; j <= 2000; ++j) {
-          const double t = start + (end - start) * j / 2000.0;
-          const Eigen::Matrix3d R = m.orientationAt(t).toRotationMatrix();
-          const Eigen::Vector3d o = m.positionAt(t);
+          double at[6];
+          boxAt(s, m, start + (end - start) * j / 2000.0, at);
           for (int c = 0; c < 3; ++c) {
-            const Eigen::Vector3d a = Eigen::Vector3d::Unit(c);
-            truth[c] = std::min(truth[c], o[c] - support(s, -(R.transpose() * a)));
-            truth[3 + c] = std::max(truth[3 + c], o[c] + support(s, R.transpose() * a));
+            truth[c] = std::min(truth[c], at[c]);
+            truth[3 + c] = std::max(truth[3 + c], at[3 + c]);
           }
         }
         const double* b = &boxes[6 * k];
