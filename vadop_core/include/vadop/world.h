@@ -19,8 +19,9 @@
 // Bodies on timed paths (setPath: a planned path, keyframes of a trajectory) take part like the
 // others: the broad phase's single-body queries find their partners along each piece of the
 // path within the window (the broad phase itself holds them at rest; a world of path bodies
-// only does not use it), and the narrow phase follows both bodies piece by piece (timed_path.h). Their cost grows with their pieces in the
-// window; pairs of two path bodies are tested directly (meant for tens of them, not thousands).
+// only does not use it), and the narrow phase follows both bodies piece by piece
+// (timed_path.h). Their cost grows with their pieces in the window; pairs of two path bodies
+// are tested directly (meant for tens of them, not thousands).
 // Links of joint chains (setChain: an arm's links moving with their joints on a moving base)
 // are path bodies whose narrow phase is joint_chain.h's.
 //
