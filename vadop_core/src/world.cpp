@@ -370,11 +370,12 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
     }
     // Every body on a path (a fleet of arms on joint states): the broad phase would find only
     // pairs of path bodies, all dropped, so it is not updated (no query of this world asks it
-    // then: othersThanPaths).
-    if (othersThanPaths()) broad_phase_->update(t0, t1);
+    // then: othersThanPaths). Without path bodies it always is: its pairs are the candidates.
+    const bool broad = !paths || othersThanPaths();
+    if (broad) broad_phase_->update(t0, t1);
     if (paths) {
       // The broad phase's pairs without the path bodies (it holds them at rest), and theirs.
-      if (othersThanPaths()) {
+      if (broad) {
         for (const Pair& p : broad_phase_->pairs()) {
           if (!onPath(p.a) && !onPath(p.b)) queried.push_back(p);
         }

@@ -63,6 +63,42 @@ TEST(World, HeadOnSpheres) {
   EXPECT_NEAR(later[0].impact.time, t, 1e-12);
 }
 
+// A world emptied after a predict, then holding path bodies only (whose predicts leave the
+// broad phase alone), then a body of one motion again: each predict answers for the bodies it
+// holds now, never for pairs of an earlier one (an emptied world once read the broad phase's
+// pairs of the last update: "unknown body id 0").
+TEST(World, EmptiedWorldsAndWorldsOfPathBodiesPredictWhatTheyHold) {
+  for (const BroadPhaseKind kind : {BroadPhaseKind::kVadop, BroadPhaseKind::kVadopSap, BroadPhaseKind::kSap,
+                                    BroadPhaseKind::kGrid, BroadPhaseKind::kBrute}) {
+    WorldConfig c;
+    c.broad_phase = kind;
+    World w(c);
+    w.add("left", makeSphere(0.5), moving({0, 0, 0}, {1, 0, 0}));
+    w.add("right", makeSphere(0.25), moving({4, 0, 0}, {-2, 0, 0}));
+    ASSERT_EQ(w.predict(0.0, 2.0).size(), 1u) << toString(kind);
+    w.remove("left");
+    w.remove("right");
+    EXPECT_TRUE(w.predict(0.0, 2.0).empty()) << toString(kind);
+    EXPECT_TRUE(w.predict(0.0, 0.0).empty()) << toString(kind);
+    // Two bodies on paths meeting head on (as above), alone in the world.
+    w.add("a", makeSphere(0.5), still({0, 0, 0}));
+    w.add("b", makeSphere(0.25), still({4, 0, 0}));
+    w.setPath("a", TimedPath(moving({0, 0, 0}, {1, 0, 0})));
+    w.setPath("b", TimedPath(moving({4, 0, 0}, {-2, 0, 0})));
+    const auto paths = w.predict(0.0, 2.0);
+    ASSERT_EQ(paths.size(), 1u) << toString(kind);
+    EXPECT_NEAR(paths[0].impact.time, 13.0 / 12.0 - kTol / 6.0, 1e-9) << toString(kind);
+    // A body of one motion joins, catching up with "a" from behind (gap 1 m closing at 1 m/s:
+    // before "b" meets it).
+    w.add("c", makeSphere(0.5), moving({-2, 0, 0}, {2, 0, 0}));
+    const auto mixed = w.predict(0.0, 2.0);
+    ASSERT_FALSE(mixed.empty()) << toString(kind);
+    EXPECT_EQ(mixed[0].a, "a") << toString(kind);
+    EXPECT_EQ(mixed[0].b, "c") << toString(kind);
+    EXPECT_NEAR(mixed[0].impact.time, 1.0 - kTol / 2.0, 1e-9) << toString(kind);
+  }
+}
+
 // A motion that does not turn moves its origin whatever its pivot_offset (Motion::centreAt):
 // every broad phase, with and without the time-slice cull, bounds the body where it is, not
 // about the unused pivot (the swept boxes once were centred on position + pivot_offset and
