@@ -38,11 +38,11 @@ keys and time_tol).
 It prints one summary line per monitor (and per impact for small scenarios), and writes them
 to $ROS_TEST_RESULTS_DIR/vadop/scenario_summary/<scenario>.txt.
 
-Work directory (~workdir, shared by every launch of one rostest run, see scenario_player.py): this
-must be the last test of its .test file (rostest runs them in the order of their test-name). When
-every check passed, it removes ~workdir, but only once the scenario_player of its own launch (~player)
-has set its ~state (it has seen the record and will not regenerate it); when a check failed, it
-keeps ~workdir for inspection, says so in the failure message and writes KEPT_FOR_INSPECTION.txt there.
+Work directory (~workdir, shared by every launch of one rostest run, see scenario_player.py): it
+waits for the player's record.json there (~timeout, default 240 s). When every check passed, it
+removes ~workdir, but only once the scenario_player of its own launch (~player) has set its ~state
+(it has seen the record and will not regenerate it); when a check failed, it keeps ~workdir for
+inspection, says so in the failure message and writes KEPT_FOR_INSPECTION.txt there.
 """
 import json
 import os
@@ -187,6 +187,12 @@ class ScenarioCheck(unittest.TestCase):
             errors.append("%s: last cycle at %.3f s, the bag lasts %.3f s: the node stopped" % (mon, last_cycle, duration))
         if max_gap > 3.0 / rate:
             errors.append("%s: %.3f s without an ImpactArray (period %.3f s)" % (mon, max_gap, 1.0 / rate))
+        # The cadence in sim time over the bag: within 10% of ~rate on average (the node's timer).
+        span = in_bag[-1] - in_bag[0] if len(in_bag) > 1 else 0.0
+        mean_rate = (len(in_bag) - 1) / span if span > 0.0 else 0.0
+        if span < 0.5 * duration or abs(mean_rate - rate) > 0.1 * rate:
+            errors.append("%s: %d arrays over %.3f s of the bag (%.2f Hz), %.1f Hz expected"
+                          % (mon, len(in_bag), span, mean_rate, rate))
         if any(b < a for a, b in zip(stamps[:-1], stamps[1:])):
             errors.append("%s: ImpactArray stamps go backwards" % mon)
 
@@ -300,13 +306,13 @@ class ScenarioCheck(unittest.TestCase):
         line = ("scenario %s [%s: H %.2f s, %.0f Hz, padding %.3f m]: %d true impacts, %d reported before contact, "
                 "%d not checkable (at the start or after the end); earliest warning min %s over %d constant-velocity "
                 "window(s) (rule >= %.3f s); max |time_to_impact error| %.1f ms over %d reports%s (tolerance %.0f ms); "
-                "%d false pair(s); %d arrays, max gap %.0f ms; connected to every topic %.2f s after rosbag play "
-                "started"
+                "%d false pair(s); %d arrays (%.2f Hz in the bag), max gap %.0f ms; connected to every topic %.2f s "
+                "after rosbag play started"
                 % (truth["scenario"], mon, horizon, rate, padding, len(truth_list), n_reported, n_skipped,
                    "%.3f s" % min_warning if min_warning is not None else "n/a", n_rule, horizon - 1.0 / rate - clock_tol,
                    1e3 * worst, n_checked,
                    ", %.1f ms on rotating links" % (1e3 * worst_rotating) if worst_rotating else "", 1e3 * time_tol,
-                   len(false), len(arrays), 1e3 * max_gap, self.record.get("connect_wall_s", float("nan"))))
+                   len(false), len(arrays), mean_rate, 1e3 * max_gap, self.record.get("connect_wall_s", float("nan"))))
         self.summary.append(line)
         if len(details) <= 12 or truth.get("tracks"):
             self.summary.extend(details)
@@ -468,15 +474,15 @@ class ScenarioCheck(unittest.TestCase):
         for m in self.monitors:
             if float(rospy.get_param("/%s/coherence_clearance" % m, 0.0)) <= 0.0:
                 continue
-            key = "candidates answered by certificates"
+            key = "candidates answered by certificates in window"  # every cycle since the last status
             counts = [int(float(values[key])) for s, name, level, message, values in diags
                       if name.endswith(": cycle") and name.split(":")[0].lstrip("/") == m and key in values]
             if not counts or max(counts) == 0:
                 errors.append("%s: coherence_clearance > 0 but no cycle status shows a pair answered by a certificate "
                               "(%d statuses)" % (m, len(counts)))
             else:
-                self.diag_summary.append("  diagnostics cycle %s: up to %d candidate pairs a cycle answered by "
-                                         "certificates (%d statuses)" % (m, max(counts), len(counts)))
+                self.diag_summary.append("  diagnostics cycle %s: %d candidate pairs answered by certificates in %d "
+                                         "statuses (up to %d in one)" % (m, sum(counts), len(counts), max(counts)))
         for e in self.expect.get("diagnostics", []) or []:
             mon = e.get("monitor", self.monitors[0])
             lo, hi = e["during"]

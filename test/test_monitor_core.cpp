@@ -182,6 +182,16 @@ TEST(MonitorCore, CoherenceReusesCertificatesAndReportsTheSameImpacts) {
   MonitorCore coherent = makeCore("coherence_clearance: 0.1\ncoherence_lookahead: 0.5\n" + scene);
   FakeTf tf;
   size_t reused = 0;
+  // The "cycle" status every 10 cycles: the certificates' answers summed over its window (a
+  // status samples one cycle of many: the last cycle alone may show none of them).
+  vadop_ros::CycleTimeWindow window;
+  size_t in_window = 0;
+  auto value = [](const diagnostic_updater::DiagnosticStatusWrapper& stat, const std::string& key) {
+    for (const auto& kv : stat.values) {
+      if (kv.key == key) return kv.value;
+    }
+    return std::string("(missing)");
+  };
   for (int k = 0; k < 40; ++k) {
     const double t = 100.0 + k / 30.0, s = t - 100.0;
     for (MonitorCore* core : {&plain, &coherent}) {
@@ -203,6 +213,16 @@ TEST(MonitorCore, CoherenceReusesCertificatesAndReportsTheSameImpacts) {
     EXPECT_EQ(coherent.lastStats().candidates, plain.lastStats().candidates);
     EXPECT_LE(coherent.lastStats().reused, 1u);  // c-d only
     reused += coherent.lastStats().reused;
+    window.add(coherent.lastStats());
+    in_window += coherent.lastStats().reused;
+    if (k % 10 == 9) {
+      diagnostic_updater::DiagnosticStatusWrapper stat;
+      window.report(stat, 30.0);
+      EXPECT_EQ(value(stat, "candidates answered by certificates in window"), std::to_string(in_window)) << k;
+      EXPECT_EQ(value(stat, "candidates answered by certificates"), std::to_string(coherent.lastStats().reused)) << k;
+      EXPECT_EQ(value(stat, "cycles in window"), "10") << k;
+      in_window = 0;
+    }
   }
   // Certified at k = 0 over the window + 0.5 s, then again as each certificate runs out.
   EXPECT_GE(reused, 34u);

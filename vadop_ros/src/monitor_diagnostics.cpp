@@ -23,6 +23,7 @@ void CycleTimeWindow::add(const CycleStats& s) {
   sum_ += s.cycle_seconds;
   max_ = std::max(max_, s.cycle_seconds);
   if (rate_for_overrun_ > 0.0 && s.cycle_seconds > 1.0 / rate_for_overrun_) ++overruns_;
+  reused_ += s.reused;
   last_ = s;
   has_last_ = true;
 }
@@ -60,6 +61,7 @@ void CycleTimeWindow::report(diagnostic_updater::DiagnosticStatusWrapper& stat, 
   stat.add("moving elements", last_.moving_elements);
   stat.add("narrow-phase candidates", last_.candidates);
   stat.add("candidates answered by certificates", last_.reused);
+  stat.add("candidates answered by certificates in window", reused_);
   stat.add("pairs culled by time slices", last_.slice_culled);
   stat.add("impacts (before filtering)", last_.raw_impacts);
   stat.add("impacts", last_.impacts);
@@ -68,6 +70,7 @@ void CycleTimeWindow::report(diagnostic_updater::DiagnosticStatusWrapper& stat, 
   count_ = 0;
   sum_ = max_ = 0.0;
   overruns_ = 0;
+  reused_ = 0;
 }
 
 std::string describeBody(const Body& b, const ros::Time& now, double stale_timeout, unsigned char* level) {

@@ -1,6 +1,7 @@
 // /diagnostics of vadop_monitor (diagnostic_updater tasks):
 //  - "cycle": cycle time (last, mean and max over the reporting window), share of the period,
-//    elements in the world, narrow-phase candidates, impacts; WARN when a cycle overran its
+//    elements in the world, narrow-phase candidates (and those answered by certificates, last
+//    cycle and summed over the window: one sampled cycle a second misses a rare reuse), impacts; WARN when a cycle overran its
 //    period, the last prediction recovered by leaving an element out or left pairs undecided
 //    within the narrow phase's budget (named, never published as impacts), ERROR when the last
 //    prediction failed;
@@ -33,6 +34,7 @@ class CycleTimeWindow {
   size_t count_ = 0;
   double sum_ = 0.0, max_ = 0.0;
   size_t overruns_ = 0;
+  size_t reused_ = 0;  // candidates answered by certificates, summed over the window
   double rate_for_overrun_ = 0.0;
   CycleStats last_;
   bool has_last_ = false;
