@@ -1,10 +1,10 @@
 // /diagnostics of vadop_monitor (diagnostic_updater tasks):
 //  - "cycle": cycle time (last, mean and max over the reporting window), share of the period,
 //    elements in the world, narrow-phase candidates (and those answered by certificates, last
-//    cycle and summed over the window: one sampled cycle a second misses a rare reuse), impacts; WARN when a cycle overran its
-//    period, the last prediction recovered by leaving an element out or left pairs undecided
-//    within the narrow phase's budget (named, never published as impacts), ERROR when the last
-//    prediction failed;
+//    cycle and summed over the window: one sampled cycle a second misses a rare reuse), impacts;
+//    WARN when a cycle overran its period, the last prediction recovered by leaving an element
+//    out or left pairs undecided within the narrow phase's budget (named, never published as
+//    impacts), ERROR when the last prediction failed;
 //  - "bodies": one key per body with its state ("ok", "stale: no message for 1.3 s",
 //    "transform missing: ...", "dropped 3 bad messages, last: NaN/Inf in ...", "geometry
 //    error: ..."), the level being the worst of them (stale, tf missing and bad messages: WARN;
