@@ -14,7 +14,7 @@ rosbag play's own getBusInfo shows (an outgoing link exists once the subscriber'
 header has arrived). A fixed delay is not enough: with 200 topics, a few of the connections of
 the burst that follows the advertisements can take several seconds on a loaded machine (listen
 queues overflow, the kernel retries the connection 1, 3, 7 s later), and the monitor then never
-sees those bodies' first seconds (test/scenario_crowd.test missed their impacts). Topics still
+sees those bodies' first seconds (the crowd scenario missed their impacts). Topics still
 unconnected after ~connect_timeout are written to the record (unconnected_at_start), and
 scenario_check.py reports them.
 Why a node of its own: the test node (scenario_check.py) only reads the record, so that the same
