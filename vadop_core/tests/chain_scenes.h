@@ -2,9 +2,11 @@
 // description of a chain (TChain), their own joint interpolation and forward kinematics
 // (truthPose: rotation matrices by Rodrigues' formula, composed by hand; nothing from the
 // library), the library's LinkChain built from it (ours), and random scenes of a chain's link
-// passing near another link or a rigid body.
+// passing near another link or a rigid body; the chain's base moves with one twist or along a
+// timed path (a mobile manipulator on its plan: the path's truth from path_truth.h).
 #pragma once
 
+#include "path_truth.h"
 #include "toi_scenes.h"
 #include "toi_truth.h"
 
@@ -42,9 +44,22 @@ struct TJoint {
 };
 
 struct TChain {
-  vadop::Motion base;
+  vadop::Motion base;              // the base's twist, unless it follows `path`
+  std::vector<vadop::Keyframe> path;  // when not empty: the base's timed path
+  vadop::AfterPath after = vadop::AfterPath::kContinue;
   std::vector<TJoint> joints;
+  mutable std::vector<path_truth::TruthPiece> pieces;  // the truth's pieces of `path`, made on first use
 };
+
+inline const std::vector<path_truth::TruthPiece>& truthPieces(const TChain& c) {
+  if (c.pieces.empty()) c.pieces = path_truth::truthPieces(c.path, c.after);
+  return c.pieces;
+}
+
+// The base's motion at t: its twist, or the truth's piece of its path.
+inline const vadop::Motion& truthBase(const TChain& c, double t) {
+  return c.path.empty() ? c.base : path_truth::truthAt(truthPieces(c), t);
+}
 
 inline double truthQ(const TJoint& j, double t) {
   if (t <= j.times.front()) return j.q.front();
@@ -63,7 +78,7 @@ inline double truthQ(const TJoint& j, double t) {
 }
 
 inline toi_truth::Pose truthPose(const TChain& c, double t) {
-  toi_truth::Pose P = toi_truth::poseAt(c.base, t);
+  toi_truth::Pose P = toi_truth::poseAt(truthBase(c, t), t);
   for (const TJoint& j : c.joints) {
     P.p = P.p + P.R * j.p;
     P.R = P.R * j.R;
@@ -105,7 +120,18 @@ inline double truthSpeed(const TChain& c, double lever, double t0, double t1) {
     reach += j.p.norm();
     if (j.type == JointType::kPrismatic) reach += truthTravel(j, t0, t1);
   }
-  double v = c.base.linear_velocity.norm() + c.base.angular_velocity.norm() * (reach + c.base.pivot_offset.norm());
+  // The base's twist on that reach: the fastest of its path's pieces over the window.
+  std::vector<vadop::Motion> bases{c.base};
+  if (!c.path.empty()) {
+    bases.clear();
+    for (const path_truth::TruthPiece& x : truthPieces(c)) {
+      if (x.end > t0 && x.start < t1) bases.push_back(x.motion);
+    }
+  }
+  double v = 0.0;
+  for (const vadop::Motion& m : bases) {
+    v = std::max(v, m.linear_velocity.norm() + m.angular_velocity.norm() * (reach + m.pivot_offset.norm()));
+  }
   for (const TJoint& j : c.joints) {
     if (j.type == JointType::kRevolute) v += truthRate(j) * reach;
     if (j.type == JointType::kPrismatic) v += truthRate(j);
@@ -125,7 +151,7 @@ inline LinkChain ours(const TChain& c) {
     x.path = JointPath(j.times, j.q, j.after, j.qd);
     joints.push_back(x);
   }
-  return LinkChain(TimedPath(c.base), joints);
+  return LinkChain(c.path.empty() ? TimedPath(c.base) : TimedPath(c.path, c.after), joints);
 }
 
 // ------------------------------------------------------------------------------------------
@@ -164,14 +190,38 @@ inline TJoint randomJoint(toi_scenes::Rng& r) {
   return j;
 }
 
-inline TChain randomChain(toi_scenes::Rng& r, int joints) {
+// on_path: the base follows 2 to 5 keyframes (times from before the window to past it, up to
+// 0.5 m and 1 rad apart; held or continued after the last) instead of one twist.
+inline TChain randomChain(toi_scenes::Rng& r, int joints, bool on_path = false) {
   TChain c;
   c.base.position = r.inBox(0.5);
   c.base.orientation = r.quat();
   if (r.chance(0.5)) c.base.linear_velocity = r.unit() * r.uni(0.0, 0.5);
   if (r.chance(0.4)) c.base.angular_velocity = r.unit() * r.uni(0.0, 0.6);
   for (int i = 0; i < joints; ++i) c.joints.push_back(randomJoint(r));
+  if (on_path) {
+    const int n = r.integer(2, 5);
+    double t = r.uni(-0.5, 0.5);
+    vadop::Keyframe k;
+    k.position = c.base.position;
+    k.orientation = c.base.orientation;
+    for (int i = 0; i < n; ++i) {
+      k.time = t;
+      c.path.push_back(k);
+      t += r.uni(0.2, 0.8);
+      k.position += r.unit() * r.uni(0.0, 0.5);
+      k.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(r.uni(0.0, 1.0), r.unit())) * k.orientation;
+    }
+    c.after = r.chance(0.5) ? vadop::AfterPath::kHold : vadop::AfterPath::kContinue;
+  }
   return c;
+}
+
+// The chain moved by d (its base's twist or every keyframe of its path).
+inline void shift(TChain& c, const Vector3d& d) {
+  c.base.position += d;
+  for (vadop::Keyframe& k : c.path) k.position += d;
+  c.pieces.clear();
 }
 
 inline vadop::Shape randomLinkShape(toi_scenes::Rng& r) {
@@ -192,15 +242,17 @@ struct Case {
 
 // a: a chain of n joints; b: a rigid body or another chain, placed so that it passes near a's
 // link at a random time of the window.
-inline Case randomCase(toi_scenes::Rng& r, int n) {
+// on_path: a's base (and b's when b is a chain, half the time) on a timed path.
+inline Case randomCase(toi_scenes::Rng& r, int n, bool on_path = false) {
   Case c;
   c.sa = randomLinkShape(r);
   c.sb = randomLinkShape(r);
-  c.a = randomChain(r, n);
-  c.b = randomChain(r, r.chance(0.5) ? 0 : r.integer(1, n));
+  c.a = randomChain(r, n, on_path);
+  const int nb = r.chance(0.5) ? 0 : r.integer(1, n);
+  c.b = randomChain(r, nb, on_path && nb > 0 && r.chance(0.5));
   const double tc = r.uni(0.1, 1.9);
   const Vector3d target = truthPose(c.a, tc).p + r.unit() * r.uni(0.0, 1.2 * (c.sa.bounding_radius + c.sb.bounding_radius));
-  c.b.base.position += target - truthPose(c.b, tc).p;
+  shift(c.b, target - truthPose(c.b, tc).p);
   return c;
 }
 

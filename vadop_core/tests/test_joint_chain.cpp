@@ -3,7 +3,8 @@
 // hand), the static distance of toi_truth.h (explicit vertices, brute-force min-norm), and a
 // left-first bisection in time certified by the Lipschitz bound of the gap (every point's
 // speed bounded with the whole chain's reach at every joint: looser than the library's, and
-// computed on its own). Analytic cases pin an arm turning into a post and a slide.
+// computed on its own), with the chains' bases on one twist and on timed paths (the path's own
+// truth: path_truth.h). Analytic cases pin an arm turning into a post and a slide.
 // VADOP_TOI_CASES sets the random cases per chain length (default 150, 12 under ASan).
 #include "chain_scenes.h"
 #include "toi_scenes.h"
@@ -646,19 +647,18 @@ TEST(LinkChain, SetChainByHandleSharesTheChainAndRefusesBadInput) {
   EXPECT_EQ(by_handle.chain(fleet.ids[0]), nullptr);
 }
 
-class ChainTruthTest : public testing::TestWithParam<int> {};
-
-TEST_P(ChainTruthTest, MatchesCertifiedTruth) {
-  const int joints = GetParam();
+// Random links of chains of `joints` joints against the truth; on_path: their bases on timed
+// paths (a mobile manipulator following its plan while its arm moves).
+void matchesCertifiedTruth(int joints, bool on_path) {
   const int cases = caseCount();
-  toi_scenes::Rng r(100 + joints);
+  toi_scenes::Rng r((on_path ? 200 : 100) + joints);
   int contact = 0, graze = 0, clear = 0, unknown = 0, miss = 0, false_contact = 0, late = 0, time_fail = 0;
   int undecided = 0, timed = 0;
   double max_err = 0.0, chain_s = 0.0, twist_s = 0.0;
   long iterations = 0;
   std::vector<std::string> failures;
   for (int c = 0; c < cases; ++c) {
-    const Case k = randomCase(r, joints);
+    const Case k = randomCase(r, joints, on_path);
     const double t0 = 0.0, t1 = 2.0;
     ChainTruth truth(k.sa, k.a, k.sb, k.b, t0, t1);
     const Answer v = classify(truth, t0, t1);
@@ -671,8 +671,9 @@ TEST_P(ChainTruthTest, MatchesCertifiedTruth) {
     // The constant-twist call on the same shapes: each link frozen on its base's twist at t0.
     auto frozen = [&](const LinkChain& ch, const TChain& tc) {
       const Isometry3d x = ch.poseAt(t0);
-      return vadop::makeMotion(x.translation(), Quaterniond(x.linear()), tc.base.linear_velocity,
-                               tc.base.angular_velocity, t0);
+      const vadop::Motion& base = truthBase(tc, t0);
+      return vadop::makeMotion(x.translation(), Quaterniond(x.linear()), base.linear_velocity, base.angular_velocity,
+                               t0);
     };
     t = cpuSeconds();
     (void)vadop::timeOfImpact(pa, frozen(ca, k.a), pb, frozen(cb, k.b), t0, t1);
@@ -708,11 +709,11 @@ TEST_P(ChainTruthTest, MatchesCertifiedTruth) {
       }
     }
   }
-  std::printf("[chain of %d joints] cases %d: contact %d graze %d clear %d truth-undecided %d | missed %d false %d "
+  std::printf("[chain of %d joints%s] cases %d: contact %d graze %d clear %d truth-undecided %d | missed %d false %d "
               "late %d time>1e-4 %d undecided %d | timed %d max |dt| %.2e s | us/pair: chain %.1f (%.0f "
               "distance calls), constant twist %.1f\n",
-              joints, cases, contact, graze, clear, unknown, miss, false_contact, late, time_fail, undecided, timed,
-              max_err, 1e6 * chain_s / cases, static_cast<double>(iterations) / cases, 1e6 * twist_s / cases);
+              joints, on_path ? ", base on a path" : "", cases, contact, graze, clear, unknown, miss, false_contact,
+              late, time_fail, undecided, timed, max_err, 1e6 * chain_s / cases, static_cast<double>(iterations) / cases, 1e6 * twist_s / cases);
   for (size_t i = 0; i < failures.size() && i < 10; ++i) std::printf("  %s\n", failures[i].c_str());
   EXPECT_EQ(miss, 0);
   EXPECT_EQ(false_contact, 0);
@@ -726,7 +727,14 @@ TEST_P(ChainTruthTest, MatchesCertifiedTruth) {
   EXPECT_GE(timed, cases / 10);
 }
 
+class ChainTruthTest : public testing::TestWithParam<int> {};
+TEST_P(ChainTruthTest, MatchesCertifiedTruth) { matchesCertifiedTruth(GetParam(), false); }
 INSTANTIATE_TEST_SUITE_P(Joints, ChainTruthTest, testing::Values(2, 3, 4, 5, 6),
+                         [](const testing::TestParamInfo<int>& i) { return std::to_string(i.param); });
+
+class ChainOnPathTruthTest : public testing::TestWithParam<int> {};
+TEST_P(ChainOnPathTruthTest, MatchesCertifiedTruth) { matchesCertifiedTruth(GetParam(), true); }
+INSTANTIATE_TEST_SUITE_P(Joints, ChainOnPathTruthTest, testing::Values(2, 4, 6),
                          [](const testing::TestParamInfo<int>& i) { return std::to_string(i.param); });
 
 }  // namespace

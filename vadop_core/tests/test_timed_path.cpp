@@ -10,13 +10,13 @@
 //    test_toi_ground_truth. Zero missed, zero false contacts, never late, |time - t*| <= 1e-4 s
 //    where the closing speed is >= 0.05 m/s (no graze within the tolerance before), never
 //    undecided. The cost per pair is printed beside the constant-twist call on the same shapes.
+#include "path_truth.h"
 #include "toi_scenes.h"
 #include "toi_truth.h"
 
 #include "vadop/error.h"
 #include "vadop/timed_path.h"
 
-#include <Eigen/SVD>
 #include <gtest/gtest.h>
 
 #include <time.h>
@@ -37,6 +37,9 @@ using Eigen::Vector3d;
 using vadop::AfterPath;
 using vadop::Keyframe;
 using vadop::TimedPath;
+using path_truth::TruthPiece;
+using path_truth::truthAt;
+using path_truth::truthPieces;
 
 constexpr double kTol = 1e-6;  // ToiOptions default
 constexpr double kEps = 1e-9;  // truth time resolution (s)
@@ -53,69 +56,6 @@ Keyframe key(double t, const Vector3d& p, double yaw = 0.0) {
   k.position = p;
   k.orientation = Quaterniond(AngleAxisd(yaw, Vector3d::UnitZ()));
   return k;
-}
-
-// ------------------------------------------------------------------------------------------
-// The truth's own pieces.
-
-struct TruthPiece {
-  double start, end;  // holds on [start, end)
-  vadop::Motion motion;
-};
-
-vadop::Motion truthRest(const Keyframe& k) {
-  vadop::Motion m;
-  m.t_ref = k.time;
-  m.position = k.position;
-  m.orientation = k.orientation.normalized();
-  return m;
-}
-
-// The screw taking k0 to k1: R = R1 R0^T; its axis u and angle from the matrix; the slide
-// d_par = (u . d) u; an axis point c from (I - R) c = p1 - R p0 - d_par (least squares: the
-// system is singular along u). The body origin then turns about c while c slides.
-vadop::Motion truthScrew(const Keyframe& k0, const Keyframe& k1) {
-  const double dt = k1.time - k0.time;
-  const Matrix3d R = k1.orientation.normalized().toRotationMatrix() * k0.orientation.normalized().toRotationMatrix().transpose();
-  const AngleAxisd aa(R);
-  const double theta = aa.angle();
-  const Vector3d u = aa.axis();
-  const Vector3d d = k1.position - k0.position;
-  vadop::Motion m = truthRest(k0);
-  m.angular_velocity = u * theta / dt;
-  m.linear_velocity = d / dt;
-  if (theta == 0.0) return m;
-  const Vector3d d_par = u * u.dot(d);
-  const Matrix3d A = Matrix3d::Identity() - R;
-  const Vector3d c = A.jacobiSvd(Eigen::ComputeFullU | Eigen::ComputeFullV)
-                         .setThreshold(1e-9)
-                         .solve(k1.position - R * k0.position - d_par);
-  Vector3d arm = c - k0.position;
-  arm -= u * u.dot(arm);  // the axis point nearest p0
-  if (!(arm.norm() <= 1e5)) return m;  // timed_path.h: a far axis slides straight
-  m.linear_velocity = d_par / dt;
-  m.pivot_offset = arm;
-  return m;
-}
-
-std::vector<TruthPiece> truthPieces(const std::vector<Keyframe>& k, AfterPath after) {
-  const double inf = std::numeric_limits<double>::infinity();
-  std::vector<TruthPiece> out;
-  out.push_back({-inf, k.front().time, truthRest(k.front())});
-  for (size_t i = 1; i < k.size(); ++i) out.push_back({k[i - 1].time, k[i].time, truthScrew(k[i - 1], k[i])});
-  if (after == AfterPath::kHold || k.size() == 1) {
-    out.push_back({k.back().time, inf, truthRest(k.back())});
-  } else {
-    out.back().end = inf;
-  }
-  return out;
-}
-
-const vadop::Motion& truthAt(const std::vector<TruthPiece>& p, double t) {
-  for (const TruthPiece& x : p) {
-    if (t >= x.start && t < x.end) return x.motion;
-  }
-  return p.back().motion;
 }
 
 // ------------------------------------------------------------------------------------------
