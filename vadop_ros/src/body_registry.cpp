@@ -678,7 +678,7 @@ InputResult BodyRegistry::onJointTrajectory(size_t bi, const trajectory_msgs::Jo
 }
 
 void BodyRegistry::updateJointBody(Body& b, const ros::Time& now, double t_now, double t_check_end,
-                                   const vadop::Motion& frame, bool stale) {
+                                   const vadop::Motion& frame, bool stale, const vadop::TimedPath* plan) {
   const JointKinematics& kin = *b.kinematics;
   const size_t nj = kin.joints().size();
   // Joint j at time t (registry seconds): its position carried from its stamp with its velocity
@@ -726,7 +726,7 @@ void BodyRegistry::updateJointBody(Body& b, const ros::Time& now, double t_now, 
     e.chain = std::move(chain);
     e.active = true;
   };
-  if (!moving) {
+  if (!moving && !plan) {
     // Rigid at the current joint positions: the body frame's constant twist, exact.
     jointsNow();
     relativePoses();
@@ -763,7 +763,7 @@ void BodyRegistry::updateJointBody(Body& b, const ros::Time& now, double t_now, 
   for (size_t k = 0; k < b.elements.size(); ++k) {
     Element& e = elements_[b.elements[k]];
     try {
-      if (!base_path) base_path.emplace(frame);
+      if (!base_path) plan ? base_path.emplace(*plan) : base_path.emplace(frame);
       std::vector<JointKinematics::Step> steps;
       if (!kin.chain(b.reference_link, e.link, steps)) steps.clear();  // not in the tree: rigid
       std::vector<vadop::ChainJoint> joints;
@@ -799,13 +799,41 @@ void BodyRegistry::updateJointBody(Body& b, const ros::Time& now, double t_now, 
       rejectInput(b, "link \"" + e.link + "\": joint motion out of range: " + ex.what(), now, false);
     }
   }
-  b.status.joints_moving = true;
+  b.status.joints_moving = moving;
   b.status.on_trajectory = on_trajectory;
+  b.status.on_path = plan != nullptr;
 }
 
-void BodyRegistry::followPlan(Body& b, const ros::Time& now, double t_now, double t_check_end,
-                              const Eigen::Isometry3d& frame_now) {
-  if (b.plan.empty() || !(b.plan.back().first > now)) return;
+namespace {
+
+// Throws vadop::InvalidArgument naming the first piece of `path` out of the library's range over
+// the part of [t_now, t_check_end] in which it holds.
+void checkPathRange(const vadop::TimedPath& path, double t_now, double t_check_end) {
+  for (size_t piece = 0; piece < path.pieces(); ++piece) {
+    const double from = std::max(t_now, path.start(piece)), to = std::min(t_check_end, path.start(piece + 1));
+    if (!(from <= to)) continue;
+    const std::string why = BodyRegistry::motionRangeError(path.motion(piece), from, to);
+    if (!why.empty()) throw vadop::InvalidArgument("piece " + std::to_string(piece) + ": " + why);
+  }
+}
+
+}  // namespace
+
+void BodyRegistry::warnPlanNotFollowed(Body& b, const ros::Time& now, const std::string& why) {
+  // The plan cannot be followed (e.g. two poses 1 ms apart and metres away): the twist is.
+  b.status.last_invalid = "path: not followed, the body's twist is used instead: " + why;
+  b.status.last_invalid_receipt = now;
+  const double wall = wallNow();
+  if (wall - b.last_warn_invalid >= kWarnPeriod) {
+    b.last_warn_invalid = wall;
+    ROS_WARN_NAMED("vadop_monitor", "body \"%s\": %s (warnings for this body throttled to one per %.0f s)",
+                   b.name.c_str(), b.status.last_invalid.c_str(), kWarnPeriod);
+  }
+}
+
+std::optional<vadop::TimedPath> BodyRegistry::planPath(Body& b, const ros::Time& now, double t_now,
+                                                        double t_check_end, const Eigen::Isometry3d& frame_now) {
+  if (b.plan.empty() || !(b.plan.back().first > now)) return std::nullopt;
   // The body frame from its pose now through the poses stamped after now. A pose within 1 ms
   // after now is left out: the current pose stands for it (a piece that short would turn a
   // centimetre of odometry error into metres per second).
@@ -818,7 +846,20 @@ void BodyRegistry::followPlan(Body& b, const ros::Time& now, double t_now, doubl
     if (t < t_now + kMinPiece) continue;
     frames.push_back({t, pose.translation(), Eigen::Quaterniond(pose.linear())});
   }
-  if (frames.size() < 2) return;
+  if (frames.size() < 2) return std::nullopt;
+  const vadop::AfterPath after = b.params.path_continue ? vadop::AfterPath::kContinue : vadop::AfterPath::kHold;
+  try {
+    vadop::TimedPath path(std::move(frames), after);
+    checkPathRange(path, t_now, t_check_end);
+    return path;
+  } catch (const vadop::InvalidArgument& ex) {
+    warnPlanNotFollowed(b, now, ex.what());
+    return std::nullopt;
+  }
+}
+
+void BodyRegistry::followPlan(Body& b, const ros::Time& now, const vadop::TimedPath& plan, double t_now,
+                              double t_check_end, const Eigen::Isometry3d& frame_now) {
   const vadop::AfterPath after = b.params.path_continue ? vadop::AfterPath::kContinue : vadop::AfterPath::kHold;
   std::vector<std::shared_ptr<const vadop::LinkChain>> paths;
   paths.reserve(b.elements.size());
@@ -831,7 +872,7 @@ void BodyRegistry::followPlan(Body& b, const ros::Time& now, double t_now, doubl
       }
       // The element's pose in the body frame now, kept along the plan.
       const Eigen::Isometry3d in_body = frame_now.inverse() * e.motion.poseAt(t_now);
-      std::vector<vadop::Keyframe> k = frames;
+      std::vector<vadop::Keyframe> k = plan.keyframes();
       for (vadop::Keyframe& f : k) {
         Eigen::Isometry3d fp = Eigen::Isometry3d::Identity();
         fp.linear() = f.orientation.toRotationMatrix();
@@ -841,25 +882,11 @@ void BodyRegistry::followPlan(Body& b, const ros::Time& now, double t_now, doubl
         f.orientation = Eigen::Quaterniond(pe.linear());
       }
       const vadop::TimedPath path(std::move(k), after);
-      // Each piece within the library's range over the window in which it holds.
-      for (size_t piece = 0; piece < path.pieces(); ++piece) {
-        const double from = std::max(t_now, path.start(piece)), to = std::min(t_check_end, path.start(piece + 1));
-        if (!(from <= to)) continue;
-        const std::string why = motionRangeError(path.motion(piece), from, to);
-        if (!why.empty()) throw vadop::InvalidArgument("piece " + std::to_string(piece) + ": " + why);
-      }
+      checkPathRange(path, t_now, t_check_end);
       paths.push_back(std::make_shared<const vadop::LinkChain>(path));
     }
   } catch (const vadop::InvalidArgument& ex) {
-    // The plan cannot be followed (e.g. two poses 1 ms apart and metres away): the twist is.
-    b.status.last_invalid = std::string("path: not followed, the body's twist is used instead: ") + ex.what();
-    b.status.last_invalid_receipt = now;
-    const double wall = wallNow();
-    if (wall - b.last_warn_invalid >= kWarnPeriod) {
-      b.last_warn_invalid = wall;
-      ROS_WARN_NAMED("vadop_monitor", "body \"%s\": %s (warnings for this body throttled to one per %.0f s)",
-                     b.name.c_str(), b.status.last_invalid.c_str(), kWarnPeriod);
-    }
+    warnPlanNotFollowed(b, now, ex.what());
     return;
   }
   for (size_t k = 0; k < b.elements.size(); ++k) elements_[b.elements[k]].chain = std::move(paths[k]);
@@ -1074,8 +1101,11 @@ void BodyRegistry::updateMoving(Body& b, const ros::Time& now, double t_now, dou
     return;
   }
   if (b.kinematics) {
+    // A mobile manipulator on its plan: its links' chains start from the body frame along it.
+    const std::optional<vadop::TimedPath> plan =
+        stale || b.plan.empty() ? std::nullopt : planPath(b, now, t_now, t_check_end, frame.poseAt(t_now));
     try {
-      updateJointBody(b, now, t_now, t_check_end, frame, stale);
+      updateJointBody(b, now, t_now, t_check_end, frame, stale, plan ? &*plan : nullptr);
     } catch (const vadop::InvalidArgument& ex) {
       rejectInput(b, std::string("invalid motion: ") + ex.what(), now, false);
     }
@@ -1174,7 +1204,12 @@ void BodyRegistry::updateMoving(Body& b, const ros::Time& now, double t_now, dou
     b.tf_missing_since = ros::Time();
     b.status.state = stale ? BodyState::kStale : BodyState::kOk;
     b.frame_motion = FrameMotion{true, stale, fb, v, w, tr, frame};
-    if (!stale && !b.plan.empty()) followPlan(b, now, t_now, t_check_end, frame.poseAt(t_now));
+    if (!stale && !b.plan.empty()) {
+      const Eigen::Isometry3d frame_now = frame.poseAt(t_now);
+      if (const auto plan = planPath(b, now, t_now, t_check_end, frame_now)) {
+        followPlan(b, now, *plan, t_now, t_check_end, frame_now);
+      }
+    }
   }
 }
 
@@ -1182,7 +1217,9 @@ const char* motionSource(const Body& b) {
   if (b.is_static) return "static";
   if (!b.frame_motion.valid) return "none";
   if (b.frame_motion.stale) return "stale";
-  if (b.status.on_path) return "path";
+  if (b.status.on_path) {
+    return b.status.on_trajectory ? "path + joint trajectory" : b.status.joints_moving ? "path + joint states" : "path";
+  }
   if (b.status.on_trajectory) return "joint trajectory";
   if (b.status.joints_moving) return b.params.source == VelocitySource::kOdometry ? "odometry + joint states" : "twist + joint states";
   return b.params.source == VelocitySource::kOdometry ? "odometry" : "twist";

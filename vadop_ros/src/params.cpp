@@ -340,9 +340,6 @@ void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::stri
       if (topic.empty()) fail(field, "must not be empty");
       if (b.has_shape) fail(field, "applies to robot_description bodies only");
       if (b.links_from_tf) fail(field, "give one source of link poses: joints or tf_prefix, not both");
-      if (!b.path_topic.empty()) {
-        fail(field, "cannot be combined with path_topic (a planned path moves the body rigidly)");
-      }
       if (topic == b.topic || b.joint_states_topic == b.joint_trajectory_topic) {
         fail(field, "must differ from the body's other topics");
       }

@@ -32,8 +32,10 @@
 // beyond `now`: its body frame moves from its pose at `now` (as above) through the plan's poses
 // stamped after `now`, between consecutive ones with the constant twist that joins them
 // (vadop::TimedPath), then holds or goes on with the last piece's twist (after_path); every
-// element keeps its pose relative to the body frame at `now`. A plan whose last pose is not
-// after `now`, an empty plan, or a stale body: the twist as above.
+// element keeps its pose relative to the body frame at `now`, but for a joint-states body's
+// links, whose chains then start from the body frame along the plan (a mobile manipulator
+// moving its arm while it drives its plan). A plan whose last pose is not after `now`, an
+// empty plan, or a stale body: the twist as above.
 //
 // Bad input never throws and never affects another body:
 //  - NaN/Inf anywhere in a message, a zero-norm quaternion or a value beyond the library's
@@ -82,12 +84,14 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
 namespace vadop {
 class LinkChain;  // vadop/joint_chain.h (not included: see predictor.h)
+class TimedPath;  // vadop/timed_path.h (likewise)
 }
 
 namespace vadop_ros {
@@ -385,11 +389,19 @@ class BodyRegistry {
   bool bodyMotion(Body& b, const ros::Time& now, TransformSource& tf, Eigen::Isometry3d& pose,
                   Eigen::Vector3d& v, Eigen::Vector3d& w, ros::Time& t_ref, const std::string*& frame);
   void warnTf(Body& b, const std::string& error, const ros::Time& now);
-  // Puts the body's active elements on its plan when it reaches beyond `now` (see the header).
-  void followPlan(Body& b, const ros::Time& now, double t_now, double t_check_end, const Eigen::Isometry3d& frame_now);
-  // The elements of a joint-states body (see the header), its frame moving with `frame`.
+  // The body frame along its plan, from `frame_now` (its pose now) through the plan's poses after
+  // now: none when the plan ends before now or cannot be followed (a piece out of the library's
+  // range over the window: warned, the twist is used).
+  std::optional<vadop::TimedPath> planPath(Body& b, const ros::Time& now, double t_now, double t_check_end,
+                                           const Eigen::Isometry3d& frame_now);
+  // Puts the body's active elements on `plan`, each kept where it is on the body (see the header).
+  void followPlan(Body& b, const ros::Time& now, const vadop::TimedPath& plan, double t_now, double t_check_end,
+                  const Eigen::Isometry3d& frame_now);
+  void warnPlanNotFollowed(Body& b, const ros::Time& now, const std::string& why);
+  // The elements of a joint-states body (see the header), its frame moving with `frame`, or along
+  // `plan` when not null.
   void updateJointBody(Body& b, const ros::Time& now, double t_now, double t_check_end, const vadop::Motion& frame,
-                       bool stale);
+                       bool stale, const vadop::TimedPath* plan);
 
   std::string fixed_frame_;
   double stale_timeout_ = 0.5;
