@@ -36,12 +36,13 @@ const char* kArm = R"(<robot name="planar_arm">
     <axis xyz="0 0 1"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
 </robot>)";
 
-BodyRegistry makeRegistry() {
+// The arm as the body `arm` with joint states and a trajectory topic (and `extra` parameters).
+BodyRegistry makeRegistry(const std::string& extra = "") {
   const std::string text = R"(
 stale_timeout: 0.5
 bodies:
   - {name: arm, odom_topic: /arm/odom, robot_description: /arm_description, joint_states_topic: /arm/joint_states,
-     joint_trajectory_topic: /arm/trajectory}
+     joint_trajectory_topic: /arm/trajectory)" + extra + R"(}
 )";
   return BodyRegistry(vadop_ros::parseParams(vadop_test::yaml(text)),
                       [](const std::string&, std::string& v) {
@@ -172,12 +173,6 @@ TEST(JointStates, ChainBetweenLinksIsTheirRelativePose) {
 // the joints' positions then, at every time of the horizon (the plan's pieces between samples
 // of a constant-twist arc are exact). Still joints: the links ride rigidly on the plan.
 TEST(JointStates, ArmMovesWithItsJointsOnTheBaseAlongThePlan) {
-  const std::string text = R"(
-stale_timeout: 0.5
-bodies:
-  - {name: arm, odom_topic: /arm/odom, robot_description: /arm_description, joint_states_topic: /arm/joint_states,
-     path_topic: /arm/plan}
-)";
   const auto yaw = [](double t) { return 0.5 + 0.5 * (t - 100.0); };
   const auto arcBase = [&](double t) {
     return Eigen::Vector3d(2.0 + 2.0 * (std::sin(yaw(t)) - std::sin(0.5)), 1.0 - 2.0 * (std::cos(yaw(t)) - std::cos(0.5)),
@@ -196,12 +191,7 @@ bodies:
     plan.poses.push_back(ps);
   }
   for (const double rate : {1.0, 0.0}) {
-    BodyRegistry r(vadop_ros::parseParams(vadop_test::yaml(text)),
-                   [](const std::string&, std::string& v) {
-                     v = kArm;
-                     return true;
-                   },
-                   vadop_ros::makeDefaultMeshLoader());
+    BodyRegistry r = makeRegistry(", path_topic: /arm/plan");
     FakeTf tf;
     ASSERT_EQ(r.onOdometry(0, baseOdom(100.0, 1.0), ros::Time(100.0)), InputResult::kAccepted);
     ASSERT_EQ(r.onPath(0, plan, ros::Time(100.0), tf), InputResult::kAccepted);

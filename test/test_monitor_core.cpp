@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
@@ -55,6 +56,35 @@ nav_msgs::Odometry baseOdom(double stamp, double x, double vx) {
   nav_msgs::Odometry o = odom(stamp, x, 0.0, vx);
   o.child_frame_id = "base_link";
   return o;
+}
+
+// A planar two-joint arm: shoulder about z at the base origin, upper arm 1 m along x, elbow about
+// z at its end, a sphere (r 0.1) 0.8 m along the forearm.
+const char* kPlanarArm = R"(<robot name="planar_arm">
+  <link name="base_link"/>
+  <link name="upper"><collision><origin xyz="0.5 0 0"/><geometry><box size="1 0.1 0.1"/></geometry></collision></link>
+  <link name="fore"><collision><origin xyz="0.8 0 0"/><geometry><sphere radius="0.1"/></geometry></collision></link>
+  <joint name="shoulder" type="continuous"><parent link="base_link"/><child link="upper"/><axis xyz="0 0 1"/></joint>
+  <joint name="elbow" type="continuous"><parent link="upper"/><child link="fore"/><origin xyz="1 0 0"/>
+    <axis xyz="0 0 1"/></joint>
+</robot>)";
+
+// The first t in [0, 3] with |centre(t) - post| <= 0.2 (the sphere's and the post's radii), by
+// steps of 1e-4 s and bisection: the truth of the arm tests; -1 when there is none.
+double firstContact(const std::function<Eigen::Vector3d(double)>& centre, const Eigen::Vector3d& post) {
+  double lo = 0.0, hi = -1.0;
+  for (double t = 0.0; t <= 3.0; t += 1e-4) {
+    if ((centre(t) - post).norm() <= 0.2) {
+      hi = t;
+      break;
+    }
+    lo = t;
+  }
+  for (int k = 0; hi > 0.0 && k < 60; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    ((centre(mid) - post).norm() <= 0.2 ? hi : lo) = mid;
+  }
+  return hi;
 }
 
 const char* kFour = R"(
@@ -719,34 +749,13 @@ static_obstacles:
 // at the time this test's own kinematics, stepped densely, finds (the first-order tf model was
 // 89 ms off in the same situation).
 TEST(MonitorCore, TwoJointArmFromJointStatesMeetsThePostOnTime) {
-  const std::string urdf = R"(<robot name="planar_arm">
-  <link name="base_link"/>
-  <link name="upper"><collision><origin xyz="0.5 0 0"/><geometry><box size="1 0.1 0.1"/></geometry></collision></link>
-  <link name="fore"><collision><origin xyz="0.8 0 0"/><geometry><sphere radius="0.1"/></geometry></collision></link>
-  <joint name="shoulder" type="continuous"><parent link="base_link"/><child link="upper"/><axis xyz="0 0 1"/></joint>
-  <joint name="elbow" type="continuous"><parent link="upper"/><child link="fore"/><origin xyz="1 0 0"/>
-    <axis xyz="0 0 1"/></joint>
-</robot>)";
   auto centre = [](double t) {
     const double a = -0.5 + 0.3 * t, b = a + 0.4 - 0.2 * t;
     return Eigen::Vector3d(std::cos(a) + 0.8 * std::cos(b), std::sin(a) + 0.8 * std::sin(b), 0.0);
   };
   const Eigen::Vector3d post = centre(1.5) + Eigen::Vector3d(0.03, 0.05, 0.0);
-  // Truth: the first t with |centre - post| <= 0.2 (radii 0.1 + 0.1), by steps of 1e-4 s and
-  // bisection.
-  double lo = 0.0, hi = -1.0;
-  for (double t = 0.0; t <= 3.0; t += 1e-4) {
-    if ((centre(t) - post).norm() <= 0.2) {
-      hi = t;
-      break;
-    }
-    lo = t;
-  }
+  const double hi = firstContact(centre, post);
   ASSERT_GT(hi, 0.0);
-  for (int k = 0; k < 60; ++k) {
-    const double mid = 0.5 * (lo + hi);
-    ((centre(mid) - post).norm() <= 0.2 ? hi : lo) = mid;
-  }
   char yaml_text[1024];
   std::snprintf(yaml_text, sizeof yaml_text, R"(
 horizon: 3.0
@@ -756,7 +765,7 @@ static_obstacles:
   - {name: post, shape: {type: sphere, radius: 0.1}, pose: {position: [%.12f, %.12f, 0.0]}}
 )",
                 post.x(), post.y());
-  MonitorCore core = makeCore(yaml_text, urdfParams(urdf));
+  MonitorCore core = makeCore(yaml_text, urdfParams(kPlanarArm));
   FakeTf tf;
   core.registry().onOdometry(0, baseOdom(100.0, 0.0, 0.0), ros::Time(100.0));
   sensor_msgs::JointState js;
@@ -780,14 +789,6 @@ static_obstacles:
 // there (dense truth of this file's own kinematics), on every broad phase. The twist's
 // straight line or the plan without the joints would miss the post or meet it at another time.
 TEST(MonitorCore, ArmOnAMobileBaseFollowingItsPlanMeetsThePostOnTime) {
-  const std::string urdf = R"(<robot name="planar_arm">
-  <link name="base_link"/>
-  <link name="upper"><collision><origin xyz="0.5 0 0"/><geometry><box size="1 0.1 0.1"/></geometry></collision></link>
-  <link name="fore"><collision><origin xyz="0.8 0 0"/><geometry><sphere radius="0.1"/></geometry></collision></link>
-  <joint name="shoulder" type="continuous"><parent link="base_link"/><child link="upper"/><axis xyz="0 0 1"/></joint>
-  <joint name="elbow" type="continuous"><parent link="upper"/><child link="fore"/><origin xyz="1 0 0"/>
-    <axis xyz="0 0 1"/></joint>
-</robot>)";
   auto centre = [](double t, bool plan, bool joints) {
     const double yaw = plan ? 0.5 * t : 0.0;
     const Eigen::Vector3d base = plan ? Eigen::Vector3d(2.0 * std::sin(yaw), 2.0 * (1.0 - std::cos(yaw)), 0.0)
@@ -796,28 +797,14 @@ TEST(MonitorCore, ArmOnAMobileBaseFollowingItsPlanMeetsThePostOnTime) {
     return Eigen::Vector3d(base + Eigen::Vector3d(std::cos(a) + 0.8 * std::cos(b), std::sin(a) + 0.8 * std::sin(b), 0.0));
   };
   const Eigen::Vector3d post = centre(1.5, true, true) + Eigen::Vector3d(0.03, 0.05, 0.0);
-  // Truth: the first t with |centre - post| <= 0.2 (radii 0.1 + 0.1), by steps of 1e-4 s and
-  // bisection; -1 when none within the horizon.
-  auto firstContact = [&](bool plan, bool joints) {
-    double lo = 0.0, hi = -1.0;
-    for (double t = 0.0; t <= 3.0; t += 1e-4) {
-      if ((centre(t, plan, joints) - post).norm() <= 0.2) {
-        hi = t;
-        break;
-      }
-      lo = t;
-    }
-    for (int k = 0; hi > 0.0 && k < 60; ++k) {
-      const double mid = 0.5 * (lo + hi);
-      ((centre(mid, plan, joints) - post).norm() <= 0.2 ? hi : lo) = mid;
-    }
-    return hi;
+  const auto contact = [&](bool plan, bool joints) {
+    return firstContact([&](double t) { return centre(t, plan, joints); }, post);
   };
-  const double truth = firstContact(true, true);
+  const double truth = contact(true, true);
   ASSERT_GT(truth, 0.0);
   // Not vacuous: neither the twist nor the plan alone reaches the post when both do.
   for (const auto& [plan, joints] : {std::pair{false, true}, std::pair{true, false}, std::pair{false, false}}) {
-    const double other = firstContact(plan, joints);
+    const double other = contact(plan, joints);
     EXPECT_TRUE(other < 0.0 || std::abs(other - truth) > 0.1) << plan << joints << " " << other;
   }
   for (const char* broad_phase : {"grid", "vadop", "sap", "vadop_sap", "brute"}) {
@@ -832,7 +819,7 @@ static_obstacles:
   - {name: post, shape: {type: sphere, radius: 0.1}, pose: {position: [%.12f, %.12f, 0.0]}}
 )",
                   broad_phase, post.x(), post.y());
-    MonitorCore core = makeCore(yaml_text, urdfParams(urdf));
+    MonitorCore core = makeCore(yaml_text, urdfParams(kPlanarArm));
     FakeTf tf;
     core.registry().onOdometry(0, baseOdom(100.0, 0.0, 1.0), ros::Time(100.0));
     nav_msgs::Path plan;
