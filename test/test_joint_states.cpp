@@ -6,6 +6,7 @@
 #include "vadop_ros/body_registry.h"
 #include "vadop_ros/joint_kinematics.h"
 #include "fake_tf.h"
+#include "planar_arm.h"
 #include "yaml_xmlrpc.h"
 
 #include <gtest/gtest.h>
@@ -24,17 +25,6 @@ using vadop_test::FakeTf;
 
 namespace {
 
-// A planar two-joint arm: shoulder about z at the base origin, upper arm 1 m along x, elbow about
-// z at its end (limited to [-2, 2] rad), a sphere 0.8 m along the forearm, a box at the middle
-// of the upper arm.
-const char* kArm = R"(<robot name="planar_arm">
-  <link name="base_link"/>
-  <link name="upper"><collision><origin xyz="0.5 0 0"/><geometry><box size="1 0.1 0.1"/></geometry></collision></link>
-  <link name="fore"><collision><origin xyz="0.8 0 0"/><geometry><sphere radius="0.1"/></geometry></collision></link>
-  <joint name="shoulder" type="continuous"><parent link="base_link"/><child link="upper"/><axis xyz="0 0 1"/></joint>
-  <joint name="elbow" type="revolute"><parent link="upper"/><child link="fore"/><origin xyz="1 0 0"/>
-    <axis xyz="0 0 1"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
-</robot>)";
 
 // The arm as the body `arm` with joint states and a trajectory topic (and `extra` parameters).
 BodyRegistry makeRegistry(const std::string& extra = "") {
@@ -46,7 +36,7 @@ bodies:
 )";
   return BodyRegistry(vadop_ros::parseParams(vadop_test::yaml(text)),
                       [](const std::string&, std::string& v) {
-                        v = kArm;
+                        v = vadop_test::kPlanarArm;
                         return true;
                       },
                       vadop_ros::makeDefaultMeshLoader());

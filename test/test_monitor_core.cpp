@@ -2,6 +2,7 @@
 #include "vadop_ros/monitor_core.h"
 #include "vadop_ros/monitor_diagnostics.h"
 #include "fake_tf.h"
+#include "planar_arm.h"
 #include "yaml_xmlrpc.h"
 
 #include <gtest/gtest.h>
@@ -58,16 +59,16 @@ nav_msgs::Odometry baseOdom(double stamp, double x, double vx) {
   return o;
 }
 
-// A planar two-joint arm: shoulder about z at the base origin, upper arm 1 m along x, elbow about
-// z at its end, a sphere (r 0.1) 0.8 m along the forearm.
-const char* kPlanarArm = R"(<robot name="planar_arm">
-  <link name="base_link"/>
-  <link name="upper"><collision><origin xyz="0.5 0 0"/><geometry><box size="1 0.1 0.1"/></geometry></collision></link>
-  <link name="fore"><collision><origin xyz="0.8 0 0"/><geometry><sphere radius="0.1"/></geometry></collision></link>
-  <joint name="shoulder" type="continuous"><parent link="base_link"/><child link="upper"/><axis xyz="0 0 1"/></joint>
-  <joint name="elbow" type="continuous"><parent link="upper"/><child link="fore"/><origin xyz="1 0 0"/>
-    <axis xyz="0 0 1"/></joint>
-</robot>)";
+// The planar arm's joints (planar_arm.h) at t = 100 s: shoulder at -0.5 rad turning at 0.3 rad/s,
+// elbow at 0.4 rad at -0.2 rad/s.
+sensor_msgs::JointState planarArmJoints() {
+  sensor_msgs::JointState js;
+  js.header.stamp = ros::Time(100.0);
+  js.name = {"shoulder", "elbow"};
+  js.position = {-0.5, 0.4};
+  js.velocity = {0.3, -0.2};
+  return js;
+}
 
 // The first t in [0, 3] with |centre(t) - post| <= 0.2 (the sphere's and the post's radii), by
 // steps of 1e-4 s and bisection: the truth of the arm tests; -1 when there is none.
@@ -765,15 +766,10 @@ static_obstacles:
   - {name: post, shape: {type: sphere, radius: 0.1}, pose: {position: [%.12f, %.12f, 0.0]}}
 )",
                 post.x(), post.y());
-  MonitorCore core = makeCore(yaml_text, urdfParams(kPlanarArm));
+  MonitorCore core = makeCore(yaml_text, urdfParams(vadop_test::kPlanarArm));
   FakeTf tf;
   core.registry().onOdometry(0, baseOdom(100.0, 0.0, 0.0), ros::Time(100.0));
-  sensor_msgs::JointState js;
-  js.header.stamp = ros::Time(100.0);
-  js.name = {"shoulder", "elbow"};
-  js.position = {-0.5, 0.4};
-  js.velocity = {0.3, -0.2};
-  ASSERT_EQ(core.registry().onJointState(0, js, ros::Time(100.0)), vadop_ros::InputResult::kAccepted);
+  ASSERT_EQ(core.registry().onJointState(0, planarArmJoints(), ros::Time(100.0)), vadop_ros::InputResult::kAccepted);
   const auto& out = core.cycle(ros::Time(100.0), tf);
   ASSERT_EQ(out.impacts.size(), 1u);
   EXPECT_EQ(out.impacts[0].link_a, "fore");
@@ -819,7 +815,7 @@ static_obstacles:
   - {name: post, shape: {type: sphere, radius: 0.1}, pose: {position: [%.12f, %.12f, 0.0]}}
 )",
                   broad_phase, post.x(), post.y());
-    MonitorCore core = makeCore(yaml_text, urdfParams(kPlanarArm));
+    MonitorCore core = makeCore(yaml_text, urdfParams(vadop_test::kPlanarArm));
     FakeTf tf;
     core.registry().onOdometry(0, baseOdom(100.0, 0.0, 1.0), ros::Time(100.0));
     nav_msgs::Path plan;
@@ -835,12 +831,8 @@ static_obstacles:
       plan.poses.push_back(ps);
     }
     ASSERT_EQ(core.registry().onPath(0, plan, ros::Time(100.0), tf), vadop_ros::InputResult::kAccepted);
-    sensor_msgs::JointState js;
-    js.header.stamp = ros::Time(100.0);
-    js.name = {"shoulder", "elbow"};
-    js.position = {-0.5, 0.4};
-    js.velocity = {0.3, -0.2};
-    ASSERT_EQ(core.registry().onJointState(0, js, ros::Time(100.0)), vadop_ros::InputResult::kAccepted);
+    ASSERT_EQ(core.registry().onJointState(0, planarArmJoints(), ros::Time(100.0)),
+              vadop_ros::InputResult::kAccepted);
     const auto& out = core.cycle(ros::Time(100.0), tf);
     ASSERT_EQ(out.impacts.size(), 1u) << broad_phase;
     EXPECT_EQ(out.impacts[0].link_a, "fore");
