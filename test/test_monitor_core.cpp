@@ -803,6 +803,19 @@ TEST(MonitorCore, ArmOnAMobileBaseFollowingItsPlanMeetsThePostOnTime) {
     const double other = contact(plan, joints);
     EXPECT_TRUE(other < 0.0 || std::abs(other - truth) > 0.1) << plan << joints << " " << other;
   }
+  // The plan: the arc sampled every 0.1 s for 4 s.
+  nav_msgs::Path plan;
+  plan.header.frame_id = "odom";
+  plan.header.stamp = ros::Time(100.0);
+  for (double t = 0.1; t <= 4.0 + 1e-9; t += 0.1) {
+    geometry_msgs::PoseStamped ps;
+    ps.header.stamp = ros::Time(100.0 + t);
+    ps.pose.position.x = 2.0 * std::sin(0.5 * t);
+    ps.pose.position.y = 2.0 * (1.0 - std::cos(0.5 * t));
+    ps.pose.orientation.z = std::sin(0.25 * t);
+    ps.pose.orientation.w = std::cos(0.25 * t);
+    plan.poses.push_back(ps);
+  }
   for (const char* broad_phase : {"grid", "vadop", "sap", "vadop_sap", "brute"}) {
     char yaml_text[1024];
     std::snprintf(yaml_text, sizeof yaml_text, R"(
@@ -818,18 +831,6 @@ static_obstacles:
     MonitorCore core = makeCore(yaml_text, urdfParams(vadop_test::kPlanarArm));
     FakeTf tf;
     core.registry().onOdometry(0, baseOdom(100.0, 0.0, 1.0), ros::Time(100.0));
-    nav_msgs::Path plan;
-    plan.header.frame_id = "odom";
-    plan.header.stamp = ros::Time(100.0);
-    for (double t = 0.1; t <= 4.0 + 1e-9; t += 0.1) {
-      geometry_msgs::PoseStamped ps;
-      ps.header.stamp = ros::Time(100.0 + t);
-      ps.pose.position.x = 2.0 * std::sin(0.5 * t);
-      ps.pose.position.y = 2.0 * (1.0 - std::cos(0.5 * t));
-      ps.pose.orientation.z = std::sin(0.25 * t);
-      ps.pose.orientation.w = std::cos(0.25 * t);
-      plan.poses.push_back(ps);
-    }
     ASSERT_EQ(core.registry().onPath(0, plan, ros::Time(100.0), tf), vadop_ros::InputResult::kAccepted);
     ASSERT_EQ(core.registry().onJointState(0, planarArmJoints(), ros::Time(100.0)),
               vadop_ros::InputResult::kAccepted);

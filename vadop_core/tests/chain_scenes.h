@@ -120,17 +120,17 @@ inline double truthSpeed(const TChain& c, double lever, double t0, double t1) {
     reach += j.p.norm();
     if (j.type == JointType::kPrismatic) reach += truthTravel(j, t0, t1);
   }
-  // The base's twist on that reach: the fastest of its path's pieces over the window.
-  std::vector<vadop::Motion> bases{c.base};
-  if (!c.path.empty()) {
-    bases.clear();
-    for (const path_truth::TruthPiece& x : truthPieces(c)) {
-      if (x.end > t0 && x.start < t1) bases.push_back(x.motion);
-    }
-  }
+  // The base's twist on that reach: its one twist, or the fastest of its path's pieces over the window.
   double v = 0.0;
-  for (const vadop::Motion& m : bases) {
+  const auto base = [&](const vadop::Motion& m) {
     v = std::max(v, m.linear_velocity.norm() + m.angular_velocity.norm() * (reach + m.pivot_offset.norm()));
+  };
+  if (c.path.empty()) {
+    base(c.base);
+  } else {
+    for (const path_truth::TruthPiece& x : truthPieces(c)) {
+      if (x.end > t0 && x.start < t1) base(x.motion);
+    }
   }
   for (const TJoint& j : c.joints) {
     if (j.type == JointType::kRevolute) v += truthRate(j) * reach;

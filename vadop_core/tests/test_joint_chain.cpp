@@ -713,7 +713,8 @@ void matchesCertifiedTruth(int joints, bool on_path) {
               "late %d time>1e-4 %d undecided %d | timed %d max |dt| %.2e s | us/pair: chain %.1f (%.0f "
               "distance calls), constant twist %.1f\n",
               joints, on_path ? ", base on a path" : "", cases, contact, graze, clear, unknown, miss, false_contact,
-              late, time_fail, undecided, timed, max_err, 1e6 * chain_s / cases, static_cast<double>(iterations) / cases, 1e6 * twist_s / cases);
+              late, time_fail, undecided, timed, max_err, 1e6 * chain_s / cases,
+              static_cast<double>(iterations) / cases, 1e6 * twist_s / cases);
   for (size_t i = 0; i < failures.size() && i < 10; ++i) std::printf("  %s\n", failures[i].c_str());
   EXPECT_EQ(miss, 0);
   EXPECT_EQ(false_contact, 0);
