@@ -636,15 +636,15 @@ TEST(BodyRegistry, RejectionsNameTheFieldAndFramesLoseTheirSlash) {
   ASSERT_EQ(r.onOdometry(0, odom(1.0, 0, 0, 1, 0, 0, 0, "//odom_long_frame_name", "/robot_a/base_footprint"),
                          ros::Time(1.0)),
             InputResult::kAccepted);
-  EXPECT_EQ(r.bodies()[0].source_frame, "odom_long_frame_name");
-  EXPECT_EQ(r.bodies()[0].child_frame, "robot_a/base_footprint");
+  EXPECT_EQ(r.bodies()[0].velocityState()->source_frame, "odom_long_frame_name");
+  EXPECT_EQ(r.bodies()[0].velocityState()->child_frame, "robot_a/base_footprint");
   ASSERT_EQ(r.onOdometry(0, odom(1.1, 0, 0, 1, 0, 0, 0, "/map", "base"), ros::Time(1.1)), InputResult::kAccepted);
-  EXPECT_EQ(r.bodies()[0].source_frame, "map");
-  EXPECT_EQ(r.bodies()[0].child_frame, "base");
+  EXPECT_EQ(r.bodies()[0].velocityState()->source_frame, "map");
+  EXPECT_EQ(r.bodies()[0].velocityState()->child_frame, "base");
   // An empty (or all-slash) pose frame is the fixed frame.
   ASSERT_EQ(r.onOdometry(0, odom(1.2, 0, 0, 1, 0, 0, 0, "/"), ros::Time(1.2)), InputResult::kAccepted);
-  EXPECT_EQ(r.bodies()[0].source_frame, r.fixedFrame());
-  EXPECT_EQ(r.bodies()[0].child_frame, "");
+  EXPECT_EQ(r.bodies()[0].velocityState()->source_frame, r.fixedFrame());
+  EXPECT_EQ(r.bodies()[0].velocityState()->child_frame, "");
 }
 
 TEST(BodyRegistry, MessageValuesAreCheckedAgainstTheLibraryRange) {

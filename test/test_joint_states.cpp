@@ -271,7 +271,7 @@ TEST(JointStates, BadJointStatesAreDroppedNamingTheFieldAndTheStateIsKept) {
     sensor_msgs::JointState m = joints(100.05, 1.0, 1.0, 0.0, 0.0);
     c.spoil(m);
     EXPECT_EQ(r.onJointState(0, m, ros::Time(100.05)), InputResult::kInvalid) << c.field;
-    EXPECT_EQ(r.bodies()[0].status.joint_states_dropped, ++dropped);
+    EXPECT_EQ(r.bodies()[0].source("joint_states")->counts().dropped, ++dropped);
     EXPECT_NE(r.bodies()[0].status.last_invalid.find(c.field), std::string::npos)
         << c.field << " not in: " << r.bodies()[0].status.last_invalid;
   }
@@ -403,7 +403,7 @@ TEST(JointStates, BadTrajectoriesAreDroppedNamingTheField) {
     EXPECT_NE(r.bodies()[0].status.last_invalid.find(c.field), std::string::npos)
         << c.field << " not in: " << r.bodies()[0].status.last_invalid;
   }
-  EXPECT_EQ(r.bodies()[0].status.trajectories_dropped, cases.size());
+  EXPECT_EQ(r.bodies()[0].source("joint_trajectory")->counts().dropped, cases.size());
   r.update(ros::Time(100.4), tf);  // the first trajectory still runs
   EXPECT_LT((centreAt(r, element(r, "fore"), 101.2) - sphereCentre(101.2, shoulderOnTrajectory(1.2, true), 0.0)).norm(),
             1e-3);

@@ -240,7 +240,7 @@ TEST(PathInput, BadPathsAreDroppedNamingTheFieldAndThePlanIsKept) {
     for (auto& s : p.poses) s.pose.position.y += 7.0;  // a different plan, were it taken
     c.spoil(p);
     EXPECT_EQ(r.onPath(0, p, ros::Time(100.1), tf), InputResult::kInvalid) << c.field;
-    EXPECT_EQ(r.bodies()[0].status.paths_dropped, ++dropped);
+    EXPECT_EQ(r.bodies()[0].source("path")->counts().dropped, ++dropped);
     EXPECT_NE(r.bodies()[0].status.last_invalid.find(c.field), std::string::npos)
         << c.field << " not in: " << r.bodies()[0].status.last_invalid;
   }
@@ -248,7 +248,7 @@ TEST(PathInput, BadPathsAreDroppedNamingTheFieldAndThePlanIsKept) {
   r.update(ros::Time(100.2), tf);
   ASSERT_TRUE(r.elements()[0].chain);
   EXPECT_LT(poseError(r.elements()[0].chain->poseAt(r.seconds(ros::Time(102.0))), arcPose(102.0)), 1e-9);
-  EXPECT_EQ(r.bodies()[0].status.paths_accepted, 1u);
+  EXPECT_EQ(r.bodies()[0].source("path")->counts().accepted, 1u);
   // An older path than the accepted one is out of order.
   EXPECT_EQ(r.onPath(0, arcPath(99.0, 100.0, 102.0), ros::Time(100.2), tf), InputResult::kOutOfOrder);
 }

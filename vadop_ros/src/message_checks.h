@@ -1,20 +1,26 @@
-// Checks of message fields against the library's range (vadop/limits.h), shared by the
-// registry's message handlers and the tracked-object sources: each returns false and sets
-// `why` (naming the field) on NaN/Inf, a value out of range or a zero quaternion.
-// Internal to vadop_ros (not installed).
+// Checks of message fields against the library's range (vadop/limits.h), shared by the input
+// sources (src/sources) and the tracked-object sources: each returns false and sets `why`
+// (naming the field) on NaN/Inf, a value out of range or a zero quaternion; and the texts
+// their messages are written with. Internal to vadop_ros (not installed).
 #pragma once
 
 #include <geometry_msgs/Point.h>
 #include <geometry_msgs/Quaternion.h>
 #include <geometry_msgs/Vector3.h>
 
+#include "vadop_ros/joint_kinematics.h"
+
 #include <vadop/limits.h>
+
+#include <ros/time.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace vadop_ros {
 
@@ -67,6 +73,43 @@ inline bool checkQuaternion(const geometry_msgs::Quaternion& q, std::string_view
     return false;
   }
   return true;
+}
+
+// A frame id without its leading slashes (tf2 refuses them), as a view into `s`.
+inline std::string_view withoutSlash(const std::string& s) {
+  std::string_view v(s);
+  while (!v.empty() && v.front() == '/') v.remove_prefix(1);
+  return v;
+}
+inline std::string stripSlash(const std::string& s) { return std::string(withoutSlash(s)); }
+
+// A stamp as "sec.nsec" (exact).
+inline std::string stampText(const ros::Time& t) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%u.%09u", t.sec, t.nsec);
+  return buf;
+}
+
+// A number as a stream writes it.
+inline std::string numberText(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+// The movable joints `names` (a message's field `field`) name, in order; "" or why not (a name
+// that is not a movable joint of the URDF, or repeats).
+inline std::string jointIndices(const JointKinematics& kin, const std::vector<std::string>& names,
+                                const std::string& field, std::vector<int>& index) {
+  index.assign(names.size(), -1);
+  std::vector<char> seen(kin.joints().size(), 0);
+  for (size_t i = 0; i < names.size(); ++i) {
+    const std::string item = field + "[" + std::to_string(i) + "] \"" + names[i] + "\"";
+    index[i] = kin.jointIndex(names[i]);
+    if (index[i] < 0) return item + " is not a movable joint of the body's URDF";
+    if (seen[static_cast<size_t>(index[i])]++) return item + " repeats";
+  }
+  return "";
 }
 
 }  // namespace vadop_ros

@@ -109,29 +109,13 @@ std::string describeBody(const Body& b, const ros::Time& now, double stale_timeo
     if (s.geometry_errors.size() > 1) text += " (+" + std::to_string(s.geometry_errors.size() - 1) + " more)";
   }
   if (s.dropped_out_of_order > 0) text += "; " + std::to_string(s.dropped_out_of_order) + " out-of-order/duplicate ignored";
-  // Which source the prediction follows (bodies without these inputs have only their twist),
-  // with each input's counts; a mobile manipulator has both.
-  const bool joint_inputs = !b.params.joint_states_topic.empty() || !b.params.joint_trajectory_topic.empty();
-  const bool path_input = !b.params.path_topic.empty();
-  if (!b.is_static && (joint_inputs || path_input)) {
-    text += std::string("; predicted along: ") + motionSource(b) + " (";
-    if (joint_inputs) {
-      text += std::to_string(s.joint_states_accepted) + " joint state(s) accepted, " +
-              std::to_string(s.joint_states_dropped) + " dropped";
-      if (!b.params.joint_trajectory_topic.empty()) {
-        text += "; " + std::to_string(s.trajectories_accepted) + " trajectory(ies) accepted, " +
-                std::to_string(s.trajectories_dropped) + " dropped";
-      }
-      if (path_input) text += "; ";
-    }
-    if (path_input) {
-      text += std::to_string(s.paths_accepted) + " path(s) accepted, " + std::to_string(s.paths_dropped) + " dropped";
-      if (s.on_path && !b.plan.empty()) {
-        text += ", plan ends in " + fmt("%.2f", secondsBetween(b.plan.back().first, now)) + " s";
-      }
-    }
-    text += ")";
+  // Which input the prediction follows (bodies with only a velocity source have nothing more to
+  // say), with each other input's counts; a mobile manipulator has several.
+  std::string counts;
+  for (size_t k = 1; k < b.sources.size(); ++k) {
+    counts += (counts.empty() ? "" : "; ") + b.sources[k]->describe(b, now);
   }
+  if (!b.is_static && !counts.empty()) text += std::string("; predicted along: ") + motionSource(b) + " (" + counts + ")";
   if (level) *level = lvl;
   return text;
 }

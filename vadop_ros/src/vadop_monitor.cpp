@@ -16,11 +16,6 @@
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
 #include <geometry_msgs/Twist.h>
-#include <geometry_msgs/TwistStamped.h>
-#include <nav_msgs/Odometry.h>
-#include <nav_msgs/Path.h>
-#include <sensor_msgs/JointState.h>
-#include <trajectory_msgs/JointTrajectory.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <tf2_eigen/tf2_eigen.h>
@@ -111,32 +106,9 @@ class MonitorNode {
         ROS_INFO("vadop_monitor: set up %zu of %zu bodies (subscribing, %.0f s)", subs_.size(), moving,
                  secondsSince(subscribe_start));
       }
-      const auto hints = ros::TransportHints().tcpNoDelay();
-      if (b.params.source == VelocitySource::kOdometry) {
-        subs_.push_back(nh_.subscribe<nav_msgs::Odometry>(
-            b.params.topic, 20, [this, i](const nav_msgs::OdometryConstPtr& msg) { onOdometry(i, *msg); },
-            ros::VoidConstPtr(), hints));
-      } else {
-        subs_.push_back(nh_.subscribe<geometry_msgs::TwistStamped>(
-            b.params.topic, 20, [this, i](const geometry_msgs::TwistStampedConstPtr& msg) { onTwist(i, *msg); },
-            ros::VoidConstPtr(), hints));
-      }
-      if (!b.params.joint_states_topic.empty()) {
-        subs_.push_back(nh_.subscribe<sensor_msgs::JointState>(
-            b.params.joint_states_topic, 20,
-            [this, i](const sensor_msgs::JointStateConstPtr& msg) { onJointState(i, *msg); }, ros::VoidConstPtr(),
-            hints));
-      }
-      if (!b.params.joint_trajectory_topic.empty()) {
-        subs_.push_back(nh_.subscribe<trajectory_msgs::JointTrajectory>(
-            b.params.joint_trajectory_topic, 5,
-            [this, i](const trajectory_msgs::JointTrajectoryConstPtr& msg) { onJointTrajectory(i, *msg); },
-            ros::VoidConstPtr(), hints));
-      }
-      if (!b.params.path_topic.empty()) {
-        subs_.push_back(nh_.subscribe<nav_msgs::Path>(
-            b.params.path_topic, 2, [this, i](const nav_msgs::PathConstPtr& msg) { onPath(i, *msg); },
-            ros::VoidConstPtr(), hints));
+      // Each of the body's inputs subscribes itself (source.h).
+      for (const auto& source : b.sources) {
+        subs_.push_back(source->subscribe({nh_, core_mutex_, core_->registry(), i, tf_source_}));
       }
     }
 
@@ -218,31 +190,10 @@ class MonitorNode {
  private:
   // Every use of core_ holds core_mutex_ (the gates' thread checks commands); the cycle
   // releases it while its world predicts (MonitorCore::setPredictionLock).
-  void onOdometry(size_t i, const nav_msgs::Odometry& msg) {
-    std::lock_guard<std::mutex> lock(core_mutex_);
-    core_->registry().onOdometry(i, msg, ros::Time::now());
-  }
-  void onTwist(size_t i, const geometry_msgs::TwistStamped& msg) {
-    std::lock_guard<std::mutex> lock(core_mutex_);
-    core_->registry().onTwist(i, msg, ros::Time::now());
-  }
-  void onJointState(size_t i, const sensor_msgs::JointState& msg) {
-    std::lock_guard<std::mutex> lock(core_mutex_);
-    core_->registry().onJointState(i, msg, ros::Time::now());
-  }
-  void onJointTrajectory(size_t i, const trajectory_msgs::JointTrajectory& msg) {
-    std::lock_guard<std::mutex> lock(core_mutex_);
-    core_->registry().onJointTrajectory(i, msg, ros::Time::now());
-  }
   void onTracks(size_t source, const vadop::TrackedObjectArray& msg) {
     std::lock_guard<std::mutex> lock(core_mutex_);
     core_->tracks().onArray(source, msg, ros::Time::now(), tf_source_);
   }
-  void onPath(size_t i, const nav_msgs::Path& msg) {
-    std::lock_guard<std::mutex> lock(core_mutex_);
-    core_->registry().onPath(i, msg, ros::Time::now(), tf_source_);
-  }
-
   // A command on a gate's cmd_vel_in: checked and forwarded at once. Whatever goes wrong, the
   // gate publishes a zero command rather than nothing or the unchecked one.
   void onCommand(size_t g, const geometry_msgs::Twist& msg, const ros::Time& receipt) {

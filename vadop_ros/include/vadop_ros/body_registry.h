@@ -66,6 +66,7 @@
 
 #include "vadop_ros/joint_kinematics.h"
 #include "vadop_ros/params.h"
+#include "vadop_ros/source.h"
 #include "vadop_ros/urdf_shapes.h"
 
 #include <vadop/motion.h>
@@ -157,19 +158,12 @@ struct BodyStatus {
   std::string tf_error;             // this cycle's missing transform, if any
   size_t links_skipped = 0;         // this cycle, tf links without a transform
   std::vector<std::string> geometry_errors;  // URDF / link conversion errors
-  // path_topic: paths accepted / dropped as invalid (a dropped path is also counted in
-  // dropped_invalid), and whether this cycle's prediction follows the plan.
-  uint64_t paths_accepted = 0;
-  uint64_t paths_dropped = 0;
+  // This cycle's prediction: whether it follows the body's plan (path_topic), whether the links
+  // move with their joints, whether it follows a joint trajectory. The counts of each input are
+  // its source's (Source::counts).
   bool on_path = false;
-  // joint_states_topic: joint states accepted / dropped as invalid (also in dropped_invalid),
-  // and whether the links move with their joints this cycle.
-  uint64_t joint_states_accepted = 0;
-  uint64_t joint_states_dropped = 0;
-  uint64_t trajectories_accepted = 0;
-  uint64_t trajectories_dropped = 0;
   bool joints_moving = false;
-  bool on_trajectory = false;  // this cycle's prediction follows a joint trajectory
+  bool on_trajectory = false;
 };
 
 struct Element {
@@ -226,6 +220,8 @@ struct FrameMotion {
   vadop::Motion motion;
 };
 
+// A monitored body: its geometry (elements, URDF links and kinematics), its inputs (sources:
+// the kinds of source.h its parameters ask for) and its status. Static obstacles have no source.
 struct Body {
   std::string name;
   bool is_static = false;
@@ -236,36 +232,19 @@ struct Body {
   std::map<std::string, Eigen::Isometry3d> link_in_root;
   std::string root_link;
   std::string reference_for;  // body frame the rigid offsets were computed for
-
-  // Latest accepted state.
-  bool has_state = false;
-  ros::Time stamp;                 // of the state (message stamp; receipt time if zero)
-  std::string source_frame;        // odometry: header.frame_id (pose frame)
-  std::string child_frame;         // odometry: child_frame_id (twist frame)
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  // odometry: child in source frame
-  Eigen::Vector3d v = Eigen::Vector3d::Zero();  // odometry: child frame; twist: twist_frame
-  Eigen::Vector3d w = Eigen::Vector3d::Zero();
-  std::string twist_frame;         // TwistStamped header.frame_id (empty: the body frame)
-
-  // Planned path (onPath): the body frame's poses in the fixed frame with their stamps, from
-  // the last accepted nav_msgs/Path (empty: none, or an empty path cleared it).
-  std::vector<std::pair<ros::Time, Eigen::Isometry3d>> plan;
-  ros::Time plan_stamp;  // header stamp of that path (its receipt time when zero)
-
-  // Joint states (onJointState): the kinematics (shared by the bodies of one description),
-  // and per movable joint (kinematics->joints() order) its position at q_time and velocity.
+  // The URDF's kinematics when a source moves the joints (shared by the bodies of one
+  // description), and the URDF link that is the body frame.
   std::shared_ptr<const JointKinematics> kinematics;
-  std::string reference_link;  // the URDF link that is the body frame
-  bool has_joints = false;
-  ros::Time joint_stamp;       // of the last accepted joint state
-  ros::Time joint_receipt;
-  std::vector<double> q, qd;
-  std::vector<ros::Time> q_time;
-  // Joint trajectory (onJointTrajectory): the joints it names (kinematics indices), the time of
-  // each point, and per point their positions and velocities (empty: linear).
-  std::vector<int> traj_joints;
-  std::vector<ros::Time> traj_time;
-  std::vector<std::vector<double>> traj_q, traj_qd;
+  std::string reference_link;
+
+  // Its inputs, the velocity source (odometry or twist) first; has_state once that source has
+  // accepted a message (static obstacles: always).
+  std::vector<std::unique_ptr<Source>> sources;
+  bool has_state = false;
+  // The source of kind `kind` (Source::kind()), or null.
+  const Source* source(const char* kind) const;
+  // The velocity source's state (null for a static obstacle).
+  const VelocityState* velocityState() const;
 
   BodyStatus status;
   // The body frame's motion in the fixed frame as of the last update (of all bodies, or of
@@ -372,36 +351,77 @@ class BodyRegistry {
   // time): tf takes a moment to fill at start-up. The status flags it at once.
   static constexpr double kTfWarnAfter = 2.0;
 
- private:
-  void addUrdfGeometry(size_t body_index, const std::string& description, const UrdfShapes& urdf,
-                       bool links_from_tf, const std::string& tf_prefix);
-  // A dropped message (count_message) or a left-out element: status, throttled warning.
-  void rejectInput(Body& b, const std::string& why, const ros::Time& receipt, bool count_message = true);
-  InputResult acceptStamp(Body& b, ros::Time stamp, const ros::Time& receipt);
+ // For the sources (source.h) ------------------------------------------------------------
+  Body& body(size_t i) { return bodies_.at(i); }
+  // A dropped message: counted in the body's dropped_invalid, `why` kept in its status and
+  // warned about (throttled per body).
+  void dropMessage(Body& b, const std::string& why, const ros::Time& receipt) { rejectInput(b, why, receipt); }
+  // The velocity state's stamp policy (see the header): `stamp` (zero: `receipt`) beyond
+  // max_stamp_skew -> kInvalid (dropped); not newer than `last` while `last` is not ahead of the
+  // receipt by more than kClockLag -> kOutOfOrder (counted); else kAccepted and `last` = stamp.
+  InputResult acceptStamp(Body& b, ros::Time stamp, const ros::Time& receipt, ros::Time& last);
   // "" when `stamp` is within max_stamp_skew of `receipt`, else why not ("stamp ... ahead of ...").
   std::string stampSkewError(const ros::Time& stamp, const ros::Time& receipt) const;
   // tf.lookup that never throws (tf2 itself computes ros::Durations from arbitrary stamps).
   static bool lookup(TransformSource& tf, const std::string& target, const std::string& source,
                      const ros::Time& time, Eigen::Isometry3d& pose, ros::Time& stamp, std::string& error);
-  void resolveReference(Body& b, const std::string& body_frame);
-  void updateMoving(Body& b, const ros::Time& now, double t_now, double t_check_end, TransformSource& tf);
-  // `frame`: the body frame's name, one of b's own strings (no copy per body per cycle).
-  bool bodyMotion(Body& b, const ros::Time& now, TransformSource& tf, Eigen::Isometry3d& pose,
-                  Eigen::Vector3d& v, Eigen::Vector3d& w, ros::Time& t_ref, const std::string*& frame);
+  // A transform the body needs is missing: its status now, a throttled warning after kTfWarnAfter.
   void warnTf(Body& b, const std::string& error, const ros::Time& now);
+
+ private:
+  class UrdfCache;
+  // The body's elements: its primitive shape, or every collision element of its URDF. False
+  // (and the body flagged "no geometry") when the URDF cannot be had.
+  bool addGeometry(size_t body_index, bool has_shape, const vadop::Shape& shape, const std::string& description,
+                   bool links_from_tf, const std::string& tf_prefix, UrdfCache& urdfs);
+  void addUrdfGeometry(size_t body_index, const std::string& description, const UrdfShapes& urdf,
+                       bool links_from_tf, const std::string& tf_prefix);
+  void addMovingBody(const BodyParams& bp, UrdfCache& urdfs);
+  // The URDF's kinematics for a body whose sources move its joints; an error in its status when
+  // they cannot be had (its links then stay rigid, joints at zero).
+  void attachKinematics(Body& b, UrdfCache& urdfs);
+  void addStaticObstacle(const StaticObstacleParams& op, UrdfCache& urdfs);
+  void checkUniqueIds() const;
+  // A dropped message (count_message) or a left-out element: status, throttled warning.
+  void rejectInput(Body& b, const std::string& why, const ros::Time& receipt, bool count_message = true);
+  void resolveReference(Body& b, const std::string& body_frame);
+  void updateStatic(Body& b, const ros::Time& now, double t_now, double t_check_end);
+  void updateMoving(Body& b, const ros::Time& now, double t_now, double t_check_end, TransformSource& tf);
+  // Clears the body's motions of the last cycle; false (with its state) when it has nothing to
+  // move: no geometry, or no state yet.
+  bool startCycle(Body& b);
+  // The body frame's motion from its inputs (`in`, stopped when `stale`), referred to `tr`;
+  // false (the body skipped) when it is out of the library's range.
+  bool frameMotion(Body& b, const ros::Time& now, double t_now, double t_check_end, const BodyInputs& in, double tr,
+                   vadop::Motion& frame);
+  // The elements of a body without joint inputs: rigid with the body frame or posed by tf.
+  void updateRigidBody(Body& b, const ros::Time& now, double t_now, double t_check_end, TransformSource& tf,
+                       const BodyInputs& in, bool stale, const vadop::Motion& frame, double tr);
+  // A link posed by tf: its pose and velocity in the fixed frame; false (warned, counted in
+  // links_skipped) when its transform is missing.
+  bool tfElementMotion(Body& b, Element& e, const ros::Time& now, TransformSource& tf, const BodyInputs& in,
+                       bool stale, const ros::Time& motion_ref, Eigen::Isometry3d& pe, Eigen::Vector3d& ve,
+                       Eigen::Vector3d& we);
+  // Sets an element's motion when it is within the library's range over the window, else leaves
+  // the element out (its body marked: "link \"l\": motion" + `out_of_range` + why).
+  void acceptMotion(Body& b, Element& e, const vadop::Motion& m, std::shared_ptr<const vadop::LinkChain> chain,
+                    const ros::Time& now, double t_now, double t_check_end, const char* out_of_range);
   // The body frame along its plan, from `frame_now` (its pose now) through the plan's poses after
   // now: none when the plan ends before now or cannot be followed (a piece out of the library's
   // range over the window: warned, the twist is used).
-  std::optional<vadop::TimedPath> planPath(Body& b, const ros::Time& now, double t_now, double t_check_end,
-                                           const Eigen::Isometry3d& frame_now);
+  std::optional<vadop::TimedPath> planPath(Body& b, const BodyInputs& in, const ros::Time& now, double t_now,
+                                           double t_check_end, const Eigen::Isometry3d& frame_now);
   // Puts the body's active elements on `plan`, each kept where it is on the body (see the header).
-  void followPlan(Body& b, const ros::Time& now, const vadop::TimedPath& plan, double t_now, double t_check_end,
-                  const Eigen::Isometry3d& frame_now);
+  void followPlan(Body& b, const BodyInputs& in, const ros::Time& now, const vadop::TimedPath& plan, double t_now,
+                  double t_check_end, const Eigen::Isometry3d& frame_now);
   void warnPlanNotFollowed(Body& b, const ros::Time& now, const std::string& why);
-  // The elements of a joint-states body (see the header), its frame moving with `frame`, or along
+  // The elements of a joint-input body (see the header), its frame moving with `frame`, or along
   // `plan` when not null.
-  void updateJointBody(Body& b, const ros::Time& now, double t_now, double t_check_end, const vadop::Motion& frame,
-                       bool stale, const vadop::TimedPath* plan);
+  void updateJointBody(Body& b, const BodyInputs& in, const ros::Time& now, double t_now, double t_check_end,
+                       const vadop::Motion& frame, bool stale, const vadop::TimedPath* plan);
+  // Rigid at the joints' current positions: every link moves with the body frame's twist.
+  void holdJoints(Body& b, const BodyInputs& in, const ros::Time& now, double t_now, double t_check_end,
+                  const vadop::Motion& frame);
 
   std::string fixed_frame_;
   double stale_timeout_ = 0.5;

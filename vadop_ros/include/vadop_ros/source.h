@@ -1,0 +1,144 @@
+// One input of a moving body: a topic, the latest message it brought (checked, counted) and
+// what that message says about the body's motion at a cycle. Odometry and twist give the body
+// frame's velocity state, a path its plan, joint states and a joint trajectory its joints; each
+// kind is one class in src/sources/<kind>_source.cpp, made for a body by one entry of
+// sourceKinds() (the registration table: the only place that lists the kinds).
+//
+// A source does: subscribe to its topic (subscribe), check and keep a message (its own typed
+// handler, which the subscription calls under the node's lock), forget it (reset), hand its
+// contribution to the body's motion at a cycle (contribute: a pointer into what it keeps, never
+// a copy, so that a cycle over 10,000 bodies allocates nothing), and report its counts for the
+// diagnostics (describe, counts).
+// It does not: build geometry (BodyRegistry), compose element motions from the contributions
+// (BodyRegistry::update), or warn by itself: a dropped message goes through
+// BodyRegistry::dropMessage, so every input of a body shares its status and warning throttle.
+// Sources that bring bodies of their own rather than one body's motion (tracked objects, and
+// the later sensor inputs: scans, clouds and grids as sets of obstacle points) contribute a
+// set of bodies each cycle the same way: see Tracks, the first of them.
+#pragma once
+
+#include "vadop_ros/params.h"
+
+#include <Eigen/Geometry>
+#include <ros/node_handle.h>
+#include <ros/time.h>
+
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace vadop_ros {
+
+class BodyRegistry;
+class TransformSource;
+struct Body;
+
+// The body frame's latest velocity state, as the velocity source (odometry or twist) keeps it.
+struct VelocityState {
+  ros::Time stamp;           // of the state (message stamp; receipt time if zero)
+  std::string source_frame;  // odometry: header.frame_id (pose frame)
+  std::string child_frame;   // odometry: child_frame_id (twist frame)
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  // odometry: child in source frame
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();  // odometry: child frame; twist: twist_frame
+  Eigen::Vector3d w = Eigen::Vector3d::Zero();
+  std::string twist_frame;   // TwistStamped header.frame_id (empty: the body frame)
+};
+
+// A planned path (path source): the body frame's poses in the fixed frame with their stamps
+// (empty: none, or an empty path cleared it).
+using Plan = std::vector<std::pair<ros::Time, Eigen::Isometry3d>>;
+
+// Joint states (joint states source): per movable joint (JointKinematics::joints() order) its
+// position at q_time and its velocity.
+struct JointInput {
+  bool has_joints = false;
+  ros::Time stamp;    // of the last accepted joint state
+  ros::Time receipt;
+  std::vector<double> q, qd;
+  std::vector<ros::Time> q_time;
+};
+
+// A joint trajectory (joint trajectory source): the joints it names (kinematics indices), the
+// time of each point, and per point their positions and velocities (empty: linear).
+struct TrajectoryInput {
+  std::vector<int> joints;
+  std::vector<ros::Time> time;
+  std::vector<std::vector<double>> q, qd;
+};
+
+// What a body's sources contribute at one cycle: pointers into what they keep (null: no such
+// input) and the body frame's motion found from the velocity state.
+struct BodyInputs {
+  // The body frame in the fixed frame, its velocity there (fixed frame) and the time they hold
+  // at; `frame` names it (one of the body's own strings).
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();
+  Eigen::Vector3d w = Eigen::Vector3d::Zero();
+  ros::Time t_ref;
+  const std::string* frame = nullptr;
+  const Plan* plan = nullptr;
+  bool plan_continue = true;  // after the plan's last pose: its last twist (else hold)
+  const JointInput* joints = nullptr;
+  const TrajectoryInput* trajectory = nullptr;
+};
+
+// Counts a source keeps for the diagnostics and tests.
+struct SourceCounts {
+  uint64_t accepted = 0;
+  uint64_t dropped = 0;  // as invalid (also in the body's dropped_invalid)
+};
+
+class Source {
+ public:
+  virtual ~Source() = default;
+  // The kind's name ("odometry", "twist", "path", "joint_states", "joint_trajectory").
+  virtual const char* kind() const = 0;
+  virtual const std::string& topic() const = 0;
+
+  // What the node gives a source to subscribe with: its NodeHandle, the lock every use of the
+  // registry holds, the registry, the body's index and tf (for a message in another frame).
+  struct Wiring {
+    ros::NodeHandle& nh;
+    std::mutex& lock;
+    BodyRegistry& registry;
+    size_t body;
+    TransformSource& tf;
+  };
+  // Subscribes to topic(); each message runs the source's handler under `lock`, stamped with
+  // the node's clock at its receipt.
+  virtual ros::Subscriber subscribe(const Wiring& w) = 0;
+
+  // Adds what the source keeps to the body's inputs at `now`. False: the body is skipped this
+  // cycle (its frame cannot be found; the source said why through BodyRegistry::warnTf).
+  virtual bool contribute(Body& b, BodyRegistry& registry, const ros::Time& now, TransformSource& tf,
+                          BodyInputs& in) = 0;
+  // Forgets every message (time jumped back); keeps the counts.
+  virtual void reset() = 0;
+  // The velocity state it keeps (odometry, twist), else null.
+  virtual const VelocityState* velocityState() const { return nullptr; }
+
+  const SourceCounts& counts() const { return counts_; }
+  // The counts as the diagnostics print them ("3 path(s) accepted, 0 dropped").
+  virtual std::string describe(const Body& b, const ros::Time& now) const = 0;
+
+ protected:
+  SourceCounts counts_;
+};
+
+// One input kind: whether a body has it (from its parameters) and how to make its source.
+// `kinematics_input`: the kind moves the body's links with its joints (the body needs the URDF's
+// kinematics, and its links' chains start from the body frame).
+struct SourceKind {
+  const char* name;
+  bool (*wanted)(const BodyParams& p);
+  std::unique_ptr<Source> (*make)(const BodyParams& p, const Body& b);
+  bool kinematics_input;
+};
+// Every kind, in the order a body's sources are made and contribute (the velocity source
+// first: the others start from the body frame it gives).
+const std::vector<SourceKind>& sourceKinds();
+
+}  // namespace vadop_ros

@@ -1,0 +1,22 @@
+// The registration table of the input kinds (source.h): a new kind is its own file in this
+// directory and one line here (its SourceKind, declared and listed).
+#include "vadop_ros/source.h"
+
+namespace vadop_ros {
+
+SourceKind odometrySourceKind();
+SourceKind twistSourceKind();
+SourceKind jointStatesSourceKind();
+SourceKind jointTrajectorySourceKind();
+SourceKind pathSourceKind();
+
+const std::vector<SourceKind>& sourceKinds() {
+  // The velocity source first: the others start from the body frame it gives. The rest in the
+  // order the diagnostics list their counts.
+  static const std::vector<SourceKind> kinds = {
+      odometrySourceKind(), twistSourceKind(), jointStatesSourceKind(), jointTrajectorySourceKind(), pathSourceKind(),
+  };
+  return kinds;
+}
+
+}  // namespace vadop_ros
