@@ -1,5 +1,8 @@
 #include "vadop_ros/params.h"
 
+#include "param_reading.h"
+#include "vadop_ros/source.h"
+
 #include <vadop/error.h>
 #include <vadop/limits.h>
 #include <vadop/vadop.h>
@@ -17,31 +20,13 @@ namespace vadop_ros {
 namespace {
 
 using XmlRpc::XmlRpcValue;
+using namespace param_reading;
 
 std::string num(double v) {
   std::ostringstream os;
   os << v;
   return os.str();
 }
-
-const char* typeName(const XmlRpcValue& v) {
-  switch (v.getType()) {
-    case XmlRpcValue::TypeBoolean: return "a boolean";
-    case XmlRpcValue::TypeInt: return "an integer";
-    case XmlRpcValue::TypeDouble: return "a number";
-    case XmlRpcValue::TypeString: return "a string";
-    case XmlRpcValue::TypeDateTime: return "a date";
-    case XmlRpcValue::TypeBase64: return "binary data";
-    case XmlRpcValue::TypeArray: return "a list";
-    case XmlRpcValue::TypeStruct: return "a dictionary";
-    default: return "nothing";
-  }
-}
-
-[[noreturn]] void fail(const std::string& path, const std::string& what) {
-  throw ParamError(path + ": " + what);
-}
-
 
 double toDouble(const XmlRpcValue& v, const std::string& path) {
   if (v.getType() == XmlRpcValue::TypeDouble) {
@@ -53,10 +38,6 @@ double toDouble(const XmlRpcValue& v, const std::string& path) {
   fail(path, std::string("must be a number, got ") + typeName(v));
 }
 
-std::string toString(const XmlRpcValue& v, const std::string& path) {
-  if (v.getType() != XmlRpcValue::TypeString) fail(path, std::string("must be a string, got ") + typeName(v));
-  return static_cast<std::string>(const_cast<XmlRpcValue&>(v));
-}
 
 bool toBool(const XmlRpcValue& v, const std::string& path) {
   if (v.getType() != XmlRpcValue::TypeBoolean) fail(path, std::string("must be true or false, got ") + typeName(v));
@@ -68,10 +49,6 @@ int toInt(const XmlRpcValue& v, const std::string& path) {
   return static_cast<int>(const_cast<XmlRpcValue&>(v));
 }
 
-const XmlRpcValue* member(const XmlRpcValue& s, const std::string& key) {
-  if (!s.hasMember(key)) return nullptr;
-  return &s[key];
-}
 
 void requireStruct(const XmlRpcValue& v, const std::string& path) {
   if (v.getType() != XmlRpcValue::TypeStruct) fail(path, std::string("must be a dictionary, got ") + typeName(v));
@@ -220,18 +197,14 @@ std::string entryPath(const std::string& list, int i, const XmlRpcValue& entry) 
   return p;
 }
 
-// The names of one body (a template copy after substitution): topic and robot_description
+// The names of one body (a template copy after substitution): topics and robot_description
 // parameter by roscpp's rules, frame and tf_prefix as tf2 frame ids. `suffix` marks a copy.
 void checkBodyNames(const BodyParams& b, const std::string& path, const std::string& suffix) {
-  checkRosName(b.topic, path + (b.source == VelocitySource::kOdometry ? ".odom_topic" : ".twist_topic") + suffix,
-               "topic");
   checkFrame(b.frame, path + ".frame" + suffix, b.source == VelocitySource::kOdometry);
   if (!b.has_shape) checkRosName(b.robot_description, path + ".robot_description" + suffix, "parameter");
   if (b.links_from_tf) checkFrame(b.tf_prefix, path + ".tf_prefix" + suffix, true);
-  if (!b.path_topic.empty()) checkRosName(b.path_topic, path + ".path_topic" + suffix, "topic");
-  if (!b.joint_states_topic.empty()) checkRosName(b.joint_states_topic, path + ".joint_states_topic" + suffix, "topic");
-  if (!b.joint_trajectory_topic.empty()) {
-    checkRosName(b.joint_trajectory_topic, path + ".joint_trajectory_topic" + suffix, "topic");
+  for (const SourceKind& kind : sourceKinds()) {
+    if (kind.wanted(b)) checkRosName(b.*kind.topic, path + "." + kind.keys.front() + suffix, "topic");
   }
 }
 
@@ -271,102 +244,99 @@ void checkGateNames(const BodyParams& b, const std::string& path, const std::str
   }
 }
 
+// The keys of a ~bodies entry: the body's own and its input kinds'.
+std::set<std::string> bodyKeys() {
+  std::set<std::string> keys = {"name", "frame", "shape", "robot_description", "tf_prefix", "count", "gate"};
+  for (const SourceKind& kind : sourceKinds()) keys.insert(kind.keys.begin(), kind.keys.end());
+  return keys;
+}
+
+// The body's geometry: a shape, or a robot_description with its links rigid or from tf.
+void parseBodyGeometry(const XmlRpcValue& e, const std::string& path, BodyParams& b) {
+  const XmlRpcValue* shape = member(e, "shape");
+  const XmlRpcValue* urdf = member(e, "robot_description");
+  if (shape && urdf) fail(path, "give one geometry source: shape or robot_description, not both");
+  if (!shape && !urdf) fail(path + ".shape", "is required (or robot_description): the body's geometry");
+  if (shape) {
+    b.has_shape = true;
+    b.shape = parseShape(*shape, path + ".shape");
+  } else {
+    b.robot_description = toString(*urdf, path + ".robot_description");
+    if (b.robot_description.empty()) fail(path + ".robot_description", "must not be empty");
+  }
+  if (const XmlRpcValue* p = member(e, "tf_prefix")) {
+    if (shape) fail(path + ".tf_prefix", "applies to robot_description bodies only");
+    b.tf_prefix = toString(*p, path + ".tf_prefix");
+    b.links_from_tf = true;
+    while (!b.tf_prefix.empty() && b.tf_prefix.back() == '/') b.tf_prefix.pop_back();
+    b.tf_prefix = stripLeadingSlashes(b.tf_prefix);
+  }
+}
+
+// One ~bodies entry (a template before its copies): its own keys, then each input kind's.
+BodyParams parseBody(const XmlRpcValue& e, const std::string& path, double stale_timeout) {
+  requireStruct(e, path);
+  static const std::set<std::string> keys = bodyKeys();
+  rejectUnknown(e, keys, path);
+  BodyParams b;
+  const XmlRpcValue* name = member(e, "name");
+  if (!name) fail(path + ".name", "is required");
+  b.name = toString(*name, path + ".name");
+  if (const XmlRpcValue* f = member(e, "frame")) b.frame = stripLeadingSlashes(toString(*f, path + ".frame"));
+  parseBodyGeometry(e, path, b);
+  for (const SourceKind& kind : sourceKinds()) kind.parse(e, path, b);
+  if (const XmlRpcValue* g = member(e, "gate")) {
+    b.has_gate = true;
+    b.gate = parseGate(*g, path + ".gate", stale_timeout);
+  }
+  return b;
+}
+
+// The entry's count (0: a single body, no template), checked with the number of bodies so far.
+int parseCount(const XmlRpcValue& e, const std::string& path, const BodyParams& b, size_t bodies_so_far) {
+  int count = 0;
+  if (const XmlRpcValue* c = member(e, "count")) {
+    count = toInt(*c, path + ".count");
+    if (count < 1 || count > kMaxBodies) {
+      fail(path + ".count", "must be in [1, " + std::to_string(kMaxBodies) + "], got " + std::to_string(count));
+    }
+    if (b.name.find("{i}") == std::string::npos) {
+      fail(path + ".name", "must contain {i} when count is given (each copy needs its own name)");
+    }
+  }
+  // Checked before any copy is made: each moving body is one subscription (see kMaxBodies).
+  const size_t total = bodies_so_far + static_cast<size_t>(std::max(count, 1));
+  if (total > static_cast<size_t>(kMaxBodies)) {
+    fail(path + (count > 0 ? ".count" : ""), "makes " + std::to_string(total) + " moving bodies, more than the limit of " +
+                                                 std::to_string(kMaxBodies) +
+                                                 " (each is a topic subscription; ROS start-up time grows with their square)");
+  }
+  return count;
+}
+
+// Copy k of a template: {i} replaced by k in its name, frames, topics and patterns.
+BodyParams templateCopy(const BodyParams& b, int k) {
+  BodyParams copy = b;
+  copy.name = substitute(b.name, k);
+  copy.frame = substitute(b.frame, k);
+  copy.robot_description = substitute(b.robot_description, k);
+  copy.tf_prefix = substitute(b.tf_prefix, k);
+  for (const SourceKind& kind : sourceKinds()) {
+    if (kind.wanted(b)) copy.*kind.topic = substitute(b.*kind.topic, k);
+  }
+  copy.gate.cmd_vel_in = substitute(b.gate.cmd_vel_in, k);
+  copy.gate.cmd_vel_out = substitute(b.gate.cmd_vel_out, k);
+  for (std::string& pattern : copy.gate.ignore) pattern = substitute(pattern, k);
+  return copy;
+}
+
 void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::string>& names) {
   requireArray(list, "~bodies");
   for (int i = 0; i < list.size(); ++i) {
     const XmlRpcValue& e = list[i];
     const std::string path = entryPath("bodies", i, e);
-    requireStruct(e, path);
-    rejectUnknown(e,
-                  {"name", "odom_topic", "twist_topic", "frame", "shape", "robot_description", "tf_prefix", "count", "gate",
-                   "path_topic", "after_path", "joint_states_topic", "joint_trajectory_topic"},
-                  path);
-    BodyParams b;
-    const XmlRpcValue* name = member(e, "name");
-    if (!name) fail(path + ".name", "is required");
-    b.name = toString(*name, path + ".name");
-
-    const XmlRpcValue* odom = member(e, "odom_topic");
-    const XmlRpcValue* twist = member(e, "twist_topic");
-    if (odom && twist) fail(path, "give one velocity source: odom_topic or twist_topic, not both");
-    if (!odom && !twist) fail(path + ".odom_topic", "is required (or twist_topic): the body's velocity source");
-    b.source = odom ? VelocitySource::kOdometry : VelocitySource::kTwist;
-    b.topic = toString(odom ? *odom : *twist, path + (odom ? ".odom_topic" : ".twist_topic"));
-    if (b.topic.empty()) fail(path + (odom ? ".odom_topic" : ".twist_topic"), "must not be empty");
-    if (const XmlRpcValue* f = member(e, "frame")) b.frame = stripLeadingSlashes(toString(*f, path + ".frame"));
-    if (b.source == VelocitySource::kTwist && b.frame.empty()) {
-      fail(path + ".frame", "is required with twist_topic (the tf frame that gives the body's pose)");
-    }
-
-    const XmlRpcValue* shape = member(e, "shape");
-    const XmlRpcValue* urdf = member(e, "robot_description");
-    if (shape && urdf) fail(path, "give one geometry source: shape or robot_description, not both");
-    if (!shape && !urdf) fail(path + ".shape", "is required (or robot_description): the body's geometry");
-    if (shape) {
-      b.has_shape = true;
-      b.shape = parseShape(*shape, path + ".shape");
-    } else {
-      b.robot_description = toString(*urdf, path + ".robot_description");
-      if (b.robot_description.empty()) fail(path + ".robot_description", "must not be empty");
-    }
-    if (const XmlRpcValue* p = member(e, "tf_prefix")) {
-      if (shape) fail(path + ".tf_prefix", "applies to robot_description bodies only");
-      b.tf_prefix = toString(*p, path + ".tf_prefix");
-      b.links_from_tf = true;
-      while (!b.tf_prefix.empty() && b.tf_prefix.back() == '/') b.tf_prefix.pop_back();
-      b.tf_prefix = stripLeadingSlashes(b.tf_prefix);
-    }
-
-    if (const XmlRpcValue* p = member(e, "path_topic")) {
-      b.path_topic = toString(*p, path + ".path_topic");
-      if (b.path_topic.empty()) fail(path + ".path_topic", "must not be empty (a nav_msgs/Path topic)");
-      if (b.path_topic == b.topic) fail(path + ".path_topic", "must differ from the body's velocity topic");
-    }
-    if (const XmlRpcValue* a = member(e, "after_path")) {
-      const std::string mode = toString(*a, path + ".after_path");
-      if (mode != "hold" && mode != "continue") {
-        fail(path + ".after_path", "must be \"hold\" or \"continue\", got \"" + mode + "\"");
-      }
-      if (b.path_topic.empty()) fail(path + ".after_path", "applies only with path_topic");
-      b.path_continue = mode == "continue";
-    }
-
-    for (const char* key : {"joint_states_topic", "joint_trajectory_topic"}) {
-      const XmlRpcValue* j = member(e, key);
-      if (!j) continue;
-      const std::string field = path + "." + key;
-      std::string& topic = std::string(key) == "joint_states_topic" ? b.joint_states_topic : b.joint_trajectory_topic;
-      topic = toString(*j, field);
-      if (topic.empty()) fail(field, "must not be empty");
-      if (b.has_shape) fail(field, "applies to robot_description bodies only");
-      if (b.links_from_tf) fail(field, "give one source of link poses: joints or tf_prefix, not both");
-      if (topic == b.topic || b.joint_states_topic == b.joint_trajectory_topic) {
-        fail(field, "must differ from the body's other topics");
-      }
-    }
-
-    if (const XmlRpcValue* g = member(e, "gate")) {
-      b.has_gate = true;
-      b.gate = parseGate(*g, path + ".gate", out.stale_timeout);
-    }
-
-    int count = 0;  // 0: a single body, no template
-    if (const XmlRpcValue* c = member(e, "count")) {
-      count = toInt(*c, path + ".count");
-      if (count < 1 || count > kMaxBodies) {
-        fail(path + ".count", "must be in [1, " + std::to_string(kMaxBodies) + "], got " + std::to_string(count));
-      }
-      if (b.name.find("{i}") == std::string::npos) {
-        fail(path + ".name", "must contain {i} when count is given (each copy needs its own name)");
-      }
-    }
-    // Checked before any copy is made: each moving body is one subscription (see kMaxBodies).
-    const size_t total = out.bodies.size() + static_cast<size_t>(std::max(count, 1));
-    if (total > static_cast<size_t>(kMaxBodies)) {
-      fail(path + (count > 0 ? ".count" : ""), "makes " + std::to_string(total) + " moving bodies, more than the limit of " +
-                                                   std::to_string(kMaxBodies) +
-                                                   " (each is a topic subscription; ROS start-up time grows with their square)");
-    }
+    BodyParams b = parseBody(e, path, out.stale_timeout);
+    const int count = parseCount(e, path, b, out.bodies.size());
     if (count == 0) {
       checkName(b.name, path + ".name", names);
       checkBodyNames(b, path, "");
@@ -376,18 +346,7 @@ void parseBodies(const XmlRpcValue& list, MonitorParams& out, std::set<std::stri
     }
     out.bodies.reserve(out.bodies.size() + static_cast<size_t>(count));
     for (int k = 0; k < count; ++k) {
-      BodyParams copy = b;
-      copy.name = substitute(b.name, k);
-      copy.topic = substitute(b.topic, k);
-      copy.frame = substitute(b.frame, k);
-      copy.robot_description = substitute(b.robot_description, k);
-      copy.tf_prefix = substitute(b.tf_prefix, k);
-      copy.path_topic = substitute(b.path_topic, k);
-      copy.joint_states_topic = substitute(b.joint_states_topic, k);
-      copy.joint_trajectory_topic = substitute(b.joint_trajectory_topic, k);
-      copy.gate.cmd_vel_in = substitute(b.gate.cmd_vel_in, k);
-      copy.gate.cmd_vel_out = substitute(b.gate.cmd_vel_out, k);
-      for (std::string& pattern : copy.gate.ignore) pattern = substitute(pattern, k);
+      BodyParams copy = templateCopy(b, k);
       const std::string suffix = " (copy " + std::to_string(k) + ")";
       checkName(copy.name, path + ".name" + suffix, names);
       checkBodyNames(copy, path, suffix);

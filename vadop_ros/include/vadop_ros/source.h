@@ -21,6 +21,7 @@
 
 #include <Eigen/Geometry>
 #include <ros/node_handle.h>
+#include <xmlrpcpp/XmlRpcValue.h>
 #include <ros/time.h>
 
 #include <cstdint>
@@ -128,13 +129,22 @@ class Source {
   SourceCounts counts_;
 };
 
-// One input kind: whether a body has it (from its parameters) and how to make its source.
-// `kinematics_input`: the kind moves the body's links with its joints (the body needs the URDF's
-// kinematics, and its links' chains start from the body frame).
+// One input kind: its parameters in a ~bodies entry, whether a body has it and how to make its
+// source.
 struct SourceKind {
   const char* name;
+  // Its keys in a ~bodies entry, the one that names its topic first.
+  std::vector<const char*> keys;
+  // Its topic in BodyParams: a valid ROS topic name; template copies substitute {i} in it.
+  std::string BodyParams::*topic;
+  // Reads its keys of the ~bodies entry `entry` (`path` in the errors) into `p`, after the body's
+  // own keys (name, frame, geometry) and the kinds listed before it; throws ParamError naming
+  // the parameter.
+  void (*parse)(const XmlRpc::XmlRpcValue& entry, const std::string& path, BodyParams& p);
   bool (*wanted)(const BodyParams& p);
   std::unique_ptr<Source> (*make)(const BodyParams& p, const Body& b);
+  // The kind moves the body's links with its joints: the body needs the URDF's kinematics, and
+  // its links' chains start from the body frame.
   bool kinematics_input;
 };
 // Every kind, in the order a body's sources are made and contribute (the velocity source

@@ -6,6 +6,7 @@
 #include "vadop_ros/source.h"
 
 #include "../message_checks.h"
+#include "../param_reading.h"
 
 #include <sensor_msgs/JointState.h>
 
@@ -115,10 +116,26 @@ class JointStatesSource : public Source {
   JointInput joints_;
 };
 
+// A topic whose joints move a robot_description body's links (not with tf_prefix).
+void parseJointStates(const XmlRpc::XmlRpcValue& e, const std::string& path, BodyParams& b) {
+  using namespace param_reading;
+  const XmlRpcValue* j = member(e, "joint_states_topic");
+  if (!j) return;
+  const std::string field = path + ".joint_states_topic";
+  b.joint_states_topic = toString(*j, field);
+  if (b.joint_states_topic.empty()) fail(field, "must not be empty");
+  if (b.has_shape) fail(field, "applies to robot_description bodies only");
+  if (b.links_from_tf) fail(field, "give one source of link poses: joints or tf_prefix, not both");
+  if (b.joint_states_topic == b.topic || b.joint_states_topic == b.joint_trajectory_topic) {
+    fail(field, "must differ from the body's other topics");
+  }
+}
+
 }  // namespace
 
 SourceKind jointStatesSourceKind() {
-  return {"joint_states", [](const BodyParams& p) { return !p.joint_states_topic.empty(); },
+  return {"joint_states", {"joint_states_topic"}, &BodyParams::joint_states_topic, parseJointStates,
+          [](const BodyParams& p) { return !p.joint_states_topic.empty(); },
           [](const BodyParams& p, const Body& b) -> std::unique_ptr<Source> {
             return std::make_unique<JointStatesSource>(p, b);
           },

@@ -6,6 +6,7 @@
 #include "vadop_ros/source.h"
 
 #include "../message_checks.h"
+#include "../param_reading.h"
 
 #include <trajectory_msgs/JointTrajectory.h>
 
@@ -127,10 +128,26 @@ class JointTrajectorySource : public Source {
   TrajectoryInput trajectory_;
 };
 
+// A topic whose joints move a robot_description body's links (not with tf_prefix).
+void parseJointTrajectory(const XmlRpc::XmlRpcValue& e, const std::string& path, BodyParams& b) {
+  using namespace param_reading;
+  const XmlRpcValue* j = member(e, "joint_trajectory_topic");
+  if (!j) return;
+  const std::string field = path + ".joint_trajectory_topic";
+  b.joint_trajectory_topic = toString(*j, field);
+  if (b.joint_trajectory_topic.empty()) fail(field, "must not be empty");
+  if (b.has_shape) fail(field, "applies to robot_description bodies only");
+  if (b.links_from_tf) fail(field, "give one source of link poses: joints or tf_prefix, not both");
+  if (b.joint_trajectory_topic == b.topic || b.joint_states_topic == b.joint_trajectory_topic) {
+    fail(field, "must differ from the body's other topics");
+  }
+}
+
 }  // namespace
 
 SourceKind jointTrajectorySourceKind() {
-  return {"joint_trajectory", [](const BodyParams& p) { return !p.joint_trajectory_topic.empty(); },
+  return {"joint_trajectory", {"joint_trajectory_topic"}, &BodyParams::joint_trajectory_topic, parseJointTrajectory,
+          [](const BodyParams& p) { return !p.joint_trajectory_topic.empty(); },
           [](const BodyParams& p, const Body&) -> std::unique_ptr<Source> {
             return std::make_unique<JointTrajectorySource>(p);
           },

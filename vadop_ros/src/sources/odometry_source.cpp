@@ -6,6 +6,7 @@
 #include "vadop_ros/source.h"
 
 #include "../message_checks.h"
+#include "../param_reading.h"
 
 #include <nav_msgs/Odometry.h>
 
@@ -118,10 +119,24 @@ class OdometrySource : public Source {
   VelocityState state_;
 };
 
+// The velocity source is one of odom_topic and twist_topic: this kind, listed first, checks it.
+void parseOdometry(const XmlRpc::XmlRpcValue& e, const std::string& path, BodyParams& b) {
+  using namespace param_reading;
+  const XmlRpcValue* odom = member(e, "odom_topic");
+  const XmlRpcValue* twist = member(e, "twist_topic");
+  if (odom && twist) fail(path, "give one velocity source: odom_topic or twist_topic, not both");
+  if (!odom && !twist) fail(path + ".odom_topic", "is required (or twist_topic): the body's velocity source");
+  if (!odom) return;
+  b.source = VelocitySource::kOdometry;
+  b.topic = toString(*odom, path + ".odom_topic");
+  if (b.topic.empty()) fail(path + ".odom_topic", "must not be empty");
+}
+
 }  // namespace
 
 SourceKind odometrySourceKind() {
-  return {"odometry", [](const BodyParams& p) { return p.source == VelocitySource::kOdometry; },
+  return {"odometry", {"odom_topic"}, &BodyParams::topic, parseOdometry,
+          [](const BodyParams& p) { return p.source == VelocitySource::kOdometry; },
           [](const BodyParams& p, const Body&) -> std::unique_ptr<Source> { return std::make_unique<OdometrySource>(p); },
           false};
 }

@@ -5,6 +5,7 @@
 #include "vadop_ros/source.h"
 
 #include "../message_checks.h"
+#include "../param_reading.h"
 
 #include <nav_msgs/Path.h>
 
@@ -149,10 +150,28 @@ class PathSource : public Source {
   ros::Time plan_stamp_;  // header stamp of the plan (its receipt time when zero)
 };
 
+void parsePath(const XmlRpc::XmlRpcValue& e, const std::string& path, BodyParams& b) {
+  using namespace param_reading;
+  if (const XmlRpcValue* p = member(e, "path_topic")) {
+    b.path_topic = toString(*p, path + ".path_topic");
+    if (b.path_topic.empty()) fail(path + ".path_topic", "must not be empty (a nav_msgs/Path topic)");
+    if (b.path_topic == b.topic) fail(path + ".path_topic", "must differ from the body's velocity topic");
+  }
+  if (const XmlRpcValue* a = member(e, "after_path")) {
+    const std::string mode = toString(*a, path + ".after_path");
+    if (mode != "hold" && mode != "continue") {
+      fail(path + ".after_path", "must be \"hold\" or \"continue\", got \"" + mode + "\"");
+    }
+    if (b.path_topic.empty()) fail(path + ".after_path", "applies only with path_topic");
+    b.path_continue = mode == "continue";
+  }
+}
+
 }  // namespace
 
 SourceKind pathSourceKind() {
-  return {"path", [](const BodyParams& p) { return !p.path_topic.empty(); },
+  return {"path", {"path_topic", "after_path"}, &BodyParams::path_topic, parsePath,
+          [](const BodyParams& p) { return !p.path_topic.empty(); },
           [](const BodyParams& p, const Body&) -> std::unique_ptr<Source> { return std::make_unique<PathSource>(p); },
           false};
 }

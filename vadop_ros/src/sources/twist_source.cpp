@@ -5,6 +5,7 @@
 #include "vadop_ros/source.h"
 
 #include "../message_checks.h"
+#include "../param_reading.h"
 
 #include <geometry_msgs/TwistStamped.h>
 
@@ -89,10 +90,22 @@ class TwistSource : public Source {
   VelocityState state_;
 };
 
+// After odometry's check that the body has one velocity source.
+void parseTwist(const XmlRpc::XmlRpcValue& e, const std::string& path, BodyParams& b) {
+  using namespace param_reading;
+  const XmlRpcValue* twist = member(e, "twist_topic");
+  if (!twist) return;
+  b.source = VelocitySource::kTwist;
+  b.topic = toString(*twist, path + ".twist_topic");
+  if (b.topic.empty()) fail(path + ".twist_topic", "must not be empty");
+  if (b.frame.empty()) fail(path + ".frame", "is required with twist_topic (the tf frame that gives the body's pose)");
+}
+
 }  // namespace
 
 SourceKind twistSourceKind() {
-  return {"twist", [](const BodyParams& p) { return p.source == VelocitySource::kTwist; },
+  return {"twist", {"twist_topic"}, &BodyParams::topic, parseTwist,
+          [](const BodyParams& p) { return p.source == VelocitySource::kTwist; },
           [](const BodyParams& p, const Body&) -> std::unique_ptr<Source> { return std::make_unique<TwistSource>(p); },
           false};
 }
