@@ -92,16 +92,15 @@ bool Tracks::shapeOf(size_t source, const shape_msgs::SolidPrimitive& p, size_t 
   }
 }
 
-InputResult Tracks::onArray(size_t source, const vadop::TrackedObjectArray& msg, const ros::Time& receipt,
-                            TransformSource& tf) {
+InputResult Tracks::checkArray(size_t source, const vadop::TrackedObjectArray& msg, const ros::Time& receipt,
+                               TransformSource& tf, ros::Time& stamp, Eigen::Isometry3d& to_fixed) {
   TrackSourceStatus& st = status_.at(source);
-  const TrackParams& tp = params_[source];
   auto dropArray = [&](const std::string& why) {
     ++st.arrays_dropped;
     problem(source, "array dropped: " + why, receipt);
     return InputResult::kInvalid;
   };
-  const ros::Time stamp = msg.header.stamp.isZero() ? receipt : msg.header.stamp;
+  stamp = msg.header.stamp.isZero() ? receipt : msg.header.stamp;
   if (const std::string why = stampSkewError(stamp, receipt, max_stamp_skew_); !why.empty()) return dropArray(why);
   // Older than the last accepted one (while that one is not ahead of the clock): out of order.
   if (!last_stamp_[source].isZero() && stamp < last_stamp_[source] && last_stamp_[source] <= receipt) {
@@ -111,7 +110,7 @@ InputResult Tracks::onArray(size_t source, const vadop::TrackedObjectArray& msg,
   std::string frame = msg.header.frame_id;
   while (!frame.empty() && frame.front() == '/') frame.erase(0, 1);
   if (frame.empty()) return dropArray("header.frame_id is empty");
-  Eigen::Isometry3d to_fixed = Eigen::Isometry3d::Identity();
+  to_fixed = Eigen::Isometry3d::Identity();
   if (frame != fixed_frame_) {
     ros::Time tf_stamp;
     std::string error;
@@ -125,16 +124,77 @@ InputResult Tracks::onArray(size_t source, const vadop::TrackedObjectArray& msg,
   }
   last_stamp_[source] = stamp;
   ++st.arrays_accepted;
+  return InputResult::kAccepted;
+}
 
+bool Tracks::objectPose(const vadop::TrackedObject& o, size_t index, const Eigen::Isometry3d& to_fixed,
+                        Eigen::Isometry3d& pose, std::string& why) const {
+  const auto field = [index] { return "objects[" + std::to_string(index) + "]"; };
+  // Every value finite and in range, the quaternion not degenerate: the common case, checked
+  // without building field names; otherwise the checks that name the field.
+  const geometry_msgs::Point& pp = o.pose.position;
+  const geometry_msgs::Quaternion& pq = o.pose.orientation;
+  const geometry_msgs::Vector3 &tl = o.twist.linear, &ta = o.twist.angular;
+  const auto within = [](double v, double limit) { return std::fabs(v) <= limit; };  // false for NaN
+  const bool plausible =
+      within(pp.x, vadop::kMaxCoordinate) && within(pp.y, vadop::kMaxCoordinate) &&
+      within(pp.z, vadop::kMaxCoordinate) && within(tl.x, vadop::kMaxLinearSpeed) &&
+      within(tl.y, vadop::kMaxLinearSpeed) && within(tl.z, vadop::kMaxLinearSpeed) &&
+      within(ta.x, vadop::kMaxAngularSpeed) && within(ta.y, vadop::kMaxAngularSpeed) &&
+      within(ta.z, vadop::kMaxAngularSpeed) && within(pq.x, 1e150) && within(pq.y, 1e150) &&
+      within(pq.z, 1e150) && within(pq.w, 1e150) && pq.x * pq.x + pq.y * pq.y + pq.z * pq.z + pq.w * pq.w > 1e-18;
+  if (!plausible && (!checkPoint(pp, field() + ".pose.position", why) ||
+                     !checkQuaternion(pq, field() + ".pose.orientation", why) ||
+                     !checkVector(tl, vadop::kMaxLinearSpeed, "m/s", field() + ".twist.linear", why) ||
+                     !checkVector(ta, vadop::kMaxAngularSpeed, "rad/s", field() + ".twist.angular", why))) {
+    return false;
+  }
+  Eigen::Quaterniond quat(pq.w, pq.x, pq.y, pq.z);
+  const double scale = std::max({std::fabs(pq.x), std::fabs(pq.y), std::fabs(pq.z), std::fabs(pq.w)});
+  quat.coeffs() /= scale;  // finite and non-zero (checked): normalising cannot overflow
+  pose = Eigen::Isometry3d::Identity();
+  pose.linear() = quat.normalized().toRotationMatrix();
+  pose.translation() = Eigen::Vector3d(pp.x, pp.y, pp.z);
+  pose = to_fixed * pose;
+  if (!(pose.translation().cwiseAbs().maxCoeff() <= vadop::kMaxCoordinate)) {
+    why = field() + ".pose.position is out of range in \"" + fixed_frame_ + "\"";
+    return false;
+  }
+  return true;
+}
+
+size_t Tracks::slotFor(size_t source, const std::string& name) {
+  const auto it = by_name_.find(name);
+  if (it != by_name_.end()) return it->second;
+  size_t slot;
+  if (!free_.empty()) {
+    slot = free_.back();
+    free_.pop_back();
+  } else {
+    slot = slots_.size();
+    slots_.emplace_back();
+  }
+  by_name_.emplace(name, slot);
+  ++status_[source].objects;
+  return slot;
+}
+
+InputResult Tracks::onArray(size_t source, const vadop::TrackedObjectArray& msg, const ros::Time& receipt,
+                            TransformSource& tf) {
+  ros::Time stamp;
+  Eigen::Isometry3d to_fixed;
+  if (const InputResult r = checkArray(source, msg, receipt, tf, stamp, to_fixed); r != InputResult::kAccepted) {
+    return r;
+  }
+  TrackSourceStatus& st = status_[source];
   // The last occurrence of each id is the one kept.
   std::unordered_map<std::string, size_t> last_of;
   for (size_t i = 0; i < msg.objects.size(); ++i) last_of[msg.objects[i].id] = i;
   for (size_t i = 0; i < msg.objects.size(); ++i) {
     const vadop::TrackedObject& o = msg.objects[i];
-    const auto field = [i] { return "objects[" + std::to_string(i) + "]"; };
     auto dropObject = [&](const std::string& why) {
       ++st.objects_dropped;
-      problem(source, "object " + field() + " (id \"" + o.id + "\") dropped: " + why, receipt);
+      problem(source, "object objects[" + std::to_string(i) + "] (id \"" + o.id + "\") dropped: " + why, receipt);
     };
     if (o.id.empty()) {
       dropObject("empty id");
@@ -146,59 +206,13 @@ InputResult Tracks::onArray(size_t source, const vadop::TrackedObjectArray& msg,
     }
     std::string why;
     vadop::Shape shape;
-    if (!shapeOf(source, o.shape, i, shape, why)) {
+    Eigen::Isometry3d pose;
+    if (!shapeOf(source, o.shape, i, shape, why) || !objectPose(o, i, to_fixed, pose, why)) {
       dropObject(why);
       continue;
     }
-    // Every value finite and in range, the quaternion not degenerate: the common case, checked
-    // without building field names; otherwise the checks that name the field.
-    const geometry_msgs::Point& pp = o.pose.position;
-    const geometry_msgs::Quaternion& pq = o.pose.orientation;
-    const geometry_msgs::Vector3 &tl = o.twist.linear, &ta = o.twist.angular;
-    const auto within = [](double v, double limit) { return std::fabs(v) <= limit; };  // false for NaN
-    const bool plausible =
-        within(pp.x, vadop::kMaxCoordinate) && within(pp.y, vadop::kMaxCoordinate) &&
-        within(pp.z, vadop::kMaxCoordinate) && within(tl.x, vadop::kMaxLinearSpeed) &&
-        within(tl.y, vadop::kMaxLinearSpeed) && within(tl.z, vadop::kMaxLinearSpeed) &&
-        within(ta.x, vadop::kMaxAngularSpeed) && within(ta.y, vadop::kMaxAngularSpeed) &&
-        within(ta.z, vadop::kMaxAngularSpeed) && within(pq.x, 1e150) && within(pq.y, 1e150) &&
-        within(pq.z, 1e150) && within(pq.w, 1e150) && pq.x * pq.x + pq.y * pq.y + pq.z * pq.z + pq.w * pq.w > 1e-18;
-    if (!plausible && (!checkPoint(pp, field() + ".pose.position", why) ||
-                       !checkQuaternion(pq, field() + ".pose.orientation", why) ||
-                       !checkVector(tl, vadop::kMaxLinearSpeed, "m/s", field() + ".twist.linear", why) ||
-                       !checkVector(ta, vadop::kMaxAngularSpeed, "rad/s", field() + ".twist.angular", why))) {
-      dropObject(why);
-      continue;
-    }
-    const geometry_msgs::Quaternion& q = o.pose.orientation;
-    Eigen::Quaterniond quat(q.w, q.x, q.y, q.z);
-    const double scale = std::max({std::fabs(q.x), std::fabs(q.y), std::fabs(q.z), std::fabs(q.w)});
-    quat.coeffs() /= scale;  // finite and non-zero (checked): normalising cannot overflow
-    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-    pose.linear() = quat.normalized().toRotationMatrix();
-    pose.translation() = Eigen::Vector3d(o.pose.position.x, o.pose.position.y, o.pose.position.z);
-    pose = to_fixed * pose;
-    if (!(pose.translation().cwiseAbs().maxCoeff() <= vadop::kMaxCoordinate)) {
-      dropObject(field() + ".pose.position is out of range in \"" + fixed_frame_ + "\"");
-      continue;
-    }
-    const std::string name = tp.prefix + "/" + o.id;
-    size_t slot;
-    const auto it = by_name_.find(name);
-    if (it != by_name_.end()) {
-      slot = it->second;
-    } else {
-      if (!free_.empty()) {
-        slot = free_.back();
-        free_.pop_back();
-      } else {
-        slot = slots_.size();
-        slots_.emplace_back();
-      }
-      by_name_.emplace(name, slot);
-      ++st.objects;
-    }
-    TrackedObject& t = slots_[slot];
+    const std::string name = params_[source].prefix + "/" + o.id;
+    TrackedObject& t = slots_[slotFor(source, name)];
     t.alive = true;
     t.name = name;
     t.source = source;

@@ -87,6 +87,32 @@ class MonitorNode {
     impacts_pub_ = pnh_.advertise<vadop::ImpactArray>("impacts", 10);
     markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("markers", 2);
 
+    const auto subscribe_start = std::chrono::steady_clock::now();
+    const size_t moving = subscribeInputs(params);
+    setUpGates();
+    core_->setPredictionLock(&core_mutex_);
+    setUpDiagnostics(params);
+    setUpReconfigure(params);
+
+    timer_ = nh_.createTimer(ros::Duration(1.0 / rate_), [this](const ros::TimerEvent&) { onTimer(); });
+    if (!gates_.empty()) {
+      gate_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &gate_queue_);
+      gate_spinner_->start();
+    }
+    if (moving >= kProgressEvery) {
+      ROS_INFO("vadop_monitor: subscribed to %zu topics in %.1f s; start-up took %.1f s", moving,
+               secondsSince(subscribe_start), secondsSince(start));
+    }
+    ROS_INFO("vadop_monitor: %zu moving bodies, %zu static obstacles, %zu collision elements, %zu tracked-object "
+             "source(s); fixed frame \"%s\", %.1f Hz, horizon %.2f s, padding %.3f m",
+             moving, core_->registry().bodies().size() - moving, core_->registry().elements().size(),
+             params.tracks.size(), params.fixed_frame.c_str(), rate_, params.horizon, params.padding);
+  }
+
+ private:
+  // Every input of every moving body (each source subscribes itself, source.h) and each
+  // tracked-object topic; returns the number of moving bodies.
+  size_t subscribeInputs(const MonitorParams& params) {
     const auto& bodies = core_->registry().bodies();
     // One subscription per moving body: a call to the master each, and both roscpp
     // (TopicManager::addSubCallback) and rosmaster (NodeRef.add) compare a new subscription
@@ -106,12 +132,10 @@ class MonitorNode {
         ROS_INFO("vadop_monitor: set up %zu of %zu bodies (subscribing, %.0f s)", subs_.size(), moving,
                  secondsSince(subscribe_start));
       }
-      // Each of the body's inputs subscribes itself (source.h).
       for (const auto& source : b.sources) {
         subs_.push_back(source->subscribe({nh_, core_mutex_, core_->registry(), i, tf_source_}));
       }
     }
-
     // Tracked objects: one subscription per source.
     for (size_t s = 0; s < params.tracks.size(); ++s) {
       subs_.push_back(nh_.subscribe<vadop::TrackedObjectArray>(
@@ -119,15 +143,19 @@ class MonitorNode {
           [this, s](const vadop::TrackedObjectArrayConstPtr& msg) { onTracks(s, *msg); }, ros::VoidConstPtr(),
           ros::TransportHints().tcpNoDelay()));
     }
+    return moving;
+  }
 
-    // Velocity gates: each command is checked as it arrives (not at the cycle rate).
+  // Velocity gates: each command is checked as it arrives (not at the cycle rate), on the gates'
+  // own queue and thread, so that a command is checked while a cycle predicts.
+  void setUpGates() {
+    const auto& bodies = core_->registry().bodies();
     for (size_t i = 0; i < bodies.size(); ++i) {
       if (bodies[i].is_static || !bodies[i].params.has_gate) continue;
       const size_t g = gates_.size();
       gates_.emplace_back(i, core_->registry());
       const GateParams& gp = bodies[i].params.gate;
       gate_pubs_.push_back(nh_.advertise<geometry_msgs::Twist>(gp.cmd_vel_out, 10));
-      // On the gates' own queue and thread: a command is checked while a cycle predicts.
       ros::SubscribeOptions options;
       options.init<geometry_msgs::Twist>(
           gp.cmd_vel_in, 10,
@@ -146,8 +174,9 @@ class MonitorNode {
     }
     gate_latency_.resize(gates_.size());
     if (!gates_.empty()) gate_states_pub_ = pnh_.advertise<vadop::GateStateArray>("gate_states", 10);
-    core_->setPredictionLock(&core_mutex_);
+  }
 
+  void setUpDiagnostics(const MonitorParams& params) {
     updater_.setHardwareID("vadop_monitor");
     updater_.add("cycle", [this](diagnostic_updater::DiagnosticStatusWrapper& s) {
       window_.report(s, core_->params().rate);
@@ -160,7 +189,10 @@ class MonitorNode {
         reportTracks(s, core_->tracks(), ros::Time::now());
       });
     }
+  }
 
+  // ~horizon, ~rate and ~padding through dynamic_reconfigure, starting from the parameters.
+  void setUpReconfigure(const MonitorParams& params) {
     rate_ = params.rate;
     window_.setRate(rate_);
     reconfigure_ = std::make_unique<dynamic_reconfigure::Server<vadop::MonitorConfig>>(reconfigure_mutex_, pnh_);
@@ -171,23 +203,8 @@ class MonitorNode {
     reconfigure_->updateConfig(initial);
     reconfigure_->setCallback(
         [this](vadop::MonitorConfig& c, uint32_t) { onReconfigure(c); });
-
-    timer_ = nh_.createTimer(ros::Duration(1.0 / rate_), [this](const ros::TimerEvent&) { onTimer(); });
-    if (!gates_.empty()) {
-      gate_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &gate_queue_);
-      gate_spinner_->start();
-    }
-    if (moving >= kProgressEvery) {
-      ROS_INFO("vadop_monitor: subscribed to %zu topics in %.1f s; start-up took %.1f s", moving,
-               secondsSince(subscribe_start), secondsSince(start));
-    }
-    ROS_INFO("vadop_monitor: %zu moving bodies, %zu static obstacles, %zu collision elements, %zu tracked-object "
-             "source(s); fixed frame \"%s\", %.1f Hz, horizon %.2f s, padding %.3f m",
-             moving, bodies.size() - moving, core_->registry().elements().size(), params.tracks.size(),
-             params.fixed_frame.c_str(), rate_, params.horizon, params.padding);
   }
 
- private:
   // Every use of core_ holds core_mutex_ (the gates' thread checks commands); the cycle
   // releases it while its world predicts (MonitorCore::setPredictionLock).
   void onTracks(size_t source, const vadop::TrackedObjectArray& msg) {

@@ -80,6 +80,16 @@ class Tracks {
   void setMaxStampSkew(double seconds) { max_stamp_skew_ = seconds; }
 
  private:
+  // The array's header: its stamp (skew, order) and frame (`to_fixed`: into the fixed frame);
+  // counts it accepted, dropped (warned) or out of order.
+  InputResult checkArray(size_t source, const vadop::TrackedObjectArray& msg, const ros::Time& receipt,
+                         TransformSource& tf, ros::Time& stamp, Eigen::Isometry3d& to_fixed);
+  // The pose of objects[index] in the fixed frame; false and `why` (naming the field) when a
+  // value is invalid or out of range.
+  bool objectPose(const vadop::TrackedObject& o, size_t index, const Eigen::Isometry3d& to_fixed,
+                  Eigen::Isometry3d& pose, std::string& why) const;
+  // The slot of the object `name` of `source`: its own, else a free one (it joins).
+  size_t slotFor(size_t source, const std::string& name);
   void problem(size_t source, const std::string& why, const ros::Time& receipt);
   void release(size_t slot);
   // The object's shape from its primitive (type 0: the source's default); false and `why` when bad.
