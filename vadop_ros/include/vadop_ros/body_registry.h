@@ -1,7 +1,9 @@
 // The monitored bodies: their geometry (primitive shape or URDF collision elements), their
-// latest state (odometry, or twist + tf pose) and, each cycle, the rigid motion of every
-// collision element in the fixed frame. No ROS transport: the node feeds it messages and a tf
-// buffer; tests and the benchmark feed it directly.
+// inputs (sources, source.h: odometry or twist, and a path, joint states, a joint trajectory;
+// each keeps its latest message) and, each cycle, the motion of every collision element in the
+// fixed frame, composed from what the body's sources contribute. No ROS transport of its own:
+// the node has each source subscribe itself; tests and the benchmark feed messages through
+// onOdometry and the like (forwards to the body's source).
 //
 // Elements. Each collision element is one entry of the vadop::World, with id "body" for a
 // primitive body and "body/link" for a URDF link ("body/link#k" for its k-th collision element,
