@@ -1,5 +1,6 @@
 // The certified steps of conservative advancement under screw motion, shared by the distance
-// code that computes them (advance_step.cpp) and timeOfImpact that drives them (time_of_impact.cpp).
+// code that computes them (advance_step.cpp, swept_volume.cpp) and timeOfImpact that drives
+// them (time_of_impact.cpp).
 // Internal to the library (not installed): the public entry point is timeOfImpact.
 #pragma once
 

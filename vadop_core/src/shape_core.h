@@ -50,9 +50,7 @@ struct PreparedShapeData {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kEps = std::numeric_limits<double>::epsilon();
 
-// ---------------------------------------------------------------------------------------
-// Support mappings
-
+// The support mapping of a primitive core in its body frame: its farthest point along d.
 inline Eigen::Vector3d coreSupportBody(const PreparedShapeData& s, const Eigen::Vector3d& d) {
   switch (s.kind) {
     case CoreKind::kPoint: return Eigen::Vector3d::Zero();

@@ -1,8 +1,8 @@
 // The convex set a body stays in over a time interval (its swept volume: revolution hull,
 // or posed core grown by a small turn, summed with the pivot's displacement), with the
 // support mapping the GJK needs and the exact support value the certificate needs. Used by
-// sweptLowerBound (advance_step.h). It does not compute the bound itself (swept_volume.cpp).
-// Internal to the library (not installed).
+// sweptLowerBound (declared in advance_step.h, defined in swept_volume.cpp: the GJK on two
+// of these sets). Internal to the library (not installed).
 #pragma once
 
 #include "shape_core.h"
@@ -17,9 +17,6 @@
 namespace vadop {
 namespace detail {
 
-// ---------------------------------------------------------------------------------------
-// Swept volumes (sweptLowerBound in distance.h).
-//
 // A body turning with angular velocity w about a pivot c(t) = c(ta) + v (t - ta): relative to
 // the pivot its points turn about the axis w_hat, which keeps each point's axial coordinate
 // and its distance from the axis. So over any time interval the core stays in the cylinder
