@@ -176,8 +176,8 @@ void applyPreset(Options& o, const std::string& p) {
   }
 }
 
-Options parse(int argc, char** argv) {
-  Options o;
+// The command line as (flag, value) pairs ("--json" without a value); exits on a malformed one.
+std::vector<std::pair<std::string, std::string>> collectFlags(int argc, char** argv) {
   std::vector<std::pair<std::string, std::string>> flags;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -190,6 +190,86 @@ Options parse(int argc, char** argv) {
     if (i + 1 >= argc) usage("missing value after " + a);
     flags.emplace_back(a, argv[++i]);
   }
+  return flags;
+}
+
+// The flags that take a comma-separated list; false for any other flag.
+bool applyListFlag(Options& o, const std::string& f, const std::string& v) {
+  if (f == "--n") {
+    o.n.clear();
+    for (const auto& s : split(v)) {
+      const long long n = parseInteger("--n", s);
+      if (n <= 0) usage("--n must be > 0, got " + s);
+      if (n > 10000000) usage("--n must be <= 10000000, got " + s);
+      o.n.push_back(static_cast<int>(n));
+    }
+  } else if (f == "--speed") {
+    o.speed.clear();
+    for (const auto& s : split(v)) o.speed.push_back(parseSpeed(s));
+  } else if (f == "--m") {
+    o.m.clear();
+    for (const auto& s : split(v)) {
+      const long long m = parseInteger("--m", s);
+      if (m < 3 || m > vadop::AxisPool::kMaxAxes) {
+        usage("--m must be in [3, " + std::to_string(vadop::AxisPool::kMaxAxes) + "], got " + s);
+      }
+      o.m.push_back(static_cast<int>(m));
+    }
+  } else if (f == "--phi") {
+    o.phi.clear();
+    for (const auto& s : split(v)) {
+      const double p = parseNumber("--phi", s);
+      if (p < 0.0 || p > 90.0) usage("--phi must be in [0, 90] degrees, got " + s);
+      o.phi.push_back(p);
+    }
+  } else if (f == "--methods") {
+    o.methods.clear();
+    for (const auto& s : split(v)) {
+      if (s == "all") {
+        o.methods.insert(o.methods.end(), kAllMethods.begin(), kAllMethods.end());
+        continue;
+      }
+      // faulty: a self-test of the miss detection (drops candidate pairs); not in "all".
+      if (std::find(kAllMethods.begin(), kAllMethods.end(), s) == kAllMethods.end() && s != "faulty") {
+        usage("unknown method '" + s + "'");
+      }
+      o.methods.push_back(s);
+    }
+  } else {
+    return false;
+  }
+  return true;
+}
+
+// The flags that take one value; false for any other flag.
+bool applyScalarFlag(Options& o, const std::string& f, const std::string& v) {
+  if (f == "--density") {
+    o.density = parseNumber("--density", v);
+    if (!(o.density > 0.0 && o.density <= 0.5)) usage("--density must be in (0, 0.5], got " + v);
+  } else if (f == "--frames") {
+    const long long fr = parseInteger("--frames", v);
+    if (fr <= 0 || fr > 1000000) usage("--frames must be in [1, 1000000], got " + v);
+    o.frames = static_cast<int>(fr);
+  } else if (f == "--seed") {
+    const long long s = parseInteger("--seed", v);
+    if (s < 0) usage("--seed must be >= 0, got " + v);
+    o.seed = static_cast<uint64_t>(s);
+  } else if (f == "--verify-max-n") {
+    const long long vn = parseInteger("--verify-max-n", v);
+    if (vn < 0) usage("--verify-max-n must be >= 0, got " + v);
+    o.verify_max_n = static_cast<int>(std::min<long long>(vn, 1 << 30));
+  } else if (f == "--max-seconds") {
+    o.max_seconds = parseNumber("--max-seconds", v);
+    if (o.max_seconds < 0) usage("--max-seconds must be >= 0, got " + v);
+  } else {
+    return false;
+  }
+  return true;
+}
+
+Options parse(int argc, char** argv) {
+  Options o;
+  const std::vector<std::pair<std::string, std::string>> flags = collectFlags(argc, argv);
   for (const auto& [f, v] : flags) {
     if (f == "--preset") applyPreset(o, v);  // first, so that explicit flags override it
   }
@@ -197,65 +277,7 @@ Options parse(int argc, char** argv) {
     if (f == "--preset") continue;
     if (f == "--json") {
       o.json = true;
-    } else if (f == "--n") {
-      o.n.clear();
-      for (const auto& s : split(v)) {
-        const long long n = parseInteger("--n", s);
-        if (n <= 0) usage("--n must be > 0, got " + s);
-        if (n > 10000000) usage("--n must be <= 10000000, got " + s);
-        o.n.push_back(static_cast<int>(n));
-      }
-    } else if (f == "--speed") {
-      o.speed.clear();
-      for (const auto& s : split(v)) o.speed.push_back(parseSpeed(s));
-    } else if (f == "--m") {
-      o.m.clear();
-      for (const auto& s : split(v)) {
-        const long long m = parseInteger("--m", s);
-        if (m < 3 || m > vadop::AxisPool::kMaxAxes) {
-          usage("--m must be in [3, " + std::to_string(vadop::AxisPool::kMaxAxes) + "], got " + s);
-        }
-        o.m.push_back(static_cast<int>(m));
-      }
-    } else if (f == "--phi") {
-      o.phi.clear();
-      for (const auto& s : split(v)) {
-        const double p = parseNumber("--phi", s);
-        if (p < 0.0 || p > 90.0) usage("--phi must be in [0, 90] degrees, got " + s);
-        o.phi.push_back(p);
-      }
-    } else if (f == "--methods") {
-      o.methods.clear();
-      for (const auto& s : split(v)) {
-        if (s == "all") {
-          o.methods.insert(o.methods.end(), kAllMethods.begin(), kAllMethods.end());
-          continue;
-        }
-        // faulty: a self-test of the miss detection (drops candidate pairs); not in "all".
-        if (std::find(kAllMethods.begin(), kAllMethods.end(), s) == kAllMethods.end() && s != "faulty") {
-          usage("unknown method '" + s + "'");
-        }
-        o.methods.push_back(s);
-      }
-    } else if (f == "--density") {
-      o.density = parseNumber("--density", v);
-      if (!(o.density > 0.0 && o.density <= 0.5)) usage("--density must be in (0, 0.5], got " + v);
-    } else if (f == "--frames") {
-      const long long fr = parseInteger("--frames", v);
-      if (fr <= 0 || fr > 1000000) usage("--frames must be in [1, 1000000], got " + v);
-      o.frames = static_cast<int>(fr);
-    } else if (f == "--seed") {
-      const long long s = parseInteger("--seed", v);
-      if (s < 0) usage("--seed must be >= 0, got " + v);
-      o.seed = static_cast<uint64_t>(s);
-    } else if (f == "--verify-max-n") {
-      const long long vn = parseInteger("--verify-max-n", v);
-      if (vn < 0) usage("--verify-max-n must be >= 0, got " + v);
-      o.verify_max_n = static_cast<int>(std::min<long long>(vn, 1 << 30));
-    } else if (f == "--max-seconds") {
-      o.max_seconds = parseNumber("--max-seconds", v);
-      if (o.max_seconds < 0) usage("--max-seconds must be >= 0, got " + v);
-    } else {
+    } else if (!applyListFlag(o, f, v) && !applyScalarFlag(o, f, v)) {
       usage("unknown option " + f);
     }
   }
@@ -427,6 +449,213 @@ void verifyState(const Scene& scene, const std::vector<vadop::Motion>& motions, 
       }
 }
 
+// One method's run in this (child) process: the frames, the figures booked per frame, and the
+// comparison of each frame's impacts with the reference's.
+class MethodRun {
+ public:
+  MethodRun(const Options& o, const Scene& scene, ChildRole role, const std::string& label)
+      : o_(o), scene_(scene), role_(role), progress_(label, o.frames), start_(Clock::now()) {}
+
+  // Every frame of a discrete method (its pairs checked against the continuous reference in
+  // the evaluation pass).
+  void runDiscrete(std::unique_ptr<vadop::BroadPhase> bp) {
+    DiscreteWorld world(scene_, std::move(bp));
+    std::vector<vadop::Pair> detected;
+    for (int f = 0; f < o_.frames; ++f) {
+      std::vector<vadop::Motion> snapshot;
+      if (role_ == ChildRole::kDiscreteEval) snapshot = world.motions();
+      FrameStats st;
+      world.runFrame(f, st, detected);
+      if (role_ == ChildRole::kDiscreteEval) countUndetected(snapshot, f, detected);
+      if (recordFrame(f, st)) break;
+    }
+    bp_bytes_ = world.broadPhase().memoryBytes();
+    progress_.done();
+  }
+
+  // Every frame of a continuous method: the reference writes its impacts to the log, the
+  // others compare theirs with it.
+  void runContinuous(std::unique_ptr<vadop::BroadPhase> bp, const std::string& log_path) {
+    ContinuousWorld world(scene_, std::move(bp));
+    std::FILE* logf = std::fopen(log_path.c_str(), role_ == ChildRole::kReference ? "wb" : "rb");
+    if (!logf) throw std::runtime_error("cannot open the reference log " + log_path);
+    std::vector<LoggedImpact> log;
+    for (int f = 0; f < o_.frames; ++f) {
+      std::vector<vadop::Motion> snapshot;
+      if (!on_path_) snapshot = world.motions();
+      FrameStats st;
+      log.clear();
+      world.runFrame(f, st, &log);
+      if (role_ == ChildRole::kReference) {
+        if (scene_.params.n <= o_.verify_max_n) verifyState(scene_, world.motions(), (f + 1) * world.frameLength(), f);
+        const uint64_t count = log.size();
+        std::fwrite(&count, sizeof count, 1, logf);
+        if (count) std::fwrite(log.data(), sizeof(LoggedImpact), log.size(), logf);
+      } else {
+        compareWithReference(on_path_ ? readReferenceFrame(logf) : oracleFrame(scene_, snapshot, f), log, f);
+      }
+      requery_pairs_.push_back(static_cast<double>(st.requery_pairs));
+      if (const auto* vg = dynamic_cast<const vadop::VadopGridBroadPhase*>(&world.broadPhase())) {
+        incremental_frames_ += vg->stats().incremental ? 1 : 0;
+      }
+      if (recordFrame(f, st)) break;
+    }
+    std::fclose(logf);
+    bp_bytes_ = world.broadPhase().memoryBytes();
+    world_bytes_ = world.memoryBytes();
+    progress_.done();
+  }
+
+  // The frame times, candidates and counters of the engines.
+  void reportTimings(Json& j, bool is_vadop_grid, bool is_sweep_prune) const {
+    auto mean = [](const std::vector<double>& v) {
+      double s = 0;
+      for (double x : v) s += x;
+      return v.empty() ? 0.0 : s / v.size();
+    };
+    j["frames"] = frames_done_;
+    j["timed_frames"] = series_.total.size();
+    j["frame_ms_median"] = round3(percentile(series_.total, 0.5));
+    j["frame_ms_p95"] = round3(percentile(series_.total, 0.95));
+    j["update_ms"] = round3(percentile(series_.update, 0.5));
+    j["update_ms_p95"] = round3(percentile(series_.update, 0.95));
+    j["sort_ms"] = round3(percentile(series_.sort, 0.5));
+    j["sort_ms_p95"] = round3(percentile(series_.sort, 0.95));
+    j["test_ms"] = round3(percentile(series_.test, 0.5));
+    j["test_ms_p95"] = round3(percentile(series_.test, 0.95));
+    j["response_ms"] = round3(percentile(series_.response, 0.5));
+    j["response_ms_p95"] = round3(percentile(series_.response, 0.95));
+    j["requery_ms"] = round3(percentile(series_.requery, 0.5));
+    j["frame_cpu_ms_median"] = round3(percentile(series_.cpu, 0.5));
+    j["frame_cpu_ms_p95"] = round3(percentile(series_.cpu, 0.95));
+    j["first_frame_ms"] = round3(first_frame_ms_);
+    j["candidates"] = round3(mean(candidates_));
+    j["candidates_p95"] = round3(percentile(candidates_, 0.95));
+    j["requery_pairs"] = round3(mean(requery_pairs_));
+    if (is_vadop_grid) j["incremental_frames"] = incremental_frames_;  // frames found from fat boxes
+    if (is_sweep_prune && !series_.total.empty()) {
+      const double k = 1.0 / series_.total.size();
+      j["sweep_prune"] = Json{{"endpoints", round3(series_.endpoints * k)},
+                              {"swaps", round3(series_.swaps * k)},
+                              {"overlap_tests", round3(series_.overlap_tests * k)},
+                              {"reinserted", round3(series_.reinserted * k)}};
+    }
+  }
+
+  // The impacts found and those missed against the reference, with what they were judged by.
+  void reportImpacts(Json& j, bool continuous, const std::string& reference) const {
+    j["impacts"] = impacts_;
+    j["impacts_per_frame"] = round3(frames_done_ ? static_cast<double>(impacts_) / frames_done_ : 0.0);
+    j["wall_hits"] = wall_hits_;
+    j["continuous"] = continuous;
+    if (role_ == ChildRole::kReference) {
+      j["missed"] = 0;
+      j["extra"] = 0;
+      j["miss_basis"] = "is the reference";
+    } else if (continuous) {
+      j["missed"] = missed_;
+      j["extra"] = extra_;
+      j["miss_basis"] = "per-frame impact list vs the reference run (same path); off that path, vs the reference "
+                        "run from the method's own state";
+    } else if (role_ == ChildRole::kDiscreteEval) {
+      j["missed"] = missed_;
+      j["extra"] = nullptr;
+      j["miss_basis"] = "evaluation pass";
+    } else {
+      j["missed"] = nullptr;  // filled from the evaluation child
+      j["extra"] = nullptr;
+      j["miss_basis"] = "pairs touching during the frame (continuous reference from the same state) not found "
+                        "overlapping at the frame pose";
+    }
+    j["reference"] = reference;
+    j["reference_impacts"] = reference_impacts_;
+  }
+
+  void reportRun(Json& j, double peak, double baseline) const {
+    j["diverged_frame"] = diverged_frame_;
+    j["peak_rss_mb"] = round3(peak);
+    j["baseline_rss_mb"] = round3(baseline);
+    j["bp_memory_mb"] = round3(bp_bytes_ / 1048576.0);
+    j["world_memory_mb"] = round3(world_bytes_ / 1048576.0);
+    j["truncated"] = truncated_;
+    j["seconds"] = round3(std::chrono::duration<double>(Clock::now() - start_).count());
+  }
+
+ private:
+  // Books one frame's figures; true when the run must stop (the time budget, never for the
+  // reference, never before kMinFrames).
+  bool recordFrame(int f, const FrameStats& st) {
+    if (f == 0 && o_.frames > 1) {
+      first_frame_ms_ = st.total() * 1e3;
+    } else {
+      series_.add(st);
+    }
+    candidates_.push_back(static_cast<double>(st.candidates));
+    impacts_ += st.impacts;
+    wall_hits_ += st.wall_hits;
+    ++frames_done_;
+    progress_.frame(frames_done_, st.total() * 1e3);
+    if (role_ != ChildRole::kReference && o_.max_seconds > 0 && frames_done_ >= kMinFrames &&
+        std::chrono::duration<double>(Clock::now() - start_).count() > o_.max_seconds && f + 1 < o_.frames) {
+      truncated_ = true;
+    }
+    return truncated_;
+  }
+
+  // Pairs that truly touch during the frame (the continuous reference from the same state),
+  // against the pairs found overlapping at the frame pose.
+  void countUndetected(const std::vector<vadop::Motion>& snapshot, int f, const std::vector<vadop::Pair>& detected) {
+    std::set<std::pair<uint32_t, uint32_t>> truth;
+    for (const auto& x : oracleFrame(scene_, snapshot, f)) truth.insert({x.a, x.b});
+    reference_impacts_ += truth.size();
+    for (const auto& p : truth) {
+      if (!std::binary_search(detected.begin(), detected.end(), vadop::Pair{p.first, p.second})) ++missed_;
+    }
+  }
+
+  static std::vector<LoggedImpact> readReferenceFrame(std::FILE* logf) {
+    std::vector<LoggedImpact> truth;
+    uint64_t count = 0;
+    if (std::fread(&count, sizeof count, 1, logf) != 1) throw std::runtime_error("short reference log");
+    truth.resize(count);
+    if (count && std::fread(truth.data(), sizeof(LoggedImpact), count, logf) != count) {
+      throw std::runtime_error("short reference log");
+    }
+    return truth;
+  }
+
+  // A frame's impacts against the reference's; the first difference leaves the reference's
+  // path (later frames are judged from the method's own state).
+  void compareWithReference(const std::vector<LoggedImpact>& truth, const std::vector<LoggedImpact>& log, int f) {
+    reference_impacts_ += truth.size();
+    if (truth == log) return;
+    size_t mi = 0, ex = 0;
+    diffImpacts(truth, log, mi, ex);
+    missed_ += mi;
+    extra_ += ex;
+    if (on_path_) {
+      on_path_ = false;
+      diverged_frame_ = f;
+    }
+  }
+
+  const Options& o_;
+  const Scene& scene_;
+  const ChildRole role_;
+  Progress progress_;
+  const Clock::time_point start_;
+  Series series_;
+  std::vector<double> candidates_, requery_pairs_;
+  size_t incremental_frames_ = 0;
+  size_t impacts_ = 0, wall_hits_ = 0, missed_ = 0, extra_ = 0, reference_impacts_ = 0;
+  long diverged_frame_ = -1;
+  int frames_done_ = 0;
+  bool truncated_ = false;
+  bool on_path_ = true;
+  double first_frame_ms_ = 0.0;
+  size_t bp_bytes_ = 0, world_bytes_ = 0;
+};
+
 // Runs one method in this (child) process and returns its JSON line.
 Json runMethod(const Options& o, const Scene& scene, const RunSpec& spec, ChildRole role, const std::string& log_path,
                const std::string& label) {
@@ -451,183 +680,16 @@ Json runMethod(const Options& o, const Scene& scene, const RunSpec& spec, ChildR
   const bool discrete = isDiscrete(spec.method);
   const bool is_sweep_prune = dynamic_cast<const vadop::SweepPruneBroadPhase*>(bp.get()) != nullptr;
   const bool is_vadop_grid = dynamic_cast<const vadop::VadopGridBroadPhase*>(bp.get()) != nullptr;
-  const std::string ref = referenceMethod(n);
-  Series series;
-  std::vector<double> candidates, requery_pairs;
-  size_t incremental_frames = 0;
-  size_t impacts = 0, wall_hits = 0, missed = 0, extra = 0, reference_impacts = 0;
-  long diverged_frame = -1;
-  int frames_done = 0;
-  bool truncated = false;
-  double first_frame_ms = 0.0;
-  Progress progress(label, o.frames);
-  const auto start = Clock::now();
-  size_t bp_bytes = 0, world_bytes = 0;
-  // Books one frame's figures; true when the run must stop (the time budget, never for the
-  // reference, never before kMinFrames).
-  auto recordFrame = [&](int f, const FrameStats& st) {
-    if (f == 0 && o.frames > 1) {
-      first_frame_ms = st.total() * 1e3;
-    } else {
-      series.add(st);
-    }
-    candidates.push_back(static_cast<double>(st.candidates));
-    impacts += st.impacts;
-    wall_hits += st.wall_hits;
-    ++frames_done;
-    progress.frame(frames_done, st.total() * 1e3);
-    if (role != ChildRole::kReference && o.max_seconds > 0 && frames_done >= kMinFrames &&
-        std::chrono::duration<double>(Clock::now() - start).count() > o.max_seconds && f + 1 < o.frames) {
-      truncated = true;
-    }
-    return truncated;
-  };
-
+  MethodRun run(o, scene, role, label);
   if (discrete) {
-    DiscreteWorld world(scene, std::move(bp));
-    std::vector<vadop::Pair> detected;
-    for (int f = 0; f < o.frames; ++f) {
-      std::vector<vadop::Motion> snapshot;
-      if (role == ChildRole::kDiscreteEval) snapshot = world.motions();
-      FrameStats st;
-      world.runFrame(f, st, detected);
-      if (role == ChildRole::kDiscreteEval) {
-        // Pairs that truly touch during the frame (the continuous reference from the same
-        // state), against the pairs found overlapping at the frame pose.
-        std::set<std::pair<uint32_t, uint32_t>> truth;
-        for (const auto& x : oracleFrame(scene, snapshot, f)) truth.insert({x.a, x.b});
-        reference_impacts += truth.size();
-        for (const auto& p : truth) {
-          if (!std::binary_search(detected.begin(), detected.end(), vadop::Pair{p.first, p.second})) ++missed;
-        }
-      }
-      if (recordFrame(f, st)) break;
-    }
-    bp_bytes = world.broadPhase().memoryBytes();
+    run.runDiscrete(std::move(bp));
   } else {
-    ContinuousWorld world(scene, std::move(bp));
-    std::FILE* logf = nullptr;
-    if (role == ChildRole::kReference) {
-      logf = std::fopen(log_path.c_str(), "wb");
-    } else {
-      logf = std::fopen(log_path.c_str(), "rb");
-    }
-    if (!logf) throw std::runtime_error("cannot open the reference log " + log_path);
-    std::vector<LoggedImpact> log, ref_log;
-    bool on_path = true;
-    for (int f = 0; f < o.frames; ++f) {
-      std::vector<vadop::Motion> snapshot;
-      if (!on_path) snapshot = world.motions();
-      FrameStats st;
-      log.clear();
-      world.runFrame(f, st, &log);
-      if (role == ChildRole::kReference) {
-        if (n <= o.verify_max_n) verifyState(scene, world.motions(), (f + 1) * world.frameLength(), f);
-        const uint64_t count = log.size();
-        std::fwrite(&count, sizeof count, 1, logf);
-        if (count) std::fwrite(log.data(), sizeof(LoggedImpact), log.size(), logf);
-      } else {
-        std::vector<LoggedImpact> truth;
-        if (on_path) {
-          uint64_t count = 0;
-          if (std::fread(&count, sizeof count, 1, logf) != 1) throw std::runtime_error("short reference log");
-          truth.resize(count);
-          if (count && std::fread(truth.data(), sizeof(LoggedImpact), count, logf) != count) {
-            throw std::runtime_error("short reference log");
-          }
-        } else {
-          truth = oracleFrame(scene, snapshot, f);
-        }
-        reference_impacts += truth.size();
-        if (!(truth == log)) {
-          size_t mi = 0, ex = 0;
-          diffImpacts(truth, log, mi, ex);
-          missed += mi;
-          extra += ex;
-          if (on_path) {
-            on_path = false;
-            diverged_frame = f;
-          }
-        }
-      }
-      requery_pairs.push_back(static_cast<double>(st.requery_pairs));
-      if (const auto* vg = dynamic_cast<const vadop::VadopGridBroadPhase*>(&world.broadPhase())) {
-        incremental_frames += vg->stats().incremental ? 1 : 0;
-      }
-      if (recordFrame(f, st)) break;
-    }
-    std::fclose(logf);
-    bp_bytes = world.broadPhase().memoryBytes();
-    world_bytes = world.memoryBytes();
+    run.runContinuous(std::move(bp), log_path);
   }
-  progress.done();
   const double peak = procStatusMb("VmHWM");
-
-  auto mean = [](const std::vector<double>& v) {
-    double s = 0;
-    for (double x : v) s += x;
-    return v.empty() ? 0.0 : s / v.size();
-  };
-  j["frames"] = frames_done;
-  j["timed_frames"] = series.total.size();
-  j["frame_ms_median"] = round3(percentile(series.total, 0.5));
-  j["frame_ms_p95"] = round3(percentile(series.total, 0.95));
-  j["update_ms"] = round3(percentile(series.update, 0.5));
-  j["update_ms_p95"] = round3(percentile(series.update, 0.95));
-  j["sort_ms"] = round3(percentile(series.sort, 0.5));
-  j["sort_ms_p95"] = round3(percentile(series.sort, 0.95));
-  j["test_ms"] = round3(percentile(series.test, 0.5));
-  j["test_ms_p95"] = round3(percentile(series.test, 0.95));
-  j["response_ms"] = round3(percentile(series.response, 0.5));
-  j["response_ms_p95"] = round3(percentile(series.response, 0.95));
-  j["requery_ms"] = round3(percentile(series.requery, 0.5));
-  j["frame_cpu_ms_median"] = round3(percentile(series.cpu, 0.5));
-  j["frame_cpu_ms_p95"] = round3(percentile(series.cpu, 0.95));
-  j["first_frame_ms"] = round3(first_frame_ms);
-  j["candidates"] = round3(mean(candidates));
-  j["candidates_p95"] = round3(percentile(candidates, 0.95));
-  j["requery_pairs"] = round3(mean(requery_pairs));
-  if (is_vadop_grid) j["incremental_frames"] = incremental_frames;  // frames found from fat boxes
-  if (is_sweep_prune && !series.total.empty()) {
-    const double k = 1.0 / series.total.size();
-    j["sweep_prune"] = Json{{"endpoints", round3(series.endpoints * k)},
-                            {"swaps", round3(series.swaps * k)},
-                            {"overlap_tests", round3(series.overlap_tests * k)},
-                            {"reinserted", round3(series.reinserted * k)}};
-  }
-  j["impacts"] = impacts;
-  j["impacts_per_frame"] = round3(frames_done ? static_cast<double>(impacts) / frames_done : 0.0);
-  j["wall_hits"] = wall_hits;
-  const bool continuous = !discrete;
-  j["continuous"] = continuous;
-  if (role == ChildRole::kReference) {
-    j["missed"] = 0;
-    j["extra"] = 0;
-    j["miss_basis"] = "is the reference";
-  } else if (continuous) {
-    j["missed"] = missed;
-    j["extra"] = extra;
-    j["miss_basis"] = "per-frame impact list vs the reference run (same path); off that path, vs the reference "
-                      "run from the method's own state";
-  } else if (role == ChildRole::kDiscreteEval) {
-    j["missed"] = missed;
-    j["extra"] = nullptr;
-    j["miss_basis"] = "evaluation pass";
-  } else {
-    j["missed"] = nullptr;  // filled from the evaluation child
-    j["extra"] = nullptr;
-    j["miss_basis"] = "pairs touching during the frame (continuous reference from the same state) not found "
-                      "overlapping at the frame pose";
-  }
-  j["reference"] = ref;
-  j["reference_impacts"] = reference_impacts;
-  j["diverged_frame"] = diverged_frame;
-  j["peak_rss_mb"] = round3(peak);
-  j["baseline_rss_mb"] = round3(baseline);
-  j["bp_memory_mb"] = round3(bp_bytes / 1048576.0);
-  j["world_memory_mb"] = round3(world_bytes / 1048576.0);
-  j["truncated"] = truncated;
-  j["seconds"] = round3(std::chrono::duration<double>(Clock::now() - start).count());
+  run.reportTimings(j, is_vadop_grid, is_sweep_prune);
+  run.reportImpacts(j, !discrete, referenceMethod(n));
+  run.reportRun(j, peak, baseline);
   return j;
 }
 
@@ -714,10 +776,8 @@ void printHuman(const Json& j, bool header) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  const Options o = parse(argc, argv);
-
-  // Validate every configuration before running anything (bad input: exit 2).
+// The runs the options ask for: each method with each pool size and zone width it takes.
+std::vector<RunSpec> expandSpecs(const Options& o) {
   std::vector<RunSpec> specs;
   for (const auto& method : o.methods) {
     if (isVadop(method)) {
@@ -731,6 +791,11 @@ int main(int argc, char** argv) {
       specs.push_back(RunSpec{method, 0, -1});
     }
   }
+  return specs;
+}
+
+// Every configuration and scene size built once before anything runs (bad input: exit 2).
+void validateConfigurations(const Options& o, const std::vector<RunSpec>& specs) {
   for (const auto& s : specs) {
     try {
       (void)makeBroadPhase(s);
@@ -750,12 +815,12 @@ int main(int argc, char** argv) {
       usage(e.what());
     }
   }
+}
 
-  const char* tmpdir = std::getenv("TMPDIR");
-  std::string log_template = std::string(tmpdir && *tmpdir ? tmpdir : "/tmp") + "/vadop_bench_ref_XXXXXX";
-  int exit_code = 0;
-  bool header = true;
-  size_t total_runs = 0, run_index = 0;
+// How many child runs the progress labels count: the reference, each method (a discrete one
+// twice: its run and its evaluation pass), per n and speed.
+size_t countRuns(const Options& o, const std::vector<RunSpec>& specs) {
+  size_t total_runs = 0;
   for (int n : o.n) {
     for (const auto& s : specs) {
       if (s.method == "brute" && n > kBruteMaxN) continue;
@@ -764,85 +829,138 @@ int main(int argc, char** argv) {
     }
     ++total_runs;  // the reference
   }
-  total_runs *= o.speed.size();
+  return total_runs * o.speed.size();
+}
 
+// Prints each run's line (JSON or the human table) and remembers whether any failed or missed.
+class Reporter {
+ public:
+  explicit Reporter(bool json) : json_(json) {}
+  void emit(const Json& j, int n, double speed) {
+    if (json_) {
+      std::printf("%s\n", j.dump().c_str());
+      std::fflush(stdout);
+    } else {
+      printHuman(j, header_);
+      header_ = false;
+    }
+    if (j.contains("error")) {
+      std::fprintf(stderr, "vadop_bench: %s n=%d speed=%g failed: %s\n", j["method"].get<std::string>().c_str(), n,
+                   speed, j["error"].get<std::string>().c_str());
+      exit_code_ = 1;
+    } else if (j["continuous"].get<bool>() && (j["missed"].get<size_t>() > 0 || j["extra"].get<size_t>() > 0)) {
+      std::fprintf(stderr, "vadop_bench: %s n=%d speed=%g: %zu impacts missed, %zu extra (diverged at frame %ld)\n",
+                   j["method"].get<std::string>().c_str(), n, speed, j["missed"].get<size_t>(),
+                   j["extra"].get<size_t>(), j["diverged_frame"].get<long>());
+      exit_code_ = 1;
+    }
+  }
+  int exitCode() const { return exit_code_; }
+
+ private:
+  bool json_;
+  bool header_ = true;
+  int exit_code_ = 0;
+};
+
+// A new temporary file for the reference's impact log; empty when none can be created.
+std::string makeReferenceLog() {
+  const char* tmpdir = std::getenv("TMPDIR");
+  const std::string log_template = std::string(tmpdir && *tmpdir ? tmpdir : "/tmp") + "/vadop_bench_ref_XXXXXX";
+  std::vector<char> path(log_template.begin(), log_template.end());
+  path.push_back('\0');
+  const int fd = mkstemp(path.data());
+  if (fd < 0) return "";
+  close(fd);
+  return std::string(path.data());
+}
+
+// One scene (n bodies at one speed): the reference, then every other method against its log.
+class SceneRuns {
+ public:
+  SceneRuns(const Options& o, const std::vector<RunSpec>& specs, Reporter& reporter)
+      : o_(o), specs_(specs), total_runs_(countRuns(o, specs)), reporter_(reporter) {}
+
+  // False when the reference's log cannot be created.
+  bool run(int n, double speed) {
+    SceneParams p;
+    p.n = n;
+    p.density = o_.density;
+    p.speed = speed;
+    p.seed = o_.seed;
+    const Scene scene = vadop_bench::makeScene(p);
+    const std::string log_path = makeReferenceLog();
+    if (log_path.empty()) {
+      std::fprintf(stderr, "vadop_bench: cannot create a temporary file\n");
+      return false;
+    }
+    const RunSpec ref{referenceMethod(n)};
+    const Json ref_json = runInChild(o_, scene, ref, ChildRole::kReference, log_path, label(ref, " (reference)", n, speed));
+    if (ref_json.contains("error")) {
+      reporter_.emit(ref_json, n, speed);
+      std::remove(log_path.c_str());
+      return true;
+    }
+    // The reference is printed only if it was asked for (brute force, or the grid).
+    if (std::find(o_.methods.begin(), o_.methods.end(), ref.method) != o_.methods.end()) {
+      reporter_.emit(ref_json, n, speed);
+    }
+    for (const auto& s : specs_) {
+      if (s.method == ref.method) continue;
+      if (s.method == "brute" && n > kBruteMaxN) continue;
+      reporter_.emit(runMethodInChildren(scene, s, log_path, n, speed), n, speed);
+    }
+    std::remove(log_path.c_str());
+    return true;
+  }
+
+ private:
+  std::string label(const RunSpec& s, const char* suffix, int n, double speed) {
+    std::ostringstream os;
+    os << "[" << ++run_index_ << "/" << total_runs_ << "] " << s.method;
+    if (isVadop(s.method) || s.method == "kdop") os << " m=" << s.m;
+    os << suffix << " n=" << n << " speed=" << speed;
+    return os.str();
+  }
+
+  // A method's line; a discrete method's misses come from a second child, its evaluation pass.
+  Json runMethodInChildren(const Scene& scene, const RunSpec& s, const std::string& log_path, int n, double speed) {
+    Json j = runInChild(o_, scene, s, ChildRole::kMethod, log_path, label(s, "", n, speed));
+    if (isDiscrete(s.method) && !j.contains("error")) {
+      const Json e = runInChild(o_, scene, s, ChildRole::kDiscreteEval, log_path, label(s, " (miss count)", n, speed));
+      if (e.contains("error")) {
+        j = e;
+      } else {
+        j["missed"] = e["missed"];
+        j["extra"] = nullptr;
+        j["reference_impacts"] = e["reference_impacts"];
+        j["frames_evaluated"] = e["frames"];
+      }
+    }
+    return j;
+  }
+
+  const Options& o_;
+  const std::vector<RunSpec>& specs_;
+  const size_t total_runs_;
+  size_t run_index_ = 0;
+  Reporter& reporter_;
+};
+
+int main(int argc, char** argv) {
+  const Options o = parse(argc, argv);
+  const std::vector<RunSpec> specs = expandSpecs(o);
+  validateConfigurations(o, specs);
+  Reporter reporter(o.json);
+  SceneRuns runs(o, specs, reporter);
   for (int n : o.n) {
     if (std::find(o.methods.begin(), o.methods.end(), "brute") != o.methods.end() && n > kBruteMaxN) {
       std::fprintf(stderr, "vadop_bench: brute force skipped at n = %d (> %d); the reference there is the grid\n", n,
                    kBruteMaxN);
     }
     for (double speed : o.speed) {
-      SceneParams p;
-      p.n = n;
-      p.density = o.density;
-      p.speed = speed;
-      p.seed = o.seed;
-      const Scene scene = vadop_bench::makeScene(p);
-      std::vector<char> path(log_template.begin(), log_template.end());
-      path.push_back('\0');
-      const int fd = mkstemp(path.data());
-      if (fd < 0) {
-        std::fprintf(stderr, "vadop_bench: cannot create a temporary file\n");
-        return 1;
-      }
-      close(fd);
-      const std::string log_path(path.data());
-
-      auto label = [&](const RunSpec& s, const char* suffix) {
-        std::ostringstream os;
-        os << "[" << ++run_index << "/" << total_runs << "] " << s.method;
-        if (isVadop(s.method) || s.method == "kdop") os << " m=" << s.m;
-        os << suffix << " n=" << n << " speed=" << speed;
-        return os.str();
-      };
-      auto emit = [&](const Json& j) {
-        if (o.json) {
-          std::printf("%s\n", j.dump().c_str());
-          std::fflush(stdout);
-        } else {
-          printHuman(j, header);
-          header = false;
-        }
-        if (j.contains("error")) {
-          std::fprintf(stderr, "vadop_bench: %s n=%d speed=%g failed: %s\n", j["method"].get<std::string>().c_str(), n,
-                       speed, j["error"].get<std::string>().c_str());
-          exit_code = 1;
-        } else if (j["continuous"].get<bool>() && (j["missed"].get<size_t>() > 0 || j["extra"].get<size_t>() > 0)) {
-          std::fprintf(stderr, "vadop_bench: %s n=%d speed=%g: %zu impacts missed, %zu extra (diverged at frame %ld)\n",
-                       j["method"].get<std::string>().c_str(), n, speed, j["missed"].get<size_t>(),
-                       j["extra"].get<size_t>(), j["diverged_frame"].get<long>());
-          exit_code = 1;
-        }
-      };
-
-      const RunSpec ref{referenceMethod(n)};
-      const Json ref_json = runInChild(o, scene, ref, ChildRole::kReference, log_path, label(ref, " (reference)"));
-      if (ref_json.contains("error")) {
-        emit(ref_json);
-        std::remove(log_path.c_str());
-        continue;
-      }
-      // The reference is printed only if it was asked for (brute force, or the grid).
-      if (std::find(o.methods.begin(), o.methods.end(), ref.method) != o.methods.end()) emit(ref_json);
-      for (const auto& s : specs) {
-        if (s.method == ref.method) continue;
-        if (s.method == "brute" && n > kBruteMaxN) continue;
-        Json j = runInChild(o, scene, s, ChildRole::kMethod, log_path, label(s, ""));
-        if (isDiscrete(s.method) && !j.contains("error")) {
-          const Json e = runInChild(o, scene, s, ChildRole::kDiscreteEval, log_path, label(s, " (miss count)"));
-          if (e.contains("error")) {
-            j = e;
-          } else {
-            j["missed"] = e["missed"];
-            j["extra"] = nullptr;
-            j["reference_impacts"] = e["reference_impacts"];
-            j["frames_evaluated"] = e["frames"];
-          }
-        }
-        emit(j);
-      }
-      std::remove(log_path.c_str());
+      if (!runs.run(n, speed)) return 1;
     }
   }
-  return exit_code;
+  return reporter.exitCode();
 }

@@ -1,5 +1,6 @@
 // The certified steps of conservative advancement under screw motion, shared by the distance
-// code that computes them (distance.cpp) and timeOfImpact that drives them (time_of_impact.cpp).
+// code that computes them (advance_step.cpp, swept_volume.cpp) and timeOfImpact that drives
+// them (time_of_impact.cpp).
 // Internal to the library (not installed): the public entry point is timeOfImpact.
 #pragma once
 
@@ -21,7 +22,7 @@ namespace detail {
 // or with b -- is bounded below for all later times by concave functions of the elapsed
 // time (exact for translation; first order exact and a Taylor remainder bound for rotation)
 // and by a linear one (|w x n| times the lever arm); step is where the best bound reaches
-// advance_gap. See separationStep in distance.cpp for the formulas.
+// advance_gap. See separationStep in separation_step.h for the formulas.
 struct AdvanceStep {
   bool touching = false;
   bool clear = false;

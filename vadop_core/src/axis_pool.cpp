@@ -180,6 +180,14 @@ class SphereHull {
   bool findInitialTetrahedron(int* t) const;
   void attachConflict(int point, int facet);
   void insertPoint(int p, int step);
+  // The steps of insertPoint: the facets p sees (from its conflict facet) and the horizon
+  // edges around them; the horizon checked to be one simple cycle, each edge indexed by its
+  // start vertex in horizonStart_; the cone of new facets from the horizon to p; the points
+  // waiting on the visible facets moved to the new facets they see (or dropped as inside).
+  void findHorizon(int p, int step);
+  void checkHorizon();
+  void addCone(int p);
+  void reassignConflicts(int p);
 
   const std::vector<GridPoint>* grid_ = nullptr;
   std::vector<Facet> facets_;
@@ -325,6 +333,14 @@ bool SphereHull::build(const std::vector<GridPoint>& grid, std::vector<MeshTrian
 }
 
 void SphereHull::insertPoint(int p, int step) {
+  findHorizon(p, step);
+  checkHorizon();
+  addCone(p);
+  reassignConflicts(p);
+  conflictFacet_[p] = -1;
+}
+
+void SphereHull::findHorizon(int p, int step) {
   const std::vector<GridPoint>& g = *grid_;
   const GridPoint& gp = g[p];
   visibleFacets_.clear();
@@ -349,7 +365,9 @@ void SphereHull::insertPoint(int p, int step) {
       if (!fh.visible) horizon_.emplace_back(f, i);
     }
   }
+}
 
+void SphereHull::checkHorizon() {
   // With exact signs the strictly visible region of a convex polytope is a disc (around any
   // vertex the visible facets are those whose normals lie in an open hemisphere, a contiguous
   // run of the convex cycle of normals), so its boundary is one simple cycle. A violation is
@@ -369,7 +387,10 @@ void SphereHull::insertPoint(int p, int step) {
     } while (k > 0 && length <= hs);
     if (k != 0 || length != hs) throw std::logic_error("SphereHull: horizon is not one cycle");
   }
+}
 
+void SphereHull::addCone(int p) {
+  const int hs = static_cast<int>(horizon_.size());
   newFacets_.resize(hs);
   for (int k = 0; k < hs; ++k) {
     const int f = horizon_[k].first, i = horizon_[k].second;
@@ -387,7 +408,11 @@ void SphereHull::insertPoint(int p, int step) {
     facets_[next].nb[2] = nf;  // whose edge p -> b is its reverse
   }
   for (int k = 0; k < hs; ++k) horizonStart_[facets_[newFacets_[k]].v[0]] = -1;
+}
 
+void SphereHull::reassignConflicts(int p) {
+  const std::vector<GridPoint>& g = *grid_;
+  const GridPoint& gp = g[p];
   for (int f : visibleFacets_) {
     facets_[f].alive = false;
     int q = facets_[f].conflictHead;
@@ -407,7 +432,6 @@ void SphereHull::insertPoint(int p, int step) {
       q = next;
     }
   }
-  conflictFacet_[p] = -1;
 }
 
 // ---------------------------------------------------------------------------------------

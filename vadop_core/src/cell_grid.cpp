@@ -62,9 +62,17 @@ void CellGrid::build(const double* boxes, size_t count, double h) {
   clear();  // the hash table is emptied below if used
   built_ = true;
   // Cell ranges first: they size the table and find the range of the occupied cells.
+  int32_t cmin[3] = {INT32_MAX, INT32_MAX, INT32_MAX}, cmax[3] = {INT32_MIN, INT32_MIN, INT32_MIN};
+  const size_t incidences = cellRanges(boxes, count, cmin, cmax);
+  items_ = count;
+  chooseCellIndex(count, incidences, cmin, cmax);
+  listIncidences(boxes, count, incidences);
+  sortIncidences(boxes);
+}
+
+size_t CellGrid::cellRanges(const double* boxes, size_t count, int32_t* cmin, int32_t* cmax) {
   lo_scratch_.resize(3 * count);
   size_t incidences = 0;
-  int32_t cmin[3] = {INT32_MAX, INT32_MAX, INT32_MAX}, cmax[3] = {INT32_MIN, INT32_MIN, INT32_MIN};
   for (uint32_t s = 0; s < count; ++s) {
     int32_t* lo = &lo_scratch_[3 * static_cast<size_t>(s)];
     int32_t hi[3];
@@ -79,7 +87,10 @@ void CellGrid::build(const double* boxes, size_t count, double h) {
       cmax[k] = std::max(cmax[k], hi[k]);
     }
   }
-  items_ = count;
+  return incidences;
+}
+
+void CellGrid::chooseCellIndex(size_t count, size_t incidences, const int32_t* cmin, const int32_t* cmax) {
   // Cells found by direct index into an array over that range when it is not much larger than
   // the number of items (a bounded, filled world: one read, no hashing or probing), else by
   // the hash table (sparse or unbounded worlds).
@@ -99,6 +110,9 @@ void CellGrid::build(const double* boxes, size_t count, double h) {
     table_cell_.assign(capacity, kEmpty);
     table_mask_ = capacity - 1;
   }
+}
+
+void CellGrid::listIncidences(const double* boxes, size_t count, size_t incidences) {
   entry_cell_.clear();
   entry_item_.clear();
   entry_cell_.reserve(incidences);
@@ -122,6 +136,9 @@ void CellGrid::build(const double* boxes, size_t count, double h) {
       }
     }
   }
+}
+
+void CellGrid::sortIncidences(const double* boxes) {
   // Counting sort of the incidences by cell. Each carries a copy of its box and lo-corner cell,
   // so the pair loops of a cell read one contiguous run of memory (at 10^5 bodies, random reads
   // of the boxes cost more than the tests).

@@ -90,6 +90,14 @@ class CellGrid {
   void clear();  // all but the hash table's contents
   void setCellSize(double h);  // throws InvalidArgument unless finite and > 0 (nothing changed)
   void resizeTable(size_t capacity);
+  // The steps of build(): each box's cell range (lo corners into lo_scratch_, boxes spanning
+  // too many cells into large_; returns the incidences, widens [cmin, cmax] to the occupied
+  // range); a dense array or the hash table to find cells by; the (cell, item) incidences;
+  // their counting sort by cell into entries_ and cell_start_.
+  size_t cellRanges(const double* boxes, size_t count, int32_t* cmin, int32_t* cmax);
+  void chooseCellIndex(size_t count, size_t incidences, const int32_t* cmin, const int32_t* cmax);
+  void listIncidences(const double* boxes, size_t count, size_t incidences);
+  void sortIncidences(const double* boxes);
   uint32_t findCell(int32_t x, int32_t y, int32_t z) const;  // or kEmpty
   uint32_t insertCell(int32_t x, int32_t y, int32_t z);      // find or add, growing the table
   uint32_t addCell(int32_t x, int32_t y, int32_t z);         // find or add, table large enough

@@ -402,6 +402,160 @@ PosedTwist LinkChain::stateAt(double t) const {
   return s;
 }
 
+namespace {
+
+// One query of timeOfImpact for links of joint chains, stretch by stretch (between velocity
+// jumps of either chain): the constant-twist narrow phase where both links ride rigidly on
+// their bases, conservative advancement on the chains' bounds elsewhere.
+class ChainImpactSearch {
+ public:
+  ChainImpactSearch(const PreparedShape& a, const LinkChain& ca, const PreparedShape& b, const LinkChain& cb,
+                    double t0, double t1, const ToiOptions& options)
+      : a_(a), ca_(ca), b_(b), cb_(cb), t0_(t0), t1_(t1), options_(options), t_(t0) {
+    // A mesh: first-order steps alone (the twist steps take convex shapes), on distances to
+    // 1/200 of the touch threshold near a contact and to 4e-3 of the gap farther out, as the
+    // twist steps' (a step rests on the certified lower bound: a looser estimate only shortens it).
+    mesh_ = a.shape().type == ShapeType::kMesh || b.shape().type == ShapeType::kMesh;
+    dopt_.tolerance = options.tolerance / 200.0;
+    dopt_.relative_tolerance = 4e-3;
+  }
+
+  Impact run() {
+    for (;;) {
+      const double e = std::min({t1_, ca_.nextBreak(t_), cb_.nextBreak(t_)});
+      const bool rigid = !ca_.jointsMove(t_, e) && !cb_.jointsMove(t_, e);
+      if (rigid ? rigidStretch(e) : movingStretch(e)) return out_;
+    }
+  }
+
+ private:
+  void fill(double at, const DistanceResult& c) {
+    out_.time = at;
+    out_.normal = c.normal;
+    out_.point = 0.5 * (c.point_a + c.point_b);
+    out_.distance = c.distance;
+  }
+
+  // Both links ride rigidly on their bases over [t, e]: the constant-twist narrow phase. True
+  // when that decides the query (out_ holds the answer); else t moves to e.
+  bool rigidStretch(double e) {
+    const double t = t_;
+    const double mid = t < e ? 0.5 * (t + e) : t;
+    const Eigen::Isometry3d fa = ca_.base().poseAt(mid).inverse() * ca_.poseAt(mid);
+    const Eigen::Isometry3d fb = cb_.base().poseAt(mid).inverse() * cb_.poseAt(mid);
+    ToiOptions o = options_;
+    o.max_iterations = options_.max_iterations - used_;
+    if (o.max_iterations <= 0) {
+      out_.undecided = true;
+      out_.iterations = used_;
+      out_.time = t;
+      return true;
+    }
+    const Motion& ma = ca_.base().motion(ca_.base().pieceAt(mid));
+    const Motion& mb = cb_.base().motion(cb_.base().pieceAt(mid));
+    Impact r = timeOfImpact(a_, carried(ma, fa), b_, carried(mb, fb), t, e, o);
+    used_ += r.iterations;
+    r.iterations = used_;
+    r.initially_touching = r.initially_touching && t == t0_;
+    if (r.hit || r.undecided || e >= t1_) {
+      out_ = r;
+      return true;
+    }
+    t_ = e;
+    return false;
+  }
+
+  // Conservative advancement within [t, e] (the stretch's bounds hold up to e only). True when
+  // that decides the query; else t moves to e.
+  bool movingStretch(double e) {
+    const double ra = a_.shape().bounding_radius, rb = b_.shape().bounding_radius;
+    const LinkChain::StretchBounds ba = ca_.bounds(t_, e, ra), bb = cb_.bounds(t_, e, rb);
+    const double mu = ba.speed + bb.speed;
+    // Within the stretch each link stays within deviation D^2 / 2 of the constant twist it has
+    // at t (the screw's own points accelerate by at most |w|^2 r): the twist steps' certificates
+    // (advance_step.h) less that, which converge on a contact as fast as theirs.
+    const double deviation = mesh_ ? 0.0
+                                   : ba.acceleration + ba.angular_speed * ba.angular_speed * ra + bb.acceleration +
+                                         bb.angular_speed * bb.angular_speed * rb;
+    const double advance = 0.5 * options_.tolerance;
+    for (;;) {
+      double step = 0.0;
+      DistanceResult d;
+      if (measure(e, deviation, step, d)) return true;
+      // The first-order certificate over the stretch: the gap's lower bound at the links'
+      // speed bounds (longer than the twist step in about a quarter of the ground truths'
+      // steps: far from a contact, where the deviation's D^2 has grown).
+      step = std::max(step, mu > 0.0 ? (d.lower_bound - advance) / mu : kInf);
+      const double next = t_ + step;
+      const bool stuck = !(step > 0.0) || !(next > t_);  // no representable progress
+      if (!stuck && next >= e) {
+        if (e >= t1_ && next > t1_) {
+          fill(t1_, d);
+          return true;
+        }
+        t_ = e;
+        return false;
+      }
+      if (stuck || used_ >= options_.max_iterations) {
+        out_.undecided = true;  // certified clear up to t only
+        fill(t_, d);
+        return true;
+      }
+      t_ = next;
+    }
+  }
+
+  // The gap at t: a twist step (its certified step into `step`) or, for a mesh, the distance.
+  // True when that decides the query (a contact, or clear up to t1).
+  bool measure(double e, double deviation, double& step, DistanceResult& d) {
+    const double touch = options_.tolerance, advance = 0.5 * options_.tolerance;
+    if (!mesh_) {
+      const detail::AdvanceStep s = detail::advanceStepNearTwist(a_, ca_.stateAt(t_), b_, cb_.stateAt(t_), deviation,
+                                                                 e - t_, touch, advance, &warm_);
+      ++used_;
+      out_.iterations = used_;
+      if (s.touching) {
+        out_.hit = true;
+        out_.initially_touching = t_ == t0_;
+        fill(t_, s.closest);
+        return true;
+      }
+      if (s.clear && e >= t1_) {
+        fill(t1_, s.closest);
+        return true;
+      }
+      d = s.closest;
+      step = s.clear ? e - t_ : s.step;
+      return false;
+    }
+    d = distance(a_, ca_.poseAt(t_), b_, cb_.poseAt(t_), dopt_);
+    ++used_;
+    out_.iterations = used_;
+    if (d.distance <= touch) {
+      out_.hit = true;
+      out_.initially_touching = t_ == t0_;
+      fill(t_, d);
+      return true;
+    }
+    return false;
+  }
+
+  const PreparedShape& a_;
+  const LinkChain& ca_;
+  const PreparedShape& b_;
+  const LinkChain& cb_;
+  const double t0_, t1_;
+  const ToiOptions& options_;
+  bool mesh_ = false;
+  DistanceOptions dopt_;
+  detail::WarmStart warm_;  // from one twist step to the next
+  Impact out_;
+  int used_ = 0;
+  double t_;
+};
+
+}  // namespace
+
 Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedShape& b, const LinkChain& cb,
                     double t0, double t1, const ToiOptions& options) {
   if (!(std::isfinite(t0) && std::isfinite(t1) && t0 <= t1)) {
@@ -411,112 +565,7 @@ Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedS
   if (!(std::isfinite(options.tolerance) && options.tolerance > 0.0) || options.max_iterations <= 0) {
     throw InvalidArgument("timeOfImpact: tolerance and max_iterations must be > 0");
   }
-  const double touch = options.tolerance, advance = 0.5 * options.tolerance;
-  const double ra = a.shape().bounding_radius, rb = b.shape().bounding_radius;
-  // A mesh: first-order steps alone (the twist steps take convex shapes), on distances to 1/200
-  // of the touch threshold near a contact and to 4e-3 of the gap farther out, as the twist
-  // steps' (a step rests on the certified lower bound: a looser estimate only shortens it).
-  const bool mesh = a.shape().type == ShapeType::kMesh || b.shape().type == ShapeType::kMesh;
-  DistanceOptions dopt;
-  dopt.tolerance = options.tolerance / 200.0;
-  dopt.relative_tolerance = 4e-3;
-  detail::WarmStart warm;  // from one twist step to the next
-  Impact out;
-  int used = 0;
-  double t = t0;
-  auto fill = [&](double at, const DistanceResult& c) {
-    out.time = at;
-    out.normal = c.normal;
-    out.point = 0.5 * (c.point_a + c.point_b);
-    out.distance = c.distance;
-  };
-  for (;;) {
-    const double e = std::min({t1, ca.nextBreak(t), cb.nextBreak(t)});
-    if (!ca.jointsMove(t, e) && !cb.jointsMove(t, e)) {
-      // Both links ride rigidly on their bases over the stretch: the constant-twist narrow phase.
-      const double mid = t < e ? 0.5 * (t + e) : t;
-      const Eigen::Isometry3d fa = ca.base().poseAt(mid).inverse() * ca.poseAt(mid);
-      const Eigen::Isometry3d fb = cb.base().poseAt(mid).inverse() * cb.poseAt(mid);
-      ToiOptions o = options;
-      o.max_iterations = options.max_iterations - used;
-      if (o.max_iterations <= 0) {
-        out.undecided = true;
-        out.iterations = used;
-        out.time = t;
-        return out;
-      }
-      const Motion& ma = ca.base().motion(ca.base().pieceAt(mid));
-      const Motion& mb = cb.base().motion(cb.base().pieceAt(mid));
-      Impact r = timeOfImpact(a, carried(ma, fa), b, carried(mb, fb), t, e, o);
-      used += r.iterations;
-      r.iterations = used;
-      r.initially_touching = r.initially_touching && t == t0;
-      if (r.hit || r.undecided || e >= t1) return r;
-      t = e;
-      continue;
-    }
-    const LinkChain::StretchBounds ba = ca.bounds(t, e, ra), bb = cb.bounds(t, e, rb);
-    const double mu = ba.speed + bb.speed;
-    // Within the stretch each link stays within deviation D^2 / 2 of the constant twist it has
-    // at t (the screw's own points accelerate by at most |w|^2 r): the twist steps' certificates
-    // (advance_step.h) less that, which converge on a contact as fast as theirs.
-    const double deviation = mesh ? 0.0
-                                  : ba.acceleration + ba.angular_speed * ba.angular_speed * ra + bb.acceleration +
-                                        bb.angular_speed * bb.angular_speed * rb;
-    // Conservative advancement within the stretch (its bounds hold up to e only).
-    for (;;) {
-      double step = 0.0;
-      DistanceResult d;
-      if (!mesh) {
-        const detail::AdvanceStep s =
-            detail::advanceStepNearTwist(a, ca.stateAt(t), b, cb.stateAt(t), deviation, e - t, touch, advance, &warm);
-        ++used;
-        out.iterations = used;
-        if (s.touching) {
-          out.hit = true;
-          out.initially_touching = t == t0;
-          fill(t, s.closest);
-          return out;
-        }
-        if (s.clear && e >= t1) {
-          fill(t1, s.closest);
-          return out;
-        }
-        d = s.closest;
-        step = s.clear ? e - t : s.step;
-      } else {
-        d = distance(a, ca.poseAt(t), b, cb.poseAt(t), dopt);
-        ++used;
-        out.iterations = used;
-        if (d.distance <= touch) {
-          out.hit = true;
-          out.initially_touching = t == t0;
-          fill(t, d);
-          return out;
-        }
-      }
-      // The first-order certificate over the stretch: the gap's lower bound at the links'
-      // speed bounds (longer than the twist step in about a quarter of the ground truths'
-      // steps: far from a contact, where the deviation's D^2 has grown).
-      step = std::max(step, mu > 0.0 ? (d.lower_bound - advance) / mu : kInf);
-      const double next = t + step;
-      const bool stuck = !(step > 0.0) || !(next > t);  // no representable progress
-      if (!stuck && next >= e) {
-        if (e >= t1 && next > t1) {
-          fill(t1, d);
-          return out;
-        }
-        t = e;
-        break;
-      }
-      if (stuck || used >= options.max_iterations) {
-        out.undecided = true;  // certified clear up to t only
-        fill(t, d);
-        return out;
-      }
-      t = next;
-    }
-  }
+  return ChainImpactSearch(a, ca, b, cb, t0, t1, options).run();
 }
 
 }  // namespace vadop

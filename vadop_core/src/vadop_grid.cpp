@@ -276,7 +276,6 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
   stats_ = Stats{};
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
-  const auto& b = bodies();
   const double frame = t1 - t0;
   // How far the frames advance: the frame itself when they follow each other (the paper's
   // scene), less when they overlap (the monitor: 2 s windows every 1/30 s). The incremental
@@ -290,7 +289,35 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
   // its boxes overlap, the intervals computed on first use in the pairs' order, reads the
   // bodies' motions and shapes out of order (the paper's scene at 10^5 bodies, one thread,
   // 6 rounds: the search 0.68x of that at fast speed, 0.78x slow, 0.88x medium).
+  selectChangedAxes(frame, threads);
+  assignSlots(t0, t1, slots, threads);
+  auto grid_from = Clock::now();
+  stats_.update_seconds = std::chrono::duration<double>(grid_from - start).count();
+  if (slots < 2) {
+    stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
+    return;
+  }
+  // The pairs whose boxes overlap, per block of cells (or of slots), then on every shared axis.
+  const size_t blocks = threads > 1 ? kBlocksPerThread * static_cast<size_t>(threads) : 1;
+  hits_.resize(blocks + 1);  // the last for the large bodies
+  for (SlotPairs& h : hits_) h.clear();
 
+  // 2b. Incremental mode, while the scene is slow enough.
+  if (incremental_ > 0.0 && computeFromFatBoxes(step, threads, blocks)) {
+    testSharedAxes(threads, out);
+    stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
+    return;
+  }
+  buildCells(slots);
+  testCellPairs(threads, blocks);
+  // 5. Bodies too large for the grid: against every other body.
+  testLargeAgainstAll(grid_->large(), hits_.back());
+  testSharedAxes(threads, out);
+  stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
+}
+
+void VadopGridBroadPhase::selectChangedAxes(double frame, int threads) {
+  const auto& b = bodies();
   // 1. New axis sets for the bodies whose motion changed (kept under the hysteresis rule).
   std::vector<BodyId>& changed = scratch_changed_;
   changed.clear();
@@ -319,7 +346,10 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
     }
   });
   stats_.reinserted = reinserted.load();
+}
 
+void VadopGridBroadPhase::assignSlots(double t0, double t1, size_t slots, int threads) {
+  const auto& b = bodies();
   // 2. Per alive body, in id order: its slot (here), its swept AABB and axis ranks (on the
   //    threads), then where its pool-axis intervals go. The intervals are computed later, for
   //    the slots of pairs whose boxes overlap only (testSharedAxes).
@@ -358,24 +388,9 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
     next_interval += detail::axisCount(&bits_[words_ * s], &rank_[words_ * s], words_);
   }
   intervals_.resize(next_interval);
-  auto grid_from = Clock::now();
-  stats_.update_seconds = std::chrono::duration<double>(grid_from - start).count();
-  if (slots < 2) {
-    stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
-    return;
-  }
-  // The pairs whose boxes overlap, per block of cells (or of slots), then on every shared axis.
-  const size_t blocks = threads > 1 ? kBlocksPerThread * static_cast<size_t>(threads) : 1;
-  hits_.resize(blocks + 1);  // the last for the large bodies
-  for (SlotPairs& h : hits_) h.clear();
+}
 
-  // 2b. Incremental mode, while the scene is slow enough.
-  if (incremental_ > 0.0 && computeFromFatBoxes(step, threads, blocks)) {
-    testSharedAxes(threads, out);
-    stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
-    return;
-  }
-
+void VadopGridBroadPhase::buildCells(size_t slots) {
   // 3. Cell size, unless configured: the candidate (a multiple of the median box extent) with
   //    the least estimated cost, kIncidenceCost per (body, cell) incidence I(h) plus one per
   //    box test, about I^2 / (2 C) for C = min(I, volume / h^3) occupied cells. Large cells
@@ -395,7 +410,9 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
   stats_.cell_entries = grid_->entryCount();
   stats_.large_bodies = grid_->large().size();
   cells_ready_ = true;
+}
 
+void VadopGridBroadPhase::testCellPairs(int threads, size_t blocks) {
   // 4. Pairs of each cell, each reported in the cell of its boxes' common lo corner. A crowded
   //    cell is swept along x first (sorted by box lo x, a body meets only those that start
   //    before its box ends), a small one tested pair by pair. Blocks of cells on the threads.
@@ -434,10 +451,6 @@ void VadopGridBroadPhase::computePairs(double t0, double t1, std::vector<Pair>& 
       }
     }
   });
-  // 5. Bodies too large for the grid: against every other body.
-  testLargeAgainstAll(grid_->large(), hits_.back());
-  testSharedAxes(threads, out);
-  stats_.sort_seconds = std::chrono::duration<double>(Clock::now() - grid_from).count();
 }
 
 void VadopGridBroadPhase::testSharedAxes(int threads, std::vector<Pair>& out) {
@@ -553,52 +566,9 @@ bool VadopGridBroadPhase::computeFromFatBoxes(double step, int threads, size_t b
       --retry_wait_;
       return false;
     }
-    // Worth building? At constant velocity a body leaves its fat box after about its lead time
-    // in steps: estimate the share of bodies leaving per step on a sample, and stay with the
-    // full path (asking again in a few frames) while it is over half the allowed fraction.
-    if (incremental_ < 1.0 && expectedEscapeRate(step) > 0.5 * incremental_) {
-      retry_wait_ = 8;
-      return false;
-    }
-    // Build from scratch: cells twice the median fat box (or as configured), within the key
-    // range of FatBoxPairs.
-    std::vector<double>& extent = scratch_extent_;
-    extent.resize(slots);
-    double max_abs = 0.0;
-    for (uint32_t s = 0; s < slots; ++s) {
-      fat_ids_.push_back(slot_body_[s]);
-      appendFatBox(s, step);
-      const double* f = &fat_boxes_[6 * static_cast<size_t>(s)];
-      extent[s] = std::max({f[3] - f[0], f[4] - f[1], f[5] - f[2]});
-      for (int k = 0; k < 6; ++k) max_abs = std::max(max_abs, std::abs(f[k]));
-    }
-    const size_t mid = slots / 2;
-    std::nth_element(extent.begin(), extent.begin() + static_cast<long>(mid), extent.end());
-    const double h = cell_size_ > 0.0 ? cell_size_ : 2.0 * extent[mid];
-    fat_->reset(std::max(h, 1e-9), max_abs);
-    fat_->update(fat_ids_, fat_boxes_, threads);
-    fat_valid_ = true;
-    streak_ = 0;
-    stats_.fat_rebuilt = true;
-  } else {
-    for (uint32_t s = 0; s < slots; ++s) {
-      if (!fat_->contains(slot_body_[s], &box_[6 * s])) {
-        fat_ids_.push_back(slot_body_[s]);
-        appendFatBox(s, step);
-      }
-    }
-    if (static_cast<double>(fat_ids_.size()) > incremental_ * static_cast<double>(slots)) {
-      fat_valid_ = false;
-      backoff_ = std::min(64, 2 * backoff_);
-      retry_wait_ = backoff_;
-      return false;
-    }
-    fat_->update(fat_ids_, fat_boxes_, threads);
-    if (++streak_ >= 8) backoff_ = 1;
-    if (fat_->wasteful()) {
-      fat_valid_ = false;  // rebuilt at the next update (this frame's pairs are still exact)
-      retry_wait_ = 0;
-    }
+    if (!rebuildFatBoxes(step, threads)) return false;
+  } else if (!refreshFatBoxes(step, threads)) {
+    return false;
   }
   stats_.incremental = true;
   stats_.cell_size = fat_->cellSize();
@@ -623,6 +593,61 @@ bool VadopGridBroadPhase::computeFromFatBoxes(double step, int threads, size_t b
   large_slots_.clear();
   for (BodyId l : fat_->large()) large_slots_.push_back(slot_of_[l]);
   testLargeAgainstAll(large_slots_, hits_.back());
+  return true;
+}
+
+bool VadopGridBroadPhase::rebuildFatBoxes(double step, int threads) {
+  const size_t slots = slot_body_.size();
+  // Worth building? At constant velocity a body leaves its fat box after about its lead time
+  // in steps: estimate the share of bodies leaving per step on a sample, and stay with the
+  // full path (asking again in a few frames) while it is over half the allowed fraction.
+  if (incremental_ < 1.0 && expectedEscapeRate(step) > 0.5 * incremental_) {
+    retry_wait_ = 8;
+    return false;
+  }
+  // Build from scratch: cells twice the median fat box (or as configured), within the key
+  // range of FatBoxPairs.
+  std::vector<double>& extent = scratch_extent_;
+  extent.resize(slots);
+  double max_abs = 0.0;
+  for (uint32_t s = 0; s < slots; ++s) {
+    fat_ids_.push_back(slot_body_[s]);
+    appendFatBox(s, step);
+    const double* f = &fat_boxes_[6 * static_cast<size_t>(s)];
+    extent[s] = std::max({f[3] - f[0], f[4] - f[1], f[5] - f[2]});
+    for (int k = 0; k < 6; ++k) max_abs = std::max(max_abs, std::abs(f[k]));
+  }
+  const size_t mid = slots / 2;
+  std::nth_element(extent.begin(), extent.begin() + static_cast<long>(mid), extent.end());
+  const double h = cell_size_ > 0.0 ? cell_size_ : 2.0 * extent[mid];
+  fat_->reset(std::max(h, 1e-9), max_abs);
+  fat_->update(fat_ids_, fat_boxes_, threads);
+  fat_valid_ = true;
+  streak_ = 0;
+  stats_.fat_rebuilt = true;
+  return true;
+}
+
+bool VadopGridBroadPhase::refreshFatBoxes(double step, int threads) {
+  const size_t slots = slot_body_.size();
+  for (uint32_t s = 0; s < slots; ++s) {
+    if (!fat_->contains(slot_body_[s], &box_[6 * s])) {
+      fat_ids_.push_back(slot_body_[s]);
+      appendFatBox(s, step);
+    }
+  }
+  if (static_cast<double>(fat_ids_.size()) > incremental_ * static_cast<double>(slots)) {
+    fat_valid_ = false;
+    backoff_ = std::min(64, 2 * backoff_);
+    retry_wait_ = backoff_;
+    return false;
+  }
+  fat_->update(fat_ids_, fat_boxes_, threads);
+  if (++streak_ >= 8) backoff_ = 1;
+  if (fat_->wasteful()) {
+    fat_valid_ = false;  // rebuilt at the next update (this frame's pairs are still exact)
+    retry_wait_ = 0;
+  }
   return true;
 }
 

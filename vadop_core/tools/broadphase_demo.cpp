@@ -90,13 +90,11 @@ double peakRssMb() {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  const Options o = parse(argc, argv);
-  const double radius = 1.0, fps = 30.0, dt = 1.0 / fps;
-  const double volume = o.n * 4.0 / 3.0 * M_PI * radius * radius * radius / o.density;
-  const double half = 0.5 * std::cbrt(volume);
+namespace {
 
-  // The paths: positions and velocities per frame, the same for every method.
+// Spheres of `radius` at random places in the box of half-side `half`, each moving o.speed
+// radii per frame in a random direction (o.static_fraction of them at rest).
+std::vector<vadop::Motion> makeMotions(const Options& o, double radius, double fps, double half) {
   std::mt19937_64 rng(o.seed);
   std::uniform_real_distribution<double> pos(-half + radius, half - radius);
   std::normal_distribution<double> g;
@@ -108,6 +106,100 @@ int main(int argc, char** argv) {
     m = vadop::makeMotion(Eigen::Vector3d(pos(rng), pos(rng), pos(rng)), Eigen::Quaterniond::Identity(), v,
                           Eigen::Vector3d::Zero(), 0.0);
   }
+  return motions;
+}
+
+// The --methods list; false (with the error printed) on an unknown name.
+bool parseMethods(const std::string& methods, std::vector<std::string>& wanted) {
+  std::stringstream ss(methods);
+  for (std::string w; std::getline(ss, w, ',');) {
+    if (w != "brute" && w != "vadop" && w != "vadop_sap" && w != "sap" && w != "kdop") {
+      std::fprintf(stderr, "error: unknown method '%s' (vadop, vadop_sap, sap, kdop, brute)\n", w.c_str());
+      return false;
+    }
+    wanted.push_back(w);
+  }
+  return true;
+}
+
+// Throws vadop::InvalidArgument on a bad configuration.
+std::unique_ptr<vadop::BroadPhase> makeBroadPhase(const std::string& name, const Options& o) {
+  if (name == "brute") return std::make_unique<vadop::BruteForceBroadPhase>();
+  if (name == "vadop" || name == "vadop_sap") {
+    vadop::VadopConfig c;
+    c.axes = o.axes;
+    c.phi_deg = o.phi_deg;
+    c.slow_rule = o.slow_rule == "all" ? vadop::SlowAxisRule::kAllAxes : vadop::SlowAxisRule::kFixedZone;
+    if (name == "vadop") return std::make_unique<vadop::VadopGridBroadPhase>(c);
+    return std::make_unique<vadop::SweepPruneBroadPhase>(c);
+  }
+  if (name == "sap") return vadop::SweepPruneBroadPhase::makeEveryAxis(3);
+  return vadop::SweepPruneBroadPhase::makeEveryAxis(o.axes);
+}
+
+// Reflects the spheres off the walls at a frame boundary (a velocity change, as after a response).
+void bounceOffWalls(std::vector<vadop::Motion>& m, vadop::BroadPhase& bp, double t0, double half, double radius) {
+  for (size_t i = 0; i < m.size(); ++i) {
+    const Eigen::Vector3d p = m[i].positionAt(t0);
+    Eigen::Vector3d v = m[i].linear_velocity;
+    bool bounce = false;
+    for (int k = 0; k < 3; ++k) {
+      if ((p[k] > half - radius && v[k] > 0) || (p[k] < -half + radius && v[k] < 0)) {
+        v[k] = -v[k];
+        bounce = true;
+      }
+    }
+    if (bounce) {
+      m[i] = vadop::makeMotion(p, Eigen::Quaterniond::Identity(), v, Eigen::Vector3d::Zero(), t0);
+      bp.setMotion(static_cast<vadop::BodyId>(i), m[i]);
+    }
+  }
+}
+
+// One method's frames: times, counters, and whether it found every pair brute force found.
+struct MethodFigures {
+  std::vector<double> ms;
+  size_t candidates = 0, swaps = 0, tests = 0;
+  bool complete = true;
+};
+
+// Runs the frames with `bp`; brute force fills `truth`, the others are checked against it.
+MethodFigures runFrames(const Options& o, const std::string& name, vadop::BroadPhase& bp,
+                        std::vector<vadop::Motion> m, double dt, double half, double radius,
+                        std::vector<std::vector<vadop::Pair>>& truth) {
+  MethodFigures out;
+  for (int f = 0; f < o.frames; ++f) {
+    const double t0 = f * dt;
+    bounceOffWalls(m, bp, t0, half, radius);
+    const auto start = std::chrono::steady_clock::now();
+    bp.update(t0, t0 + dt);
+    out.ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+    out.candidates += bp.pairs().size();
+    if (const auto* sp = dynamic_cast<const vadop::SweepPruneBroadPhase*>(&bp)) {
+      out.swaps += sp->stats().swaps;
+      out.tests += sp->stats().overlap_tests;
+    }
+    if (name == "brute") {
+      truth.push_back(bp.pairs());
+    } else if (!truth.empty()) {
+      for (const auto& p : truth[f]) {
+        if (!std::binary_search(bp.pairs().begin(), bp.pairs().end(), p)) out.complete = false;
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Options o = parse(argc, argv);
+  const double radius = 1.0, fps = 30.0, dt = 1.0 / fps;
+  const double volume = o.n * 4.0 / 3.0 * M_PI * radius * radius * radius / o.density;
+  const double half = 0.5 * std::cbrt(volume);
+
+  // The paths: positions and velocities per frame, the same for every method.
+  const std::vector<vadop::Motion> motions = makeMotions(o, radius, fps, half);
 
   std::printf("%d spheres of radius %.1f in a box of side %.1f (density %.3f), %.2f radii/frame, %d frames\n", o.n,
               radius, 2 * half, o.density, o.speed, o.frames);
@@ -116,19 +208,9 @@ int main(int argc, char** argv) {
 
   const auto sphere = std::make_shared<const vadop::Shape>(vadop::makeSphere(radius));
   std::vector<std::vector<vadop::Pair>> truth;  // exact swept-sphere pairs, from brute force
-  std::vector<std::string> order;
   // Brute force first, so the others can be checked against it.
   std::vector<std::string> wanted;
-  {
-    std::stringstream ss(o.methods);
-    for (std::string w; std::getline(ss, w, ',');) {
-      if (w != "brute" && w != "vadop" && w != "vadop_sap" && w != "sap" && w != "kdop") {
-        std::fprintf(stderr, "error: unknown method '%s' (vadop, vadop_sap, sap, kdop, brute)\n", w.c_str());
-        return 2;
-      }
-      wanted.push_back(w);
-    }
-  }
+  if (!parseMethods(o.methods, wanted)) return 2;
   for (const char* name : {"brute", "vadop", "vadop_sap", "sap", "kdop"}) {
     if (std::find(wanted.begin(), wanted.end(), name) == wanted.end()) continue;
     if (std::string(name) == "brute" && o.n > 5000) {
@@ -137,73 +219,20 @@ int main(int argc, char** argv) {
     }
     std::unique_ptr<vadop::BroadPhase> bp;
     try {
-      if (std::string(name) == "brute") {
-        bp = std::make_unique<vadop::BruteForceBroadPhase>();
-      } else if (std::string(name) == "vadop" || std::string(name) == "vadop_sap") {
-        vadop::VadopConfig c;
-        c.axes = o.axes;
-        c.phi_deg = o.phi_deg;
-        c.slow_rule = o.slow_rule == "all" ? vadop::SlowAxisRule::kAllAxes : vadop::SlowAxisRule::kFixedZone;
-        if (std::string(name) == "vadop") {
-          bp = std::make_unique<vadop::VadopGridBroadPhase>(c);
-        } else {
-          bp = std::make_unique<vadop::SweepPruneBroadPhase>(c);
-        }
-      } else if (std::string(name) == "sap") {
-        bp = vadop::SweepPruneBroadPhase::makeEveryAxis(3);
-      } else {
-        bp = vadop::SweepPruneBroadPhase::makeEveryAxis(o.axes);
-      }
+      bp = makeBroadPhase(name, o);
     } catch (const vadop::InvalidArgument& e) {
       std::fprintf(stderr, "error: %s\n", e.what());
       return 2;
     }
-    std::vector<vadop::Motion> m = motions;
-    for (const auto& mo : m) bp->add(sphere, mo);
-    std::vector<double> ms;
-    size_t candidates = 0, swaps = 0, tests = 0;
-    bool complete = true;
-    for (int f = 0; f < o.frames; ++f) {
-      const double t0 = f * dt;
-      // Reflect off the walls at frame boundaries (a velocity change, as after a response).
-      for (int i = 0; i < o.n; ++i) {
-        const Eigen::Vector3d p = m[i].positionAt(t0);
-        Eigen::Vector3d v = m[i].linear_velocity;
-        bool bounce = false;
-        for (int k = 0; k < 3; ++k) {
-          if ((p[k] > half - radius && v[k] > 0) || (p[k] < -half + radius && v[k] < 0)) {
-            v[k] = -v[k];
-            bounce = true;
-          }
-        }
-        if (bounce) {
-          m[i] = vadop::makeMotion(p, Eigen::Quaterniond::Identity(), v, Eigen::Vector3d::Zero(), t0);
-          bp->setMotion(static_cast<vadop::BodyId>(i), m[i]);
-        }
-      }
-      const auto start = std::chrono::steady_clock::now();
-      bp->update(t0, t0 + dt);
-      ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
-      candidates += bp->pairs().size();
-      if (const auto* sp = dynamic_cast<const vadop::SweepPruneBroadPhase*>(bp.get())) {
-        swaps += sp->stats().swaps;
-        tests += sp->stats().overlap_tests;
-      }
-      if (std::string(name) == "brute") {
-        truth.push_back(bp->pairs());
-      } else if (!truth.empty()) {
-        for (const auto& p : truth[f]) {
-          if (!std::binary_search(bp->pairs().begin(), bp->pairs().end(), p)) complete = false;
-        }
-      }
-    }
-    std::vector<double> sorted = ms;
+    for (const auto& mo : motions) bp->add(sphere, mo);
+    const MethodFigures r = runFrames(o, name, *bp, motions, dt, half, radius, truth);
+    std::vector<double> sorted = r.ms;
     std::sort(sorted.begin(), sorted.end());
     std::printf("%-9s %10.3f %10.3f %14.1f %12.0f %12.0f %10.1f %s\n", name, sorted[sorted.size() / 2], sorted.back(),
-                static_cast<double>(candidates) / o.frames, static_cast<double>(swaps) / o.frames,
-                static_cast<double>(tests) / o.frames, bp->memoryBytes() / 1048576.0,
-                std::string(name) == "brute" ? "(reference)" : truth.empty() ? "not checked" : complete ? "yes" : "NO");
-    if (!complete) return 1;
+                static_cast<double>(r.candidates) / o.frames, static_cast<double>(r.swaps) / o.frames,
+                static_cast<double>(r.tests) / o.frames, bp->memoryBytes() / 1048576.0,
+                std::string(name) == "brute" ? "(reference)" : truth.empty() ? "not checked" : r.complete ? "yes" : "NO");
+    if (!r.complete) return 1;
   }
   std::printf("peak RSS of the process: %.1f MB\n", peakRssMb());
   return 0;

@@ -107,6 +107,13 @@ class VadopGridBroadPhase : public BroadPhase {
   void setOptions(double cell_size, double incremental);
   // Cell size by the estimated cost of the frame's boxes (step 3 of computePairs).
   double chooseCellSize(const double* world_lo, const double* world_hi);
+  // The steps of computePairs: 1. new axis sets for the bodies whose motion changed; 2. the
+  // alive bodies' slots, swept boxes, axis ranks and interval offsets; 3. the cells of the
+  // boxes; 4. the pairs of overlapping boxes of each cell into hits_.
+  void selectChangedAxes(double frame, int threads);
+  void assignSlots(double t0, double t1, size_t slots, int threads);
+  void buildCells(size_t slots);
+  void testCellPairs(int threads, size_t blocks);
   static constexpr uint32_t kNoSlot = ~uint32_t{0};
   // Pairs of slots whose boxes overlap, found in one block of the work (cells, or slots in the
   // incremental mode), and the box tests that found them.
@@ -131,6 +138,10 @@ class VadopGridBroadPhase : public BroadPhase {
   // The incremental mode's pairs of overlapping boxes into hits_ (blocks of slots on `threads`
   // threads); false when it declines (the full path then runs).
   bool computeFromFatBoxes(double step, int threads, size_t blocks);
+  // Its fat boxes built from scratch (false: not worth it at this escape rate), or those of
+  // the bodies that left theirs renewed (false: too many left, the full path takes over).
+  bool rebuildFatBoxes(double step, int threads);
+  bool refreshFatBoxes(double step, int threads);
   void appendFatBox(uint32_t slot, double step);
   double expectedEscapeRate(double step) const;
   bool boxesOverlap(uint32_t a, uint32_t b) const;
