@@ -174,7 +174,6 @@ class MonitorNode {
     }
     gate_latency_.resize(gates_.size());
     if (!gates_.empty()) gate_states_pub_ = pnh_.advertise<vadop::GateStateArray>("gate_states", 10);
-    core_->setPredictionLock(&core_mutex_);
 
     updater_.setHardwareID("vadop_monitor");
     updater_.add("cycle", [this](diagnostic_updater::DiagnosticStatusWrapper& s) {
@@ -216,8 +215,8 @@ class MonitorNode {
   }
 
  private:
-  // Every use of core_ holds core_mutex_ (the gates' thread checks commands); the cycle
-  // releases it while its world predicts (MonitorCore::setPredictionLock).
+  // Every use of core_ holds core_mutex_ (the gates' thread checks commands), but for the
+  // cycle's prediction, which onTimer runs outside it (MonitorCore::predictCycle).
   void onOdometry(size_t i, const nav_msgs::Odometry& msg) {
     std::lock_guard<std::mutex> lock(core_mutex_);
     core_->registry().onOdometry(i, msg, ros::Time::now());
@@ -352,7 +351,7 @@ class MonitorNode {
   }
 
   void onTimer() {
-    std::unique_lock<std::mutex> lock(core_mutex_);  // released while the world predicts
+    std::unique_lock<std::mutex> lock(core_mutex_);  // released while the world predicts (below)
     const ros::Time now = ros::Time::now();
     if (now.isZero()) return;  // use_sim_time and no /clock yet
     if (!last_now_.isZero() && now < last_now_) {
@@ -365,7 +364,13 @@ class MonitorNode {
     last_now_ = now;
     // The cycle does not throw on any input; should it still, this cycle is lost, not the node.
     try {
-      const vadop::ImpactArray& impacts = core_->cycle(now, tf_source_);
+      core_->startCycle(now, tf_source_);
+      do {
+        lock.unlock();  // callbacks and gates meanwhile: the prediction uses the cycle's own world
+        core_->predictCycle();
+        lock.lock();
+      } while (core_->retryCycle(now));
+      const vadop::ImpactArray& impacts = core_->finishCycle(now);
       window_.add(core_->lastStats());
       impacts_pub_.publish(impacts);
       if (core_->params().publish_markers && markers_pub_.getNumSubscribers() > 0) {
