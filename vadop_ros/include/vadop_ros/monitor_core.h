@@ -121,7 +121,9 @@ class MonitorCore {
 
   // The same cycle in phases, for a caller that shares the core between threads under a lock
   // of its own (the node: its callbacks and the gates' thread), so that nothing waits for a
-  // prediction. Every call into the core holds the caller's lock, but for predictCycle():
+  // prediction: the gates answer from their own copy of the world (checkCommand), synced at
+  // the end of every cycle, and may do so while the cycle's world predicts. Every call into
+  // the core holds the caller's lock, but for predictCycle():
   //   lock;   startCycle(now, tf);
   //   do { unlock; predictCycle(); lock; } while (retryCycle(now));
   //   const ImpactArray& impacts = finishCycle(now);  // still locked
@@ -186,11 +188,6 @@ class MonitorCore {
   CommandCheck checkCommand(size_t body, const Eigen::Vector3d& v, const Eigen::Vector3d& w, const ros::Time& now,
                             TransformSource& tf, double window, double state_timeout,
                             const std::function<bool(size_t element)>& skip = {});
-
-  // Threads (the node): the gates answer from their own copy of the world, synced at the end
-  // of every cycle (finishCycle), so that a command never waits for a prediction: a gate's
-  // thread may check a command in the middle of a cycle, while the cycle's world predicts
-  // outside the caller's lock (the phases of cycle() above).
 
   // Time jumped backwards: forget every state (and the world's moving elements).
   void reset();
