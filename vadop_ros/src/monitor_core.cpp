@@ -533,7 +533,7 @@ bool MonitorCore::leaveOutOffenders(const std::string& error, const ros::Time& n
   for (size_t i = 0; i < elements.size(); ++i) {
     if (!predictor_.contains(i)) continue;
     const Element& e = elements[i];
-    std::string why = BodyRegistry::motionRangeError(predictor_.motion(i), t0_, t0_ + params_.horizon);
+    std::string why = BodyRegistry::motionRangeError(predictor_.motion(i), t0_, t0_ + cycle_horizon_);
     if (why.empty() && error.find("\"" + e.id + "\"") == std::string::npos) continue;
     if (why.empty()) why = "the prediction failed on it: " + error;
     predictor_.unset(i);
@@ -546,7 +546,7 @@ bool MonitorCore::leaveOutOffenders(const std::string& error, const ros::Time& n
     const size_t i = trackBase() + s;
     if (!predictor_.contains(i)) continue;
     const std::string name = track_in_world_[s];
-    std::string why = BodyRegistry::motionRangeError(predictor_.motion(i), t0_, t0_ + params_.horizon);
+    std::string why = BodyRegistry::motionRangeError(predictor_.motion(i), t0_, t0_ + cycle_horizon_);
     if (why.empty() && error.find("\"" + name + "\"") == std::string::npos) continue;
     if (why.empty()) why = "the prediction failed on it: " + error;
     tracks_.drop(s, why, now);
