@@ -275,6 +275,37 @@ TEST(CommandCheck, StatesFarFromTheClockAreRefusedNotThrown) {
 
 // The markers of a checked command: the body's sweep under the gated command, in the gate's
 // namespace, ending where the scaled command takes it; nothing for a command not checked.
+// The node runs the cycle in phases and predicts outside its lock: between the phases a gate
+// answers from the world of the last cycle's end (not the one predicting); the new states
+// count once the cycle is finished.
+TEST(CommandCheck, BetweenTheCyclesPhasesTheGateSeesTheLastCyclesWorld) {
+  MonitorCore core = makeCore(kTwo);
+  FakeTf tf;
+  core.registry().onOdometry(0, odom(100.0, -2, 0, 0, 0), ros::Time(100.0));
+  core.registry().onOdometry(1, odom(100.0, 2, 0, 0, 0), ros::Time(100.0));
+  core.cycle(ros::Time(100.0), tf);
+  CommandCheck c = core.checkCommand(0, {1, 0, 0}, kZero, ros::Time(100.0), tf, 2.0, 0.5);
+  ASSERT_EQ(c.status, CommandCheck::Status::kChecked) << c.why;
+  core.registry().onOdometry(1, odom(100.1, 0, 0, 0, 0), ros::Time(100.1));  // b now 1 m from a
+  const ros::Time now(100.1);
+  core.startCycle(now, tf);
+  core.predictCycle();
+  // 1 m/s for 2 s covers 2 m of the 3 to where b was at the last cycle's end: clear.
+  c = core.checkCommand(0, {1, 0, 0}, kZero, now, tf, 2.0, 0.5);
+  ASSERT_EQ(c.status, CommandCheck::Status::kChecked) << c.why;
+  EXPECT_TRUE(c.scale.clear);
+  EXPECT_EQ(c.scale.scale, 1.0);
+  EXPECT_FALSE(core.retryCycle(now));
+  EXPECT_TRUE(core.finishCycle(now).impacts.empty());
+  // Now b is 1 m away: s m/s for 2 s reaches it at s = 0.5.
+  c = core.checkCommand(0, {1, 0, 0}, kZero, now, tf, 2.0, 0.5);
+  ASSERT_EQ(c.status, CommandCheck::Status::kChecked) << c.why;
+  EXPECT_GE(c.scale.scale, 0.48 - 1e-9);
+  EXPECT_LE(c.scale.scale, 0.5 + 1e-9);
+  ASSERT_TRUE(c.limited);
+  EXPECT_EQ(core.registry().elements()[c.other].id, "b");
+}
+
 TEST(CommandCheck, MarkersDrawTheGatedSweep) {
   MonitorCore core = makeCore(kTwo);
   FakeTf tf;

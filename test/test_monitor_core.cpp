@@ -318,6 +318,32 @@ TEST(MonitorCore, PaddingAndHorizonChanges) {
   EXPECT_TRUE(core.cycle(ros::Time(1.002), tf).impacts.empty());
 }
 
+// The cycle in phases (the node predicts outside its lock) reports what cycle() does; a new
+// padding that comes while the world predicts takes effect at the next cycle's start.
+TEST(MonitorCore, CycleInPhasesDefersANewPaddingToTheNextCycle) {
+  MonitorCore core = makeCore(kFour), twin = makeCore(kFour);
+  FakeTf tf;
+  for (MonitorCore* c : {&core, &twin}) {
+    c->registry().onOdometry(0, odom(1.0, -2.0, 0.0, 1.0), ros::Time(1.0));
+    c->registry().onOdometry(1, odom(1.0, 2.0, 0.0, -1.0), ros::Time(1.0));
+  }
+  twin.cycle(ros::Time(1.0), tf);
+  core.startCycle(ros::Time(1.0), tf);
+  core.predictCycle();
+  EXPECT_TRUE(core.setPadding(0.1));
+  EXPECT_FALSE(core.retryCycle(ros::Time(1.0)));
+  const vadop::ImpactArray& out = core.finishCycle(ros::Time(1.0));
+  ASSERT_EQ(out.impacts.size(), 1u);
+  EXPECT_NEAR(out.impacts[0].time_to_impact, 1.5, 1e-4);
+  EXPECT_EQ(out.impacts[0].time_to_impact, twin.lastImpacts().impacts.at(0).time_to_impact);
+  // The world this cycle predicted is still there (its elements, the markers of its bodies).
+  EXPECT_EQ(core.lastStats().elements_in_world, twin.lastStats().elements_in_world);
+  EXPECT_EQ(core.markers().markers.size(), twin.markers().markers.size());
+  EXPECT_EQ(core.padding(), 0.1);
+  ASSERT_EQ(core.cycle(ros::Time(1.0) + ros::Duration(0.001), tf).impacts.size(), 1u);
+  EXPECT_NEAR(core.lastImpacts().impacts[0].time_to_impact, 1.399, 1e-4);
+}
+
 TEST(MonitorCore, TimeJumpBackResets) {
   MonitorCore core = makeCore(kFour);
   FakeTf tf;

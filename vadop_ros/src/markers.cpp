@@ -102,6 +102,122 @@ std::string label(const std::string& body, const std::string& link) {
   return link.empty() ? body : body + "/" + link;
 }
 
+// The header, namespace and action every marker of `ns` shares.
+Marker baseMarker(const MarkerInput& in, const std::string& ns) {
+  Marker base;
+  base.header.frame_id = in.frame;
+  base.header.stamp = in.stamp;
+  base.ns = ns;
+  base.action = Marker::ADD;
+  return base;
+}
+
+// Where `e` is at time t: on its path when it follows one, else by its motion.
+Eigen::Isometry3d poseOf(const MarkerElement& e, double t) {
+  return e.path_pose ? e.path_pose(t) : e.motion.poseAt(t);
+}
+
+// The shape of `e` at time t, faded to `alpha`, with the next id of its namespace (a shape
+// takes three ids: capsules use id + 1 and id + 2).
+void addShapeAt(visualization_msgs::MarkerArray& out, const Marker& base, int& id, const MarkerElement& e,
+                const std::array<float, 3>& colour, float alpha, double t) {
+  Marker shape = base;
+  shape.id = id;
+  id += 3;
+  setColour(shape, colour, alpha);
+  addShape(out, shape, e, poseOf(e, t));
+}
+
+// A path's own poses inside (t0, t1), at most kPathGhosts of them evenly picked: the curve the
+// prediction follows, drawn faintly.
+void addPathGhosts(visualization_msgs::MarkerArray& out, const Marker& base, int& id, const MarkerElement& e,
+                   const std::array<float, 3>& colour, double t0, double t1) {
+  std::vector<double> inside;
+  for (const double t : e.path_times) {
+    if (t > t0 && t < t1) inside.push_back(t);
+  }
+  const size_t n = std::min(inside.size(), static_cast<size_t>(kPathGhosts));
+  for (size_t g = 0; g < n; ++g) {
+    addShapeAt(out, base, id, e, colour, 0.15f, inside[(g + 1) * inside.size() / (n + 1)]);
+  }
+}
+
+// The line the element's origin follows over the horizon (finer along a path, which bends).
+void addTrajectoryLine(visualization_msgs::MarkerArray& out, const Marker& base, int& id, const MarkerElement& e,
+                       const std::array<float, 3>& colour, const MarkerInput& in) {
+  Marker path = base;
+  path.id = id++;
+  path.type = Marker::LINE_STRIP;
+  path.scale.x = 0.03;
+  setColour(path, colour, 0.9f);
+  path.pose.orientation.w = 1.0;
+  const int samples = e.path_pose ? 48 : 12;
+  for (int k = 0; k <= samples; ++k) {
+    const double t = in.t0 + in.horizon * k / samples;
+    path.points.push_back(point(poseOf(e, t).translation()));
+  }
+  out.markers.push_back(path);
+}
+
+// One element: its shape now; a moving one also at the horizon's end, its path's poses between
+// and the line its origin follows.
+void addElementMarkers(visualization_msgs::MarkerArray& out, const MarkerInput& in, const MarkerElement& e, int& id) {
+  const auto colour = impactColour(e.soonest, in.horizon);
+  Marker base = baseMarker(in, e.body);
+  base.frame_locked = false;
+  addShapeAt(out, base, id, e, colour, e.is_static ? 0.9f : 0.8f, in.t0);
+  if (e.is_static) return;
+  const bool moves = e.path_pose || e.motion.linear_velocity.squaredNorm() > 0.0 || e.motion.isRotating();
+  if (!moves || in.horizon <= 0.0) return;
+  const double t1 = in.t0 + in.horizon;
+  addShapeAt(out, base, id, e, colour, 0.25f, t1);
+  if (e.path_pose) addPathGhosts(out, base, id, e, colour, in.t0, t1);
+  addTrajectoryLine(out, base, id, e, colour, in);
+}
+
+// One impact in namespace "impacts": a dot at its point, an arrow along its normal and a label
+// with the two elements and the time to impact (ids id .. id + 2).
+void addImpactMarkers(visualization_msgs::MarkerArray& out, const MarkerInput& in, const vadop::Impact& imp, int& id) {
+  const auto colour = impactColour(imp.time_to_impact, in.horizon);
+  Marker base = baseMarker(in, "impacts");
+  base.pose.orientation.w = 1.0;
+
+  Marker dot = base;
+  dot.id = id++;
+  dot.type = Marker::SPHERE;
+  dot.pose.position = imp.point;
+  dot.scale.x = dot.scale.y = dot.scale.z = 0.12;
+  setColour(dot, colour, 1.0f);
+  out.markers.push_back(dot);
+
+  Marker arrow = base;
+  arrow.id = id++;
+  arrow.type = Marker::ARROW;
+  arrow.points.push_back(imp.point);
+  geometry_msgs::Point tip = imp.point;
+  tip.x += 0.4 * imp.normal.x;
+  tip.y += 0.4 * imp.normal.y;
+  tip.z += 0.4 * imp.normal.z;
+  arrow.points.push_back(tip);
+  arrow.scale.x = 0.03;  // shaft diameter
+  arrow.scale.y = 0.07;  // head diameter
+  arrow.scale.z = 0.1;   // head length
+  setColour(arrow, colour, 1.0f);
+  out.markers.push_back(arrow);
+
+  Marker text = base;
+  text.id = id++;
+  text.type = Marker::TEXT_VIEW_FACING;
+  text.pose.position = imp.point;
+  text.pose.position.z += 0.35;
+  text.scale.z = 0.18;
+  char secs[32];
+  std::snprintf(secs, sizeof secs, "%.2f s", imp.time_to_impact);
+  text.text = label(imp.body_a, imp.link_a) + " <-> " + label(imp.body_b, imp.link_b) + " " + secs;
+  setColour(text, {1.0f, 1.0f, 1.0f}, 1.0f);
+  out.markers.push_back(text);
+}
+
 }  // namespace
 
 std::array<float, 3> impactColour(double soonest, double horizon) {
@@ -119,108 +235,10 @@ visualization_msgs::MarkerArray buildMarkers(const MarkerInput& in) {
   out.markers.push_back(clear);
 
   std::map<std::string, int> next_id;  // per namespace
-  const double t1 = in.t0 + in.horizon;
-  for (const MarkerElement& e : in.elements) {
-    const auto colour = impactColour(e.soonest, in.horizon);
-    Marker base;
-    base.header.frame_id = in.frame;
-    base.header.stamp = in.stamp;
-    base.ns = e.body;
-    base.action = Marker::ADD;
-    base.frame_locked = false;
-    int& id = next_id[e.body];
-
-    Marker start = base;
-    start.id = id;
-    id += 3;  // capsules use id + 1 and id + 2
-    setColour(start, colour, e.is_static ? 0.9f : 0.8f);
-    auto poseAt = [&e](double t) { return e.path_pose ? e.path_pose(t) : e.motion.poseAt(t); };
-    addShape(out, start, e, poseAt(in.t0));
-    if (e.is_static) continue;
-
-    const bool moves = e.path_pose || e.motion.linear_velocity.squaredNorm() > 0.0 || e.motion.isRotating();
-    if (!moves || in.horizon <= 0.0) continue;
-    Marker end = base;
-    end.id = id;
-    id += 3;
-    setColour(end, colour, 0.25f);
-    addShape(out, end, e, poseAt(t1));
-    if (e.path_pose) {
-      // The path's own poses inside the horizon: the curve the prediction follows.
-      std::vector<double> inside;
-      for (const double t : e.path_times) {
-        if (t > in.t0 && t < t1) inside.push_back(t);
-      }
-      const size_t n = std::min(inside.size(), static_cast<size_t>(kPathGhosts));
-      for (size_t g = 0; g < n; ++g) {
-        Marker ghost = base;
-        ghost.id = id;
-        id += 3;
-        setColour(ghost, colour, 0.15f);
-        addShape(out, ghost, e, poseAt(inside[(g + 1) * inside.size() / (n + 1)]));
-      }
-    }
-
-    Marker path = base;
-    path.id = id++;
-    path.type = Marker::LINE_STRIP;
-    path.scale.x = 0.03;
-    setColour(path, colour, 0.9f);
-    path.pose.orientation.w = 1.0;
-    const int samples = e.path_pose ? 48 : 12;
-    for (int k = 0; k <= samples; ++k) {
-      const double t = in.t0 + in.horizon * k / samples;
-      path.points.push_back(point(poseAt(t).translation()));
-    }
-    out.markers.push_back(path);
-  }
-
+  for (const MarkerElement& e : in.elements) addElementMarkers(out, in, e, next_id[e.body]);
   if (in.impacts) {
     int id = 0;
-    for (const vadop::Impact& imp : in.impacts->impacts) {
-      const auto colour = impactColour(imp.time_to_impact, in.horizon);
-      Marker base;
-      base.header.frame_id = in.frame;
-      base.header.stamp = in.stamp;
-      base.ns = "impacts";
-      base.action = Marker::ADD;
-      base.pose.orientation.w = 1.0;
-
-      Marker dot = base;
-      dot.id = id++;
-      dot.type = Marker::SPHERE;
-      dot.pose.position = imp.point;
-      dot.scale.x = dot.scale.y = dot.scale.z = 0.12;
-      setColour(dot, colour, 1.0f);
-      out.markers.push_back(dot);
-
-      Marker arrow = base;
-      arrow.id = id++;
-      arrow.type = Marker::ARROW;
-      arrow.points.push_back(imp.point);
-      geometry_msgs::Point tip = imp.point;
-      tip.x += 0.4 * imp.normal.x;
-      tip.y += 0.4 * imp.normal.y;
-      tip.z += 0.4 * imp.normal.z;
-      arrow.points.push_back(tip);
-      arrow.scale.x = 0.03;  // shaft diameter
-      arrow.scale.y = 0.07;  // head diameter
-      arrow.scale.z = 0.1;   // head length
-      setColour(arrow, colour, 1.0f);
-      out.markers.push_back(arrow);
-
-      Marker text = base;
-      text.id = id++;
-      text.type = Marker::TEXT_VIEW_FACING;
-      text.pose.position = imp.point;
-      text.pose.position.z += 0.35;
-      text.scale.z = 0.18;
-      char secs[32];
-      std::snprintf(secs, sizeof secs, "%.2f s", imp.time_to_impact);
-      text.text = label(imp.body_a, imp.link_a) + " <-> " + label(imp.body_b, imp.link_b) + " " + secs;
-      setColour(text, {1.0f, 1.0f, 1.0f}, 1.0f);
-      out.markers.push_back(text);
-    }
+    for (const vadop::Impact& imp : in.impacts->impacts) addImpactMarkers(out, in, imp, id);
   }
   return out;
 }

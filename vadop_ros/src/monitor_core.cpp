@@ -110,8 +110,9 @@ void MonitorCore::elementNames(size_t element, std::string& body, std::string& l
 void MonitorCore::writeImpact(const RawImpact& hit, const ros::Time& now, vadop::Impact& msg) const {
   elementNames(hit.a, msg.body_a, msg.link_a);
   elementNames(hit.b, msg.body_b, msg.link_b);
-  // In [0, horizon]: t0 + horizon - t0 may differ from the horizon by a rounding.
-  msg.time_to_impact = std::min(params_.horizon, std::max(0.0, hit.time - t0_));
+  // In [0, horizon] (the one the world predicted over): t0 + horizon - t0 may differ from the
+  // horizon by a rounding.
+  msg.time_to_impact = std::min(cycle_horizon_, std::max(0.0, hit.time - t0_));
   msg.time_of_impact = addSeconds(now, msg.time_to_impact);  // saturates: now may be near 2^32 s
   msg.point.x = hit.point.x();
   msg.point.y = hit.point.y();
@@ -169,9 +170,14 @@ RuntimeSettings MonitorCore::reconfigure(const RuntimeSettings& requested, std::
       requested.padding != params_.padding) {
     params_.padding = requested.padding;
     // Shapes change: every element leaves the world and comes back, padded anew, at the next
-    // cycle (World has no setShape).
-    predictor_.clear();
-    gate_predictor_.clear();
+    // cycle (World has no setShape). Not under a predicting world's feet: then at the next
+    // cycle's start.
+    if (predicting_) {
+      worlds_stale_ = true;
+    } else {
+      predictor_.clear();
+      gate_predictor_.clear();
+    }
   }
   return settings();
 }
@@ -192,64 +198,113 @@ bool MonitorCore::setPadding(double padding) {
   return errors.empty();
 }
 
-CommandCheck MonitorCore::checkCommand(size_t body, const Eigen::Vector3d& v, const Eigen::Vector3d& w,
-                                       const ros::Time& now, TransformSource& tf, double window, double state_timeout,
-                                       const std::function<bool(size_t element)>& skip) {
-  using Status = CommandCheck::Status;
-  CommandCheck out;
-  gate_world_wanted_ = true;
-  if (!gate_world_current_) syncGateWorld();
-  const auto& bodies = registry_.bodies();
-  if (body >= bodies.size() || bodies[body].is_static) {
-    out.why = "not a moving body";
-    return out;
+namespace {
+
+// One element of a gated body at the check's start: where it is, what it does on its own and
+// what the command adds.
+struct CommandedElement {
+  Eigen::Isometry3d pose;
+  Eigen::Vector3d own_v, own_w;  // relative to the body frame (links moving on tf), fixed frame
+  Eigen::Vector3d cmd_v, cmd_w;  // the element origin's velocity and its turn under the command
+};
+
+// The gated body's elements under the command scaled by s (CommandCheck's question): their
+// motions at a scale, their first contact in the gates' world, and the contacts each scale
+// met, to name what limits the chosen scale afterwards.
+class CommandedSweep {
+ public:
+  CommandedSweep(Predictor& world, double t_now, double window, const std::function<bool(size_t element)>& skip)
+      : world_(world), t_now_(t_now), window_(window), skip_(skip) {}
+
+  void add(size_t element, const CommandedElement& part) {
+    movers_.push_back(element);
+    parts_.push_back(part);
   }
-  const Body& b = bodies[body];
-  if (!b.has_state || b.elements.empty()) {
-    out.why = b.elements.empty() ? "no geometry" : "no state received yet";
-    return out;
-  }
-  if (!receiptFresh(b.status.last_receipt, now, state_timeout)) {
-    const double age = secondsBetween(now, b.status.last_receipt);
-    out.status = Status::kStale;
-    out.why = age >= 0.0 ? "no state for " + std::to_string(age) + " s"
-                         : "the last state was received " + std::to_string(-age) + " s after the node's clock (it went back)";
-    return out;
-  }
-  for (size_t ei : b.elements) {
-    if (!gate_predictor_.contains(ei)) {
-      out.status = Status::kNotInWorld;
-      out.why = "element \"" + registry_.elements()[ei].id + "\" is not in the world (no cycle since it had a state)";
-      return out;
+
+  // Every element's motion at scale s (both parts of the twist, so an arc keeps its curvature).
+  const std::vector<vadop::Motion>& motionsAt(double s) {
+    motions_.resize(movers_.size());
+    for (size_t k = 0; k < parts_.size(); ++k) {
+      motions_[k] = twistMotion(parts_[k].pose, parts_[k].own_v + s * parts_[k].cmd_v,
+                                parts_[k].own_w + s * parts_[k].cmd_w, t_now_);
     }
+    return motions_;
   }
-  if (!registry_.updateBody(body, now, tf)) {
-    out.status = b.status.state == BodyState::kTfMissing ? Status::kTfMissing : Status::kNoState;
-    out.why = b.status.tf_error.empty() ? toString(b.status.state) : b.status.tf_error;
-    return out;
+
+  // The time of the first contact at scale s (+inf when clear over the window).
+  double firstContactAt(double s) {
+    motionsAt(s);
+    Predictor::MoverContact c;
+    if (!world_.firstContact(movers_, motions_, t_now_, window_, skip_, c)) {
+      return std::numeric_limits<double>::infinity();
+    }
+    seen_.push_back({s, c});
+    return c.time;
   }
-  const double t_now = registry_.seconds(now);
+
+  // The largest clear scale on searchGateScale's grid. One candidate query for all the scales
+  // (beginReach): under a constant twist an origin keeps its speed, |own_v + s cmd_v|, largest
+  // at s = 0 or 1. Throws vadop::InvalidArgument on a motion out of the library's range.
+  vadop::GateScale search() {
+    std::vector<Eigen::Vector3d> origins;
+    std::vector<double> reach;
+    for (const CommandedElement& m : parts_) {
+      origins.push_back(m.pose.translation());
+      reach.push_back(window_ * std::max(m.own_v.norm(), (m.own_v + m.cmd_v).norm()));
+    }
+    struct EndReach {
+      Predictor& p;
+      ~EndReach() { p.endReach(); }
+    } end_reach{world_};
+    world_.beginReach(movers_, origins, reach, t_now_, window_);
+    return vadop::searchGateScale([this](double s) { return firstContactAt(s); });
+  }
+
+  // The contact that limits `scale`: when clear, that of the smallest blocked scale (just
+  // above); else the chosen scale's own. Null when nothing limits it.
+  const Predictor::MoverContact* limit(const vadop::GateScale& scale) const {
+    const Seen* found = nullptr;
+    for (const Seen& x : seen_) {
+      if (scale.clear ? (!found || x.s < found->s) : x.s == scale.scale) found = &x;
+    }
+    return found ? &found->contact : nullptr;
+  }
+
+  const std::vector<size_t>& movers() const { return movers_; }
+
+ private:
+  struct Seen {
+    double s;
+    Predictor::MoverContact contact;
+  };
+  Predictor& world_;
+  const double t_now_, window_;
+  const std::function<bool(size_t element)>& skip_;
+  std::vector<size_t> movers_;
+  std::vector<CommandedElement> parts_;
+  std::vector<vadop::Motion> motions_;
+  std::vector<Seen> seen_;
+};
+
+// The gated body's elements into `sweep`, from its latest state at t_now under the body-frame
+// command (v, w); false (out says why) when one is not in the gates' world.
+bool addCommandedElements(const BodyRegistry& registry, const Predictor& gate_world, const Body& b,
+                          const Eigen::Vector3d& v, const Eigen::Vector3d& w, double t_now, CommandedSweep& sweep,
+                          CommandCheck& out) {
   const FrameMotion& fm = b.frame_motion;
   const vadop::Motion& frame = fm.motion;
   const Eigen::Isometry3d pose = frame.poseAt(t_now);
   const Eigen::Vector3d frame_v = frame.velocityOfPoint(pose.translation(), t_now);
   // The command in the fixed frame.
   const Eigen::Vector3d cv = pose.linear() * v, cw = pose.linear() * w;
-  struct Mover {
-    Eigen::Isometry3d pose;
-    Eigen::Vector3d own_v, own_w;  // relative to the body frame (links moving on tf), fixed frame
-    Eigen::Vector3d cmd_v;         // the element origin's velocity under the command
-  };
-  std::vector<size_t> movers;
-  std::vector<Mover> parts;
   for (size_t ei : b.elements) {
-    const Element& e = registry_.elements()[ei];
-    if (!e.active || !gate_predictor_.contains(ei)) {
-      out.status = Status::kNotInWorld;
+    const Element& e = registry.elements()[ei];
+    if (!e.active || !gate_world.contains(ei)) {
+      out.status = CommandCheck::Status::kNotInWorld;
       out.why = "element \"" + e.id + "\" is not in the world";
-      return out;
+      return false;
     }
-    Mover m;
+    CommandedElement m;
     m.pose = e.motion.poseAt(t_now);
     const Eigen::Vector3d r = m.pose.translation() - pose.translation();
     // The element's own velocity, less the body frame's rigid share, is what tf says its joints
@@ -257,43 +312,63 @@ CommandCheck MonitorCore::checkCommand(size_t body, const Eigen::Vector3d& v, co
     m.own_v = e.motion.velocityOfPoint(m.pose.translation(), t_now) - (frame_v + fm.w.cross(r));
     m.own_w = e.motion.angular_velocity - fm.w;
     m.cmd_v = cv + cw.cross(r);
-    movers.push_back(ei);
-    parts.push_back(m);
+    m.cmd_w = cw;
+    sweep.add(ei, m);
   }
-  std::vector<vadop::Motion> motions(movers.size());
-  // Each evaluation's contact, to name what limits the scale afterwards.
-  struct Seen {
-    double s;
-    Predictor::MoverContact contact;
-  };
-  std::vector<Seen> seen;
-  auto build = [&](double s) {
-    for (size_t k = 0; k < parts.size(); ++k) {
-      motions[k] = twistMotion(parts[k].pose, parts[k].own_v + s * parts[k].cmd_v, parts[k].own_w + s * cw, t_now);
+  return true;
+}
+
+}  // namespace
+
+bool MonitorCore::commandCheckable(size_t body, const ros::Time& now, double state_timeout, CommandCheck& out) const {
+  using Status = CommandCheck::Status;
+  const auto& bodies = registry_.bodies();
+  if (body >= bodies.size() || bodies[body].is_static) {
+    out.why = "not a moving body";
+    return false;
+  }
+  const Body& b = bodies[body];
+  if (!b.has_state || b.elements.empty()) {
+    out.why = b.elements.empty() ? "no geometry" : "no state received yet";
+    return false;
+  }
+  if (!receiptFresh(b.status.last_receipt, now, state_timeout)) {
+    const double age = secondsBetween(now, b.status.last_receipt);
+    out.status = Status::kStale;
+    out.why = age >= 0.0 ? "no state for " + std::to_string(age) + " s"
+                         : "the last state was received " + std::to_string(-age) + " s after the node's clock (it went back)";
+    return false;
+  }
+  for (size_t ei : b.elements) {
+    if (!gate_predictor_.contains(ei)) {
+      out.status = Status::kNotInWorld;
+      out.why = "element \"" + registry_.elements()[ei].id + "\" is not in the world (no cycle since it had a state)";
+      return false;
     }
-  };
-  auto first_contact = [&](double s) {
-    build(s);
-    Predictor::MoverContact c;
-    if (!gate_predictor_.firstContact(movers, motions, t_now, window, skip, c)) return std::numeric_limits<double>::infinity();
-    seen.push_back({s, c});
-    return c.time;
-  };
-  // One candidate query for all the scales: under a constant twist an origin keeps its speed,
-  // |own_v + s cmd_v|, largest at s = 0 or 1.
-  std::vector<Eigen::Vector3d> origins;
-  std::vector<double> reach;
-  for (const Mover& m : parts) {
-    origins.push_back(m.pose.translation());
-    reach.push_back(window * std::max(m.own_v.norm(), (m.own_v + m.cmd_v).norm()));
   }
-  struct EndReach {
-    Predictor& p;
-    ~EndReach() { p.endReach(); }
-  } end_reach{gate_predictor_};
+  return true;
+}
+
+CommandCheck MonitorCore::checkCommand(size_t body, const Eigen::Vector3d& v, const Eigen::Vector3d& w,
+                                       const ros::Time& now, TransformSource& tf, double window, double state_timeout,
+                                       const std::function<bool(size_t element)>& skip) {
+  using Status = CommandCheck::Status;
+  CommandCheck out;
+  gate_world_wanted_ = true;
+  // Mid-prediction the cycle's world is not to be read: the gates keep the world they have.
+  if (!gate_world_current_ && !predicting_) syncGateWorld();
+  if (!commandCheckable(body, now, state_timeout, out)) return out;
+  const Body& b = registry_.bodies()[body];
+  if (!registry_.updateBody(body, now, tf)) {
+    out.status = b.status.state == BodyState::kTfMissing ? Status::kTfMissing : Status::kNoState;
+    out.why = b.status.tf_error.empty() ? toString(b.status.state) : b.status.tf_error;
+    return out;
+  }
+  const double t_now = registry_.seconds(now);
+  CommandedSweep sweep(gate_predictor_, t_now, window, skip);
+  if (!addCommandedElements(registry_, gate_predictor_, b, v, w, t_now, sweep, out)) return out;
   try {
-    gate_predictor_.beginReach(movers, origins, reach, t_now, window);
-    out.scale = vadop::searchGateScale(first_contact);
+    out.scale = sweep.search();
   } catch (const vadop::InvalidArgument& e) {
     // A commanded motion out of the library's range (a twist far beyond any robot's).
     out.status = Status::kNotInWorld;
@@ -301,22 +376,16 @@ CommandCheck MonitorCore::checkCommand(size_t body, const Eigen::Vector3d& v, co
     return out;
   }
   out.status = Status::kChecked;
-  build(out.scale.scale);  // the motions at the chosen scale, for the markers
-  out.elements = movers;
-  out.motions = motions;
+  out.motions = sweep.motionsAt(out.scale.scale);  // the motions at the chosen scale, for the markers
+  out.elements = sweep.movers();
   out.t0 = t_now;
   out.window = window;
-  const Seen* limit = nullptr;
-  for (const Seen& x : seen) {
-    // Clear: the smallest blocked scale (just above); not clear: the chosen scale's contact.
-    if (out.scale.clear ? (!limit || x.s < limit->s) : x.s == out.scale.scale) limit = &x;
-  }
-  if (limit) {
+  if (const Predictor::MoverContact* limit = sweep.limit(out.scale)) {
     out.limited = true;
-    out.element = limit->contact.mover;
-    out.other = limit->contact.other;
-    out.time_to_contact = limit->contact.time - t_now;
-    out.undecided = limit->contact.undecided;
+    out.element = limit->mover;
+    out.other = limit->other;
+    out.time_to_contact = limit->time - t_now;
+    out.undecided = limit->undecided;
   }
   return out;
 }
@@ -464,7 +533,7 @@ bool MonitorCore::leaveOutOffenders(const std::string& error, const ros::Time& n
   for (size_t i = 0; i < elements.size(); ++i) {
     if (!predictor_.contains(i)) continue;
     const Element& e = elements[i];
-    std::string why = BodyRegistry::motionRangeError(predictor_.motion(i), t0_, t0_ + params_.horizon);
+    std::string why = BodyRegistry::motionRangeError(predictor_.motion(i), t0_, t0_ + cycle_horizon_);
     if (why.empty() && error.find("\"" + e.id + "\"") == std::string::npos) continue;
     if (why.empty()) why = "the prediction failed on it: " + error;
     predictor_.unset(i);
@@ -477,7 +546,7 @@ bool MonitorCore::leaveOutOffenders(const std::string& error, const ros::Time& n
     const size_t i = trackBase() + s;
     if (!predictor_.contains(i)) continue;
     const std::string name = track_in_world_[s];
-    std::string why = BodyRegistry::motionRangeError(predictor_.motion(i), t0_, t0_ + params_.horizon);
+    std::string why = BodyRegistry::motionRangeError(predictor_.motion(i), t0_, t0_ + cycle_horizon_);
     if (why.empty() && error.find("\"" + name + "\"") == std::string::npos) continue;
     if (why.empty()) why = "the prediction failed on it: " + error;
     tracks_.drop(s, why, now);
@@ -490,45 +559,80 @@ bool MonitorCore::leaveOutOffenders(const std::string& error, const ros::Time& n
 }
 
 const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSource& tf) {
-  const auto start = std::chrono::steady_clock::now();
+  startCycle(now, tf);
+  do {
+    predictCycle();
+  } while (retryCycle(now));
+  return finishCycle(now);
+}
+
+void MonitorCore::startCycle(const ros::Time& now, TransformSource& tf) {
+  cycle_start_ = std::chrono::steady_clock::now();
+  predicting_ = false;  // should the last cycle have thrown before its end
   stats_ = CycleStats();
   stats_.stamp = now;
+  if (worlds_stale_) {
+    // A new padding arrived while the world predicted (reconfigure): every element comes back
+    // padded anew now.
+    predictor_.clear();
+    gate_predictor_.clear();
+    worlds_stale_ = false;
+  }
   registry_.update(now, tf);
   syncWorld(now);
-  stats_.registry_seconds = secondsSince(start);
+  stats_.registry_seconds = secondsSince(cycle_start_);
 
   impacts_.header.stamp = now;
   impacts_.header.frame_id = params_.fixed_frame;
   std::fill(soonest_.begin(), soonest_.end(), std::numeric_limits<double>::infinity());
   std::fill(track_soonest_.begin(), track_soonest_.end(), std::numeric_limits<double>::infinity());
   t0_ = registry_.seconds(now);
+  cycle_horizon_ = params_.horizon;
+  predict_attempts_ = 0;
+  predicting_ = true;
+  predict_start_ = std::chrono::steady_clock::now();
+}
 
+void MonitorCore::predictCycle() {
+  ++predict_attempts_;
+  try {
+    raw_impacts_ = predictor_.predict(t0_, cycle_horizon_);
+    stats_.error.clear();
+  } catch (const std::exception& e) {  // vadop::InvalidArgument; anything else is treated alike
+    raw_impacts_.clear();
+    stats_.error = e.what();
+  }
+}
+
+bool MonitorCore::retryCycle(const ros::Time& now) {
   // One element the world refuses must not cost everybody the cycle: find it (out of range
   // over the window, or named by the error), leave it out while its motion stays the same,
   // and predict once more.
-  std::vector<RawImpact> raw;
-  const auto predict_start = std::chrono::steady_clock::now();
-  for (int attempt = 0; attempt < 2; ++attempt) {
-    try {
-      // The gates' thread may take the lock meanwhile: it uses the gates' world, not this one.
-      struct Unlocked {
-        std::mutex* m;
-        explicit Unlocked(std::mutex* lock) : m(lock) {
-          if (m) m->unlock();
-        }
-        ~Unlocked() {
-          if (m) m->lock();
-        }
-      } unlocked(prediction_lock_);
-      raw = predictor_.predict(t0_, params_.horizon);
-      stats_.error.clear();
-      break;
-    } catch (const std::exception& e) {  // vadop::InvalidArgument; anything else is treated alike
-      stats_.error = e.what();
-      if (attempt == 0 && leaveOutOffenders(e.what(), now)) continue;
-      break;
-    }
-  }
+  return !stats_.error.empty() && predict_attempts_ == 1 && leaveOutOffenders(stats_.error, now);
+}
+
+const vadop::ImpactArray& MonitorCore::finishCycle(const ros::Time& now) {
+  predicting_ = false;
+  logPredictionOutcome();
+  stats_.elements_in_world = predictor_.size();
+  stats_.predict_seconds = secondsSince(predict_start_);
+  stats_.candidates = predictor_.lastCandidateCount();
+  stats_.reused = predictor_.lastReusedCount();
+  stats_.slice_culled = predictor_.lastSliceCulledCount();
+  stats_.raw_impacts = raw_impacts_.size();
+  writeImpacts(now);
+  // The world sorts by time; the clamp to 0 keeps that order.
+  stats_.impacts = impacts_.impacts.size();
+  noteUndecided();
+  // The gates' world follows this cycle's now, or at the first question if nobody asks one
+  // every cycle (no gate configured: its copy of every element is about a tenth of a cycle).
+  gate_world_current_ = false;
+  if (gate_world_wanted_) syncGateWorld();
+  stats_.cycle_seconds = secondsSince(cycle_start_);
+  return impacts_;
+}
+
+void MonitorCore::logPredictionOutcome() {
   if (!stats_.recovered.empty() && stats_.error.empty() && throttleOk(last_error_log_)) {
     ROS_WARN_NAMED("vadop_monitor", "prediction recovered this cycle: %s (throttled to one line per 5 s)",
                    stats_.recovered.c_str());
@@ -537,14 +641,10 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
     ROS_ERROR_NAMED("vadop_monitor", "prediction failed this cycle: %s (throttled to one line per 5 s)",
                     stats_.error.c_str());
   }
-  stats_.elements_in_world = predictor_.size();
-  stats_.predict_seconds = secondsSince(predict_start);
-  stats_.candidates = predictor_.lastCandidateCount();
-  stats_.reused = predictor_.lastReusedCount();
-  stats_.slice_culled = predictor_.lastSliceCulledCount();
-  stats_.raw_impacts = raw.size();
+}
 
-  const auto& elements = registry_.elements();
+void MonitorCore::writeImpacts(const ros::Time& now) {
+  const std::vector<RawImpact>& raw = raw_impacts_;
   // The impacts the pair rules keep (the world applies the same rules: syncWorld's groups and,
   // when pair_rules_needed_, this predicate; without those rules it reports no ignored pair).
   std::vector<uint32_t>& kept = kept_impacts_;
@@ -565,6 +665,7 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
   vadop::detail::parallelFor(vadop::detail::threadCount(params_.threads), kept.size(), kImpactsPerThread, kImpactChunk,
                              [&](size_t i) { writeImpact(raw[kept[i]], now, out[i]); });
   // The soonest time to impact of an element's body (a tracked object's own).
+  const auto& elements = registry_.elements();
   auto soonest = [&](size_t element) -> double& {
     return isTrack(element) ? track_soonest_[element - trackBase()] : soonest_[elements[element].body];
   };
@@ -573,8 +674,9 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
     soonest(hit.a) = std::min(soonest(hit.a), out[i].time_to_impact);
     soonest(hit.b) = std::min(soonest(hit.b), out[i].time_to_impact);
   }
-  // The world sorts by time; the clamp to 0 keeps that order.
-  stats_.impacts = impacts_.impacts.size();
+}
+
+void MonitorCore::noteUndecided() {
   for (const RawImpact& u : predictor_.lastUndecided()) {
     if (pair_rules_needed_ && pairIgnored(u.a, u.b)) {
       ++stats_.ignored_tested;
@@ -594,12 +696,6 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
                    "clear until then, unknown after (not reported as impacts; throttled to one line per 5 s)",
                    stats_.undecided, stats_.undecided_first.c_str());
   }
-  // The gates' world follows this cycle's now, or at the first question if nobody asks one
-  // every cycle (no gate configured: its copy of every element is about a tenth of a cycle).
-  gate_world_current_ = false;
-  if (gate_world_wanted_) syncGateWorld();
-  stats_.cycle_seconds = secondsSince(start);
-  return impacts_;
 }
 
 visualization_msgs::MarkerArray MonitorCore::markers() const {

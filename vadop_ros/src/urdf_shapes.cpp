@@ -194,7 +194,9 @@ MeshLoader makeDefaultMeshLoader() {
   };
 }
 
-UrdfShapes urdfToShapes(const std::string& urdf_xml, const MeshLoader& load_mesh) {
+namespace {
+
+urdf::ModelInterfaceSharedPtr parseModel(const std::string& urdf_xml) {
   urdf::ModelInterfaceSharedPtr model;
   std::string why;
   {
@@ -203,15 +205,15 @@ UrdfShapes urdfToShapes(const std::string& urdf_xml, const MeshLoader& load_mesh
     why = capture.text();
   }
   if (!model) throw UrdfError("the URDF does not parse" + (why.empty() ? std::string() : ": " + why));
-  const urdf::LinkConstSharedPtr root = model->getRoot();
-  if (!root) throw UrdfError("the URDF has no root link");
+  return model;
+}
 
-  UrdfShapes out;
-  out.robot_name = model->getName();
-  out.root_link = root->name;
-
-  // Link poses in the root frame, joints at zero, breadth first from the root.
+// Walks the tree breadth first from the root, joints at zero: fills out.link_in_root,
+// out.adjacent and out.movable_links, and returns the links in that order.
+std::vector<urdf::LinkConstSharedPtr> linksFromRoot(const urdf::ModelInterface& model,
+                                                    const urdf::LinkConstSharedPtr& root, UrdfShapes& out) {
   out.link_in_root[root->name] = Eigen::Isometry3d::Identity();
+  // Each link with whether a movable joint lies between it and the root.
   std::vector<std::pair<urdf::LinkConstSharedPtr, bool>> todo = {{root, false}};
   for (size_t i = 0; i < todo.size(); ++i) {
     const urdf::LinkConstSharedPtr link = todo[i].first;
@@ -219,7 +221,7 @@ UrdfShapes urdfToShapes(const std::string& urdf_xml, const MeshLoader& load_mesh
     if (movable) out.movable_links.push_back(link->name);
     const Eigen::Isometry3d& parent_pose = out.link_in_root[link->name];
     for (const urdf::JointSharedPtr& joint : link->child_joints) {
-      const urdf::LinkConstSharedPtr child = model->getLink(joint->child_link_name);
+      const urdf::LinkConstSharedPtr child = model.getLink(joint->child_link_name);
       if (!child) continue;
       const Eigen::Isometry3d origin = toEigen(joint->parent_to_joint_origin_transform);
       out.link_in_root[child->name] = parent_pose * origin;
@@ -227,68 +229,94 @@ UrdfShapes urdfToShapes(const std::string& urdf_xml, const MeshLoader& load_mesh
       todo.emplace_back(child, movable || joint->type != urdf::Joint::FIXED);
     }
   }
+  std::vector<urdf::LinkConstSharedPtr> links;
+  links.reserve(todo.size());
+  for (const auto& entry : todo) links.push_back(entry.first);
+  return links;
+}
 
-  for (size_t li = 0; li < todo.size(); ++li) {
-    const urdf::LinkConstSharedPtr& link = todo[li].first;
+// The library's shape of a URDF geometry into g (and a mesh's URI and scale); "" when done,
+// else why it cannot be. Throws what the mesh loader or the library throws.
+std::string setShape(const urdf::Geometry& geometry, const MeshLoader& load_mesh, LinkGeometry& g) {
+  switch (geometry.type) {
+    case urdf::Geometry::SPHERE: {
+      const auto& s = static_cast<const urdf::Sphere&>(geometry);
+      g.shape = vadop::makeSphere(s.radius);
+      return "";
+    }
+    case urdf::Geometry::BOX: {
+      const auto& b = static_cast<const urdf::Box&>(geometry);
+      g.shape = vadop::makeBox(Eigen::Vector3d(b.dim.x, b.dim.y, b.dim.z));
+      return "";
+    }
+    case urdf::Geometry::CYLINDER: {
+      const auto& cy = static_cast<const urdf::Cylinder&>(geometry);
+      g.shape = vadop::makeCylinder(cy.radius, cy.length);
+      return "";
+    }
+    case urdf::Geometry::MESH: {
+      const auto& m = static_cast<const urdf::Mesh&>(geometry);
+      g.mesh_uri = m.filename;
+      g.mesh_scale = Eigen::Vector3d(m.scale.x, m.scale.y, m.scale.z);
+      if (!g.mesh_scale.allFinite() || !(g.mesh_scale.minCoeff() > 0.0)) {
+        return "mesh \"" + m.filename + "\": the scale must be finite and > 0";
+      }
+      MeshData data = load_mesh(m.filename, g.mesh_scale);
+      g.shape = vadop::makeMesh(std::move(data.vertices), std::move(data.triangles));
+      return "";
+    }
+    default:
+      return "unsupported geometry type";
+  }
+}
+
+// One collision element of a link into out.geometries, or the reason it is left out into
+// out.errors.
+void addCollision(const urdf::Link& link, size_t k, const urdf::CollisionSharedPtr& c, const MeshLoader& load_mesh,
+                  UrdfShapes& out) {
+  const std::string where = "link \"" + link.name + "\" collision " + std::to_string(k);
+  if (!c || !c->geometry) {
+    out.errors.push_back(where + ": no geometry");
+    return;
+  }
+  LinkGeometry g;
+  g.link = link.name;
+  g.index = static_cast<int>(k);
+  g.origin = toEigen(c->origin);
+  if (!finitePose(g.origin)) {
+    out.errors.push_back(where + ": the origin is not finite");
+    return;
+  }
+  try {
+    const std::string why = setShape(*c->geometry, load_mesh, g);
+    if (!why.empty()) {
+      out.errors.push_back(where + ": " + why);
+      return;
+    }
+  } catch (const vadop::InvalidArgument& e) {
+    out.errors.push_back(where + ": invalid geometry: " + e.what());
+    return;
+  } catch (const std::exception& e) {
+    out.errors.push_back(where + ": " + e.what());
+    return;
+  }
+  out.geometries.push_back(std::move(g));
+}
+
+}  // namespace
+
+UrdfShapes urdfToShapes(const std::string& urdf_xml, const MeshLoader& load_mesh) {
+  const urdf::ModelInterfaceSharedPtr model = parseModel(urdf_xml);
+  const urdf::LinkConstSharedPtr root = model->getRoot();
+  if (!root) throw UrdfError("the URDF has no root link");
+
+  UrdfShapes out;
+  out.robot_name = model->getName();
+  out.root_link = root->name;
+  for (const urdf::LinkConstSharedPtr& link : linksFromRoot(*model, root, out)) {
     std::vector<urdf::CollisionSharedPtr> collisions = link->collision_array;
     if (collisions.empty() && link->collision) collisions.push_back(link->collision);
-    for (size_t k = 0; k < collisions.size(); ++k) {
-      const urdf::CollisionSharedPtr& c = collisions[k];
-      const std::string where = "link \"" + link->name + "\" collision " + std::to_string(k);
-      if (!c || !c->geometry) {
-        out.errors.push_back(where + ": no geometry");
-        continue;
-      }
-      LinkGeometry g;
-      g.link = link->name;
-      g.index = static_cast<int>(k);
-      g.origin = toEigen(c->origin);
-      if (!finitePose(g.origin)) {
-        out.errors.push_back(where + ": the origin is not finite");
-        continue;
-      }
-      try {
-        switch (c->geometry->type) {
-          case urdf::Geometry::SPHERE: {
-            const auto& s = static_cast<const urdf::Sphere&>(*c->geometry);
-            g.shape = vadop::makeSphere(s.radius);
-            break;
-          }
-          case urdf::Geometry::BOX: {
-            const auto& b = static_cast<const urdf::Box&>(*c->geometry);
-            g.shape = vadop::makeBox(Eigen::Vector3d(b.dim.x, b.dim.y, b.dim.z));
-            break;
-          }
-          case urdf::Geometry::CYLINDER: {
-            const auto& cy = static_cast<const urdf::Cylinder&>(*c->geometry);
-            g.shape = vadop::makeCylinder(cy.radius, cy.length);
-            break;
-          }
-          case urdf::Geometry::MESH: {
-            const auto& m = static_cast<const urdf::Mesh&>(*c->geometry);
-            g.mesh_uri = m.filename;
-            g.mesh_scale = Eigen::Vector3d(m.scale.x, m.scale.y, m.scale.z);
-            if (!g.mesh_scale.allFinite() || !(g.mesh_scale.minCoeff() > 0.0)) {
-              out.errors.push_back(where + ": mesh \"" + m.filename + "\": the scale must be finite and > 0");
-              continue;
-            }
-            MeshData data = load_mesh(m.filename, g.mesh_scale);
-            g.shape = vadop::makeMesh(std::move(data.vertices), std::move(data.triangles));
-            break;
-          }
-          default:
-            out.errors.push_back(where + ": unsupported geometry type");
-            continue;
-        }
-      } catch (const vadop::InvalidArgument& e) {
-        out.errors.push_back(where + ": invalid geometry: " + e.what());
-        continue;
-      } catch (const std::exception& e) {
-        out.errors.push_back(where + ": " + e.what());
-        continue;
-      }
-      out.geometries.push_back(std::move(g));
-    }
+    for (size_t k = 0; k < collisions.size(); ++k) addCollision(*link, k, collisions[k], load_mesh, out);
   }
   return out;
 }

@@ -90,7 +90,6 @@ class MonitorNode {
     const auto subscribe_start = std::chrono::steady_clock::now();
     const size_t moving = subscribeInputs(params);
     setUpGates();
-    core_->setPredictionLock(&core_mutex_);
     setUpDiagnostics(params);
     setUpReconfigure(params);
 
@@ -205,8 +204,8 @@ class MonitorNode {
         [this](vadop::MonitorConfig& c, uint32_t) { onReconfigure(c); });
   }
 
-  // Every use of core_ holds core_mutex_ (the gates' thread checks commands); the cycle
-  // releases it while its world predicts (MonitorCore::setPredictionLock).
+  // Every use of core_ holds core_mutex_ (the gates' thread checks commands), but for the
+  // cycle's prediction, which onTimer runs outside it (MonitorCore::predictCycle).
   void onTracks(size_t source, const vadop::TrackedObjectArray& msg) {
     std::lock_guard<std::mutex> lock(core_mutex_);
     core_->tracks().onArray(source, msg, ros::Time::now(), tf_source_);
@@ -320,7 +319,7 @@ class MonitorNode {
   }
 
   void onTimer() {
-    std::unique_lock<std::mutex> lock(core_mutex_);  // released while the world predicts
+    std::unique_lock<std::mutex> lock(core_mutex_);  // released while the world predicts (below)
     const ros::Time now = ros::Time::now();
     if (now.isZero()) return;  // use_sim_time and no /clock yet
     if (!last_now_.isZero() && now < last_now_) {
@@ -333,7 +332,13 @@ class MonitorNode {
     last_now_ = now;
     // The cycle does not throw on any input; should it still, this cycle is lost, not the node.
     try {
-      const vadop::ImpactArray& impacts = core_->cycle(now, tf_source_);
+      core_->startCycle(now, tf_source_);
+      do {
+        lock.unlock();  // callbacks and gates meanwhile: the prediction uses the cycle's own world
+        core_->predictCycle();
+        lock.lock();
+      } while (core_->retryCycle(now));
+      const vadop::ImpactArray& impacts = core_->finishCycle(now);
       window_.add(core_->lastStats());
       impacts_pub_.publish(impacts);
       if (core_->params().publish_markers && markers_pub_.getNumSubscribers() > 0) {
@@ -350,6 +355,7 @@ class MonitorNode {
         ROS_INFO_THROTTLE(1.0, "vadop_monitor: %zu predicted impact(s):%s", impacts.impacts.size(), text.c_str());
       }
     } catch (const std::exception& e) {
+      if (!lock.owns_lock()) lock.lock();  // thrown while the world predicted
       ROS_ERROR_THROTTLE(5.0, "vadop_monitor: cycle failed: %s", e.what());
     }
     // Gates whose commands stopped: one zero command each.

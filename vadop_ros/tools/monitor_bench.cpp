@@ -223,32 +223,28 @@ vadop_ros::MonitorParams monitorParams(const Options& o) {
   return p;
 }
 
-Result run(size_t n, const Options& o) {
-  const int cycles = o.cycles, warmup = o.warmup, links = o.links;
-  const double rate = o.rate, area = o.area, turn = o.turn, churn = o.churn, fast = o.fast, ceiling = o.ceiling;
-  const bool markers = o.markers, tracks = o.tracks;
-  const unsigned seed = o.seed;
-  const size_t gates = o.gates;
-  std::mt19937 rng(seed);
-
+// The node's parameters of a run with n bodies: n robots on odometry (primitives, or K-link
+// URDF robots with --links; the first --gates of them gated), or with --tracks one source of
+// tracked objects.
+vadop_ros::MonitorParams fleetParams(size_t n, const Options& o) {
   vadop_ros::MonitorParams p = monitorParams(o);
-  if (tracks) {
+  if (o.tracks) {
     vadop_ros::TrackParams t;
     t.topic = "/people/tracks";
     t.prefix = "people";
     p.tracks.push_back(t);
   }
-  for (size_t i = 0; i < (tracks ? 0 : n); ++i) {
+  for (size_t i = 0; i < (o.tracks ? 0 : n); ++i) {
     vadop_ros::BodyParams b;
     b.name = "body_" + std::to_string(i);
     b.topic = "/" + b.name + "/odom";
-    if (i < gates) {
+    if (i < o.gates) {
       b.has_gate = true;
       b.gate.cmd_vel_in = "/" + b.name + "/nav_vel";
       b.gate.cmd_vel_out = "/" + b.name + "/cmd_vel";
       b.gate.state_timeout = p.stale_timeout;
     }
-    if (links >= 2) {
+    if (o.links >= 2) {
       b.robot_description = "/robot_description";
       if (o.joints) b.joint_states_topic = "/" + b.name + "/joint_states";
       p.bodies.push_back(b);
@@ -263,206 +259,284 @@ Result run(size_t n, const Options& o) {
     }
     p.bodies.push_back(b);
   }
-  const std::string urdf = links >= 2 ? chainUrdf(links, o.joints) : "";
-  vadop_ros::MonitorCore core(p, [&](const std::string&, std::string& value) {
+  return p;
+}
+
+// Every body's robot_description: `urdf`, or none when it is empty (primitive bodies).
+vadop_ros::ParamReader urdfReader(const std::string& urdf) {
+  return [urdf](const std::string&, std::string& value) {
     value = urdf;
     return !urdf.empty();
-  });
+  };
+}
 
-  // --paired: a second core, coherence off, fed the same messages.
-  std::unique_ptr<vadop_ros::MonitorCore> shadow;
-  if (o.paired) {
-    vadop_ros::MonitorParams q = p;
-    q.coherence_clearance = 0.0;
-    shadow = std::make_unique<vadop_ros::MonitorCore>(q, [&](const std::string&, std::string& value) {
-      value = urdf;
-      return !urdf.empty();
-    });
+// --joints: each joint q = c + A sin(w t + phase).
+struct Swing {
+  double centre, amplitude, rate, phase;
+};
+
+// `count` joints' swings, drawn from their own generator so that the fleet's random sequence
+// is the same as without joints.
+std::vector<Swing> drawSwings(size_t count, unsigned seed) {
+  std::vector<Swing> swing(count);
+  std::mt19937 joint_rng(seed + 7919);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (Swing& j : swing) j = {-0.5 + u(joint_rng), 0.6 + 0.6 * u(joint_rng), 0.3 + 0.7 * u(joint_rng), 6.3 * u(joint_rng)};
+  return swing;
+}
+
+// What the fleet reports each cycle, built outside the timed part: every robot's odometry (and
+// joint state with --joints), or the tracker's array of every object (--tracks); fed into a
+// core as the node's callbacks would, inside it.
+class FleetMessages {
+ public:
+  FleetMessages(size_t n, const Options& o, const std::vector<vadop_ros::BodyParams>& bodies, std::mt19937& rng)
+      : n_(n),
+        o_(o),
+        bodies_(bodies),
+        rng_(rng),
+        sim_(n, o.area, o.turn, rng, o.fast, 5.0, o.ceiling),
+        reported_(n),
+        id_(n),
+        noise_(0.0, o.noise > 0.0 ? o.noise : 1.0),
+        arm_joints_(o.joints ? static_cast<size_t>(o.links - 1) : 0),
+        swing_(drawSwings(n * arm_joints_, o.seed)) {
+    odometry_.header.frame_id = "odom";
+    objects_.header.frame_id = "odom";
+    for (uint64_t& x : id_) x = next_id_++;
+    for (size_t k = 1; k <= arm_joints_; ++k) joints_.name.push_back("j" + std::to_string(k));
+    joints_.position.resize(arm_joints_);
+    joints_.velocity.resize(arm_joints_);
   }
-  std::vector<double> paired_ms;
-  std::vector<std::pair<double, double>> reported(n);
-  std::vector<vadop_ros::VelocityGate> gate_list;
-  for (size_t i = 0; i < std::min(gates, n); ++i) gate_list.emplace_back(i, core.registry());
-  Result r;
 
-  vadop_ros::WanderingFleet sim(n, area, turn, rng, fast, 5.0, ceiling);
+  const vadop_ros::WanderingFleet& fleet() const { return sim_; }
 
-  NoTf tf;
-  const double dt = 1.0 / rate;
-  ros::Time now(1000.0);
-  std::vector<double> cycle_ms, cpu_ms, feed_ms, predict_ms, marker_ms, registry_ms;
+  // The fleet dt on to `now`: the tracker's array (with --churn's new ids) and the twists as
+  // odometry reports them (noise drawn here, the same for the paired core).
+  void step(double dt, const ros::Time& now) {
+    sim_.step(dt, rng_);
+    if (o_.tracks) trackObjects(dt, now);
+    for (size_t i = 0; i < (o_.tracks ? 0 : n_); ++i) reported_[i] = {noisy(sim_[i].v), noisy(sim_[i].w)};
+  }
+
+  void feed(vadop_ros::MonitorCore& into, const ros::Time& now, vadop_ros::TransformSource& tf) {
+    if (o_.tracks) into.tracks().onArray(0, objects_, now, tf);
+    for (size_t i = 0; i < (o_.tracks ? 0 : n_); ++i) {
+      const vadop_ros::WanderingFleet::Body& s = sim_[i];
+      odometry_.header.stamp = now;
+      odometry_.child_frame_id = bodies_[i].name;
+      odometry_.pose.pose.position.x = s.x;
+      odometry_.pose.pose.position.y = s.y;
+      odometry_.pose.pose.position.z = s.z;
+      odometry_.twist.twist.linear.z = s.vz;
+      odometry_.pose.pose.orientation.z = std::sin(s.yaw / 2);
+      odometry_.pose.pose.orientation.w = std::cos(s.yaw / 2);
+      odometry_.twist.twist.linear.x = reported_[i].first;
+      odometry_.twist.twist.angular.z = reported_[i].second;
+      into.registry().onOdometry(i, odometry_, now);
+      if (arm_joints_ > 0) feedJoints(into, i, now);
+    }
+  }
+
+ private:
+  double noisy(double x) { return o_.noise > 0.0 ? x + noise_(rng_) : x; }
+
+  void trackObjects(double dt, const ros::Time& now) {
+    objects_.header.stamp = now;
+    objects_.objects.resize(n_);
+    for (size_t i = 0; i < n_; ++i) {
+      if (unit_(rng_) < o_.churn * dt) id_[i] = next_id_++;
+      const vadop_ros::WanderingFleet::Body& b = sim_[i];
+      vadop::TrackedObject& o = objects_.objects[i];
+      o.id = std::to_string(id_[i]);
+      o.shape.type = static_cast<uint8_t>(1 + i % 3);  // BOX, SPHERE, CYLINDER
+      o.shape.dimensions = o.shape.type == shape_msgs::SolidPrimitive::BOX      ? std::vector<double>{0.6, 0.4, 0.5}
+                           : o.shape.type == shape_msgs::SolidPrimitive::SPHERE ? std::vector<double>{0.3}
+                                                                                : std::vector<double>{1.8, 0.3};
+      o.pose.position.x = b.x;
+      o.pose.position.y = b.y;
+      o.pose.orientation.z = std::sin(b.yaw / 2);
+      o.pose.orientation.w = std::cos(b.yaw / 2);
+      o.twist.linear.x = b.v * std::cos(b.yaw);
+      o.twist.linear.y = b.v * std::sin(b.yaw);
+      o.twist.angular.z = b.w;
+    }
+  }
+
+  void feedJoints(vadop_ros::MonitorCore& into, size_t i, const ros::Time& now) {
+    joints_.header.stamp = now;
+    const double t = now.toSec();
+    for (size_t k = 0; k < arm_joints_; ++k) {
+      const Swing& j = swing_[i * arm_joints_ + k];
+      joints_.position[k] = j.centre + j.amplitude * std::sin(j.rate * t + j.phase);
+      joints_.velocity[k] = j.amplitude * j.rate * std::cos(j.rate * t + j.phase);
+    }
+    if (into.registry().onJointState(i, joints_, now) != vadop_ros::InputResult::kAccepted) std::abort();
+  }
+
+  const size_t n_;
+  const Options& o_;
+  const std::vector<vadop_ros::BodyParams>& bodies_;
+  std::mt19937& rng_;
+  vadop_ros::WanderingFleet sim_;
+  std::vector<std::pair<double, double>> reported_;  // (forward speed, turn rate) per robot
+  nav_msgs::Odometry odometry_;
+  vadop::TrackedObjectArray objects_;
+  std::vector<uint64_t> id_;  // each tracked object's id
+  uint64_t next_id_ = 0;
+  std::uniform_real_distribution<double> unit_{0.0, 1.0};
+  std::normal_distribution<double> noise_;
+  const size_t arm_joints_;
+  std::vector<Swing> swing_;
+  sensor_msgs::JointState joints_;
+};
+
+// Each gated body's planner sends its current twist at `command_time`: the time of
+// VelocityGate::onCommand and what it decided, into r.
+void commandGates(std::vector<vadop_ros::VelocityGate>& gates, vadop_ros::MonitorCore& core,
+                  const vadop_ros::WanderingFleet& sim, const ros::Time& command_time, vadop_ros::TransformSource& tf,
+                  Result& r) {
+  for (size_t g = 0; g < gates.size(); ++g) {
+    geometry_msgs::Twist cmd;
+    cmd.linear.x = sim[g].v;
+    cmd.angular.z = sim[g].w;
+    const auto g0 = std::chrono::steady_clock::now();
+    const geometry_msgs::Twist out = gates[g].onCommand(core, cmd, command_time, tf);
+    r.gate_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - g0).count());
+    if (!std::isfinite(out.linear.x)) std::abort();
+    const vadop_ros::CommandCheck& check = gates[g].lastCheck();
+    r.gate_evaluations += static_cast<double>(check.scale.evaluations);
+    const std::string& reason = gates[g].state().reason;
+    r.gate_slowed += reason == "slow" ? 1 : 0;
+    r.gate_stopped += reason == "stop" ? 1 : 0;
+    r.gate_unchecked += reason == "stale" ? 1 : 0;
+  }
+}
+
+// The measured cycles' times (ms) and counts, summed.
+struct CycleSamples {
+  std::vector<double> cycle, cpu, feed, predict, markers, registry;
+  std::vector<double> paired;  // --paired: the shadow core's CPU ms
   double candidates = 0, impacts = 0, ignored_tested = 0, reused = 0, culled = 0;
-  nav_msgs::Odometry msg;
-  msg.header.frame_id = "odom";
-  // Tracked objects: the tracker's array (built outside the timed part) and each object's id.
-  vadop::TrackedObjectArray objects;
-  objects.header.frame_id = "odom";
-  std::vector<uint64_t> id(n);
-  uint64_t next_id = 0;
-  for (uint64_t& x : id) x = next_id++;
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  std::normal_distribution<double> noise(0.0, o.noise > 0.0 ? o.noise : 1.0);
-  auto noisy = [&](double x) { return o.noise > 0.0 ? x + noise(rng) : x; };
-  // --joints: each joint q = c + A sin(w t + phase), drawn from its own generator so that the
-  // fleet's random sequence is the same as without joints.
-  struct Swing {
-    double centre, amplitude, rate, phase;
-  };
-  const size_t arm_joints = o.joints ? static_cast<size_t>(links - 1) : 0;
-  std::vector<Swing> swing(n * arm_joints);
-  {
-    std::mt19937 joint_rng(seed + 7919);
-    std::uniform_real_distribution<double> u(0.0, 1.0);
-    for (Swing& j : swing) j = {-0.5 + u(joint_rng), 0.6 + 0.6 * u(joint_rng), 0.3 + 0.7 * u(joint_rng), 6.3 * u(joint_rng)};
+
+  void add(double feed_ms, double cycle_ms, double cpu_ms, double markers_ms, const vadop_ros::CycleStats& st) {
+    feed.push_back(feed_ms);
+    cycle.push_back(cycle_ms);
+    cpu.push_back(cpu_ms);
+    predict.push_back(st.predict_seconds * 1e3);
+    registry.push_back(st.registry_seconds * 1e3);
+    markers.push_back(markers_ms);
+    candidates += static_cast<double>(st.candidates);
+    ignored_tested += static_cast<double>(st.ignored_tested);
+    reused += static_cast<double>(st.reused);
+    culled += static_cast<double>(st.slice_culled);
+    impacts += static_cast<double>(st.impacts);
   }
-  sensor_msgs::JointState joint_msg;
-  for (size_t k = 1; k <= arm_joints; ++k) joint_msg.name.push_back("j" + std::to_string(k));
-  joint_msg.position.resize(arm_joints);
-  joint_msg.velocity.resize(arm_joints);
-  for (int c = 0; c < warmup + cycles; ++c) {
-    now += ros::Duration(dt);
-    sim.step(dt, rng);
-    if (tracks) {
-      objects.header.stamp = now;
-      objects.objects.resize(n);
-      for (size_t i = 0; i < n; ++i) {
-        if (unit(rng) < churn * dt) id[i] = next_id++;
-        const vadop_ros::WanderingFleet::Body& b = sim[i];
-        vadop::TrackedObject& o = objects.objects[i];
-        o.id = std::to_string(id[i]);
-        o.shape.type = static_cast<uint8_t>(1 + i % 3);  // BOX, SPHERE, CYLINDER
-        o.shape.dimensions = o.shape.type == shape_msgs::SolidPrimitive::BOX      ? std::vector<double>{0.6, 0.4, 0.5}
-                             : o.shape.type == shape_msgs::SolidPrimitive::SPHERE ? std::vector<double>{0.3}
-                                                                                  : std::vector<double>{1.8, 0.3};
-        o.pose.position.x = b.x;
-        o.pose.position.y = b.y;
-        o.pose.orientation.z = std::sin(b.yaw / 2);
-        o.pose.orientation.w = std::cos(b.yaw / 2);
-        o.twist.linear.x = b.v * std::cos(b.yaw);
-        o.twist.linear.y = b.v * std::sin(b.yaw);
-        o.twist.angular.z = b.w;
-      }
-    }
-    // The twists as odometry reports them (noise drawn outside the timed part, the same for the
-    // paired core).
-    for (size_t i = 0; i < (tracks ? 0 : n); ++i) reported[i] = {noisy(sim[i].v), noisy(sim[i].w)};
-    auto feed = [&](vadop_ros::MonitorCore& into) {
-      if (tracks) into.tracks().onArray(0, objects, now, tf);
-      for (size_t i = 0; i < (tracks ? 0 : n); ++i) {
-        const vadop_ros::WanderingFleet::Body& s = sim[i];
-        msg.header.stamp = now;
-        msg.child_frame_id = p.bodies[i].name;
-        msg.pose.pose.position.x = s.x;
-        msg.pose.pose.position.y = s.y;
-        msg.pose.pose.position.z = s.z;
-        msg.twist.twist.linear.z = s.vz;
-        msg.pose.pose.orientation.z = std::sin(s.yaw / 2);
-        msg.pose.pose.orientation.w = std::cos(s.yaw / 2);
-        msg.twist.twist.linear.x = reported[i].first;
-        msg.twist.twist.angular.z = reported[i].second;
-        into.registry().onOdometry(i, msg, now);
-        if (arm_joints == 0) continue;
-        joint_msg.header.stamp = now;
-        const double t = now.toSec();
-        for (size_t k = 0; k < arm_joints; ++k) {
-          const Swing& j = swing[i * arm_joints + k];
-          joint_msg.position[k] = j.centre + j.amplitude * std::sin(j.rate * t + j.phase);
-          joint_msg.velocity[k] = j.amplitude * j.rate * std::cos(j.rate * t + j.phase);
-        }
-        if (into.registry().onJointState(i, joint_msg, now) != vadop_ros::InputResult::kAccepted) std::abort();
-      }
-    };
-    // --paired: the same cycle without coherence, before or after this one in turn.
-    auto pairedCycle = [&]() {
-      const double b0 = threadCpuMs();
-      feed(*shadow);
-      shadow->cycle(now, tf);
-      const double ms = threadCpuMs() - b0;
-      if (c >= warmup) {
-        paired_ms.push_back(ms);
-        if (shadow->lastStats().impacts != core.lastStats().impacts && c % 2 == 1) std::abort();
-      }
-    };
-    if (shadow && c % 2 == 0) pairedCycle();
-    const double cpu0 = threadCpuMs();
-    const auto t0 = std::chrono::steady_clock::now();
-    feed(core);
-    const auto t1 = std::chrono::steady_clock::now();
-    core.cycle(now, tf);
-    const auto t2 = std::chrono::steady_clock::now();
-    const double cpu2 = threadCpuMs();
-    if (shadow && c % 2 == 1) pairedCycle();
-    double mk = 0.0;
-    if (markers) {
-      const auto m = core.markers();
-      mk = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t2).count();
-      if (m.markers.empty()) std::abort();
-    }
-    if (c < warmup) continue;
-    // Each gated body's planner sends its current twist half a period after the cycle.
-    const ros::Time command_time = now + ros::Duration(0.5 * dt);
-    for (size_t g = 0; g < gate_list.size(); ++g) {
-      geometry_msgs::Twist cmd;
-      cmd.linear.x = sim[g].v;
-      cmd.angular.z = sim[g].w;
-      const auto g0 = std::chrono::steady_clock::now();
-      const geometry_msgs::Twist out = gate_list[g].onCommand(core, cmd, command_time, tf);
-      r.gate_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - g0).count());
-      if (!std::isfinite(out.linear.x)) std::abort();
-      const vadop_ros::CommandCheck& check = gate_list[g].lastCheck();
-      r.gate_evaluations += static_cast<double>(check.scale.evaluations);
-      const std::string& reason = gate_list[g].state().reason;
-      r.gate_slowed += reason == "slow" ? 1 : 0;
-      r.gate_stopped += reason == "stop" ? 1 : 0;
-      r.gate_unchecked += reason == "stale" ? 1 : 0;
-    }
-    feed_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
-    cycle_ms.push_back(std::chrono::duration<double, std::milli>(t2 - t0).count());
-    cpu_ms.push_back(cpu2 - cpu0);
-    predict_ms.push_back(core.lastStats().predict_seconds * 1e3);
-    registry_ms.push_back(core.lastStats().registry_seconds * 1e3);
-    marker_ms.push_back(mk);
-    candidates += static_cast<double>(core.lastStats().candidates);
-    ignored_tested += static_cast<double>(core.lastStats().ignored_tested);
-    reused += static_cast<double>(core.lastStats().reused);
-    culled += static_cast<double>(core.lastStats().slice_culled);
-    impacts += static_cast<double>(core.lastStats().impacts);
-  }
-  r.n = n;
-  auto mean = [](const std::vector<double>& v) {
-    double s = 0;
-    for (double x : v) s += x;
-    return v.empty() ? 0.0 : s / static_cast<double>(v.size());
-  };
-  r.mean = mean(cycle_ms);
-  r.median = percentile(cycle_ms, 0.5);
-  r.p95 = percentile(cycle_ms, 0.95);
-  r.max = *std::max_element(cycle_ms.begin(), cycle_ms.end());
-  r.cpu_mean = mean(cpu_ms);
-  if (!paired_ms.empty()) {
+};
+
+double mean(const std::vector<double>& v) {
+  double s = 0;
+  for (double x : v) s += x;
+  return v.empty() ? 0.0 : s / static_cast<double>(v.size());
+}
+
+// The figures of a run into r: means and percentiles of the samples, counts per cycle, and the
+// core's state at the end.
+void summarize(const CycleSamples& s, int cycles, const vadop_ros::MonitorCore& core, bool tracks, Result& r) {
+  r.mean = mean(s.cycle);
+  r.median = percentile(s.cycle, 0.5);
+  r.p95 = percentile(s.cycle, 0.95);
+  r.max = *std::max_element(s.cycle.begin(), s.cycle.end());
+  r.cpu_mean = mean(s.cpu);
+  if (!s.paired.empty()) {
     std::vector<double> ratio;
-    for (size_t k = 0; k < cpu_ms.size(); ++k) ratio.push_back(cpu_ms[k] / paired_ms[k]);
-    r.paired_median = percentile(paired_ms, 0.5);
-    r.cpu_median = percentile(cpu_ms, 0.5);
+    for (size_t k = 0; k < s.cpu.size(); ++k) ratio.push_back(s.cpu[k] / s.paired[k]);
+    r.paired_median = percentile(s.paired, 0.5);
+    r.cpu_median = percentile(s.cpu, 0.5);
     r.ratio_median = percentile(ratio, 0.5);
     r.ratio_p25 = percentile(ratio, 0.25);
     r.ratio_p75 = percentile(ratio, 0.75);
   }
-  r.cpu_p95 = percentile(cpu_ms, 0.95);
-  r.feed_mean = mean(feed_ms);
-  r.predict_mean = mean(predict_ms);
-  r.registry_mean = mean(registry_ms);
-  r.markers_mean = mean(marker_ms);
-  r.candidates = candidates / cycles;
-  r.ignored_tested = ignored_tested / cycles;
-  r.reused = reused / cycles;
-  r.culled = culled / cycles;
-  r.impacts = impacts / cycles;
+  r.cpu_p95 = percentile(s.cpu, 0.95);
+  r.feed_mean = mean(s.feed);
+  r.predict_mean = mean(s.predict);
+  r.registry_mean = mean(s.registry);
+  r.markers_mean = mean(s.markers);
+  r.candidates = s.candidates / cycles;
+  r.ignored_tested = s.ignored_tested / cycles;
+  r.reused = s.reused / cycles;
+  r.culled = s.culled / cycles;
+  r.impacts = s.impacts / cycles;
   r.elements = core.lastStats().elements_in_world;
   if (tracks) {
     r.tracked = core.lastStats().tracked_objects;
     r.expired = core.tracks().status(0).objects_expired;
   }
+}
+
+// --paired: the same cycle on the shadow core (coherence off), its CPU time kept once measured;
+// with `compare`, the two cores must have found as many impacts.
+void pairedCycle(vadop_ros::MonitorCore& shadow, const vadop_ros::MonitorCore& core, FleetMessages& messages,
+                 const ros::Time& now, vadop_ros::TransformSource& tf, bool measured, bool compare,
+                 CycleSamples& samples) {
+  const double b0 = threadCpuMs();
+  messages.feed(shadow, now, tf);
+  shadow.cycle(now, tf);
+  const double ms = threadCpuMs() - b0;
+  if (measured) {
+    samples.paired.push_back(ms);
+    if (shadow.lastStats().impacts != core.lastStats().impacts && compare) std::abort();
+  }
+}
+
+Result run(size_t n, const Options& o) {
+  std::mt19937 rng(o.seed);
+  const vadop_ros::MonitorParams p = fleetParams(n, o);
+  const std::string urdf = o.links >= 2 ? chainUrdf(o.links, o.joints) : "";
+  vadop_ros::MonitorCore core(p, urdfReader(urdf));
+  // --paired: a second core, coherence off, fed the same messages.
+  std::unique_ptr<vadop_ros::MonitorCore> shadow;
+  if (o.paired) {
+    vadop_ros::MonitorParams q = p;
+    q.coherence_clearance = 0.0;
+    shadow = std::make_unique<vadop_ros::MonitorCore>(q, urdfReader(urdf));
+  }
+  std::vector<vadop_ros::VelocityGate> gate_list;
+  for (size_t i = 0; i < std::min(o.gates, n); ++i) gate_list.emplace_back(i, core.registry());
+  Result r;
+  FleetMessages messages(n, o, p.bodies, rng);
+  NoTf tf;
+  const double dt = 1.0 / o.rate;
+  ros::Time now(1000.0);
+  CycleSamples samples;
+  for (int c = 0; c < o.warmup + o.cycles; ++c) {
+    now += ros::Duration(dt);
+    messages.step(dt, now);
+    const bool measured = c >= o.warmup;
+    // The paired cycle before or after this one in turn.
+    if (shadow && c % 2 == 0) pairedCycle(*shadow, core, messages, now, tf, measured, false, samples);
+    const double cpu0 = threadCpuMs();
+    const auto t0 = std::chrono::steady_clock::now();
+    messages.feed(core, now, tf);
+    const auto t1 = std::chrono::steady_clock::now();
+    core.cycle(now, tf);
+    const auto t2 = std::chrono::steady_clock::now();
+    const double cpu2 = threadCpuMs();
+    if (shadow && c % 2 == 1) pairedCycle(*shadow, core, messages, now, tf, measured, true, samples);
+    double mk = 0.0;
+    if (o.markers) {
+      const auto m = core.markers();
+      mk = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t2).count();
+      if (m.markers.empty()) std::abort();
+    }
+    if (!measured) continue;
+    // Each gated body's planner sends its current twist half a period after the cycle.
+    commandGates(gate_list, core, messages.fleet(), now + ros::Duration(0.5 * dt), tf, r);
+    samples.add(std::chrono::duration<double, std::milli>(t1 - t0).count(),
+                std::chrono::duration<double, std::milli>(t2 - t0).count(), cpu2 - cpu0, mk, core.lastStats());
+  }
+  r.n = n;
+  summarize(samples, o.cycles, core, o.tracks, r);
   return r;
 }
 
@@ -474,109 +548,114 @@ std::vector<size_t> parseList(const std::string& s) {
   return out;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+// The command line: the body counts to run, or the start-up sizes (--startup), and the options.
+struct CommandLine {
   std::vector<size_t> sizes = {100, 1000, 5000};
-  Options o;
-  int &cycles = o.cycles, &warmup = o.warmup, &links = o.links, &threads = o.threads;
-  double &rate = o.rate, &horizon = o.horizon, &area = o.area, &turn = o.turn, &fast = o.fast, &ceiling = o.ceiling;
-  std::string& broad_phase = o.broad_phase;
-  bool& markers = o.markers;
-  bool& tracks = o.tracks;
   std::vector<size_t> startup_sizes;
+  Options o;
+};
+
+// Sets one option from argv[i] (and its value, argv[++i]); false for an unknown one. Throws
+// std::exception on a bad value.
+bool parseOption(int argc, char** argv, int& i, CommandLine& cl) {
+  const std::string a = argv[i];
+  auto next = [&]() -> std::string {
+    if (i + 1 >= argc) {
+      std::fprintf(stderr, "%s needs a value\n", a.c_str());
+      std::exit(2);
+    }
+    return argv[++i];
+  };
+  Options& o = cl.o;
+  if (a == "--bodies") cl.sizes = parseList(next());
+  else if (a == "--cycles") o.cycles = std::stoi(next());
+  else if (a == "--warmup") o.warmup = std::stoi(next());
+  else if (a == "--rate") o.rate = std::stod(next());
+  else if (a == "--horizon") o.horizon = std::stod(next());
+  else if (a == "--area") o.area = std::stod(next());
+  else if (a == "--turn") o.turn = std::stod(next());
+  else if (a == "--seed") o.seed = static_cast<unsigned>(std::stoul(next()));
+  else if (a == "--markers") o.markers = true;
+  else if (a == "--links") o.links = std::stoi(next());
+  else if (a == "--joints") o.joints = true;
+  else if (a == "--gates") o.gates = std::stoul(next());
+  else if (a == "--startup") cl.startup_sizes = parseList(next());
+  else if (a == "--tracks") o.tracks = true;
+  else if (a == "--threads") o.threads = std::stoi(next());
+  else if (a == "--fast") o.fast = std::stod(next());
+  else if (a == "--3d") o.ceiling = std::stod(next());
+  else if (a == "--broadphase") o.broad_phase = next();
+  else if (a == "--time-slices") o.time_slices = std::stoi(next());
+  else if (a == "--churn") o.churn = std::stod(next());
+  else if (a == "--noise") o.noise = std::stod(next());
+  else if (a == "--paired") o.paired = true;
+  else if (a == "--coherence") {
+    const std::string v = next();
+    const size_t comma = v.find(',');
+    o.clearance = std::stod(v.substr(0, comma));
+    if (comma != std::string::npos) o.lookahead = std::stod(v.substr(comma + 1));
+  }
+  else return false;
+  return true;
+}
+
+// The command line into cl; -1 to go on, else the exit status (usage, a bad value).
+int parseCommandLine(int argc, char** argv, CommandLine& cl) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "%s needs a value\n", a.c_str());
-        std::exit(2);
-      }
-      return argv[++i];
-    };
     try {
-      if (a == "--bodies") sizes = parseList(next());
-      else if (a == "--cycles") cycles = std::stoi(next());
-      else if (a == "--warmup") warmup = std::stoi(next());
-      else if (a == "--rate") rate = std::stod(next());
-      else if (a == "--horizon") horizon = std::stod(next());
-      else if (a == "--area") area = std::stod(next());
-      else if (a == "--turn") turn = std::stod(next());
-      else if (a == "--seed") o.seed = static_cast<unsigned>(std::stoul(next()));
-      else if (a == "--markers") markers = true;
-      else if (a == "--links") links = std::stoi(next());
-      else if (a == "--joints") o.joints = true;
-      else if (a == "--gates") o.gates = std::stoul(next());
-      else if (a == "--startup") startup_sizes = parseList(next());
-      else if (a == "--tracks") tracks = true;
-      else if (a == "--threads") threads = std::stoi(next());
-      else if (a == "--fast") fast = std::stod(next());
-      else if (a == "--3d") ceiling = std::stod(next());
-      else if (a == "--broadphase") broad_phase = next();
-      else if (a == "--time-slices") o.time_slices = std::stoi(next());
-      else if (a == "--churn") o.churn = std::stod(next());
-      else if (a == "--noise") o.noise = std::stod(next());
-      else if (a == "--paired") o.paired = true;
-      else if (a == "--coherence") {
-        const std::string v = next();
-        const size_t comma = v.find(',');
-        o.clearance = std::stod(v.substr(0, comma));
-        if (comma != std::string::npos) o.lookahead = std::stod(v.substr(comma + 1));
-      }
-      else {
-        std::fprintf(stderr,
-                     "usage: %s [--bodies 100,1000,5000] [--cycles 150] [--warmup 15] [--rate 30] [--horizon 2] "
-                     "[--area 6] [--turn 0.5] [--markers] [--seed 1] [--links K [--joints]] [--gates G] [--tracks [--churn C]] "
-                     "[--threads T] [--fast F] [--3d H] [--broadphase vadop|grid|sap|vadop_sap|brute] [--time-slices K] [--noise S] "
-                     "[--coherence C[,L] [--paired]] | "
-                     "--startup 5000,50000\n",
-                     argv[0]);
-        return a == "--help" || a == "-h" ? 0 : 2;
-      }
+      if (parseOption(argc, argv, i, cl)) continue;
+      std::fprintf(stderr,
+                   "usage: %s [--bodies 100,1000,5000] [--cycles 150] [--warmup 15] [--rate 30] [--horizon 2] "
+                   "[--area 6] [--turn 0.5] [--markers] [--seed 1] [--links K [--joints]] [--gates G] [--tracks [--churn C]] "
+                   "[--threads T] [--fast F] [--3d H] [--broadphase vadop|grid|sap|vadop_sap|brute] [--time-slices K] [--noise S] "
+                   "[--coherence C[,L] [--paired]] | "
+                   "--startup 5000,50000\n",
+                   argv[0]);
+      return a == "--help" || a == "-h" ? 0 : 2;
     } catch (const std::exception&) {
       std::fprintf(stderr, "bad value for %s\n", a.c_str());
       return 2;
     }
   }
-  if (!startup_sizes.empty()) {
-    startup(startup_sizes);
-    return 0;
-  }
-  if (o.gates > 0 && tracks) {
+  return -1;
+}
+
+// The options that cannot go together or are out of range: the line saying why, and false.
+bool optionsConsistent(const CommandLine& cl) {
+  const Options& o = cl.o;
+  if (o.gates > 0 && o.tracks) {
     std::fprintf(stderr, "--gates needs robots on odometry; with --tracks every body is a tracked object\n");
-    return 2;
+    return false;
   }
   if (o.paired && !(o.clearance > 0)) {
     std::fprintf(stderr, "--paired compares against coherence off: give --coherence C[,L] with C > 0\n");
-    return 2;
+    return false;
   }
-  if (cycles < 1 || warmup < 0 || !(rate > 0) || !(horizon >= 0) || !(area > 0) || !(turn >= 0) || sizes.empty() || links < 1) {
+  if (o.cycles < 1 || o.warmup < 0 || !(o.rate > 0) || !(o.horizon >= 0) || !(o.area > 0) || !(o.turn >= 0) ||
+      cl.sizes.empty() || o.links < 1) {
     std::fprintf(stderr, "bad arguments\n");
-    return 2;
+    return false;
   }
   try {  // the predictor's settings, named as the node names them
     vadop_ros::checkPredictorParams(monitorParams(o));
   } catch (const vadop_ros::ParamError& e) {
     std::fprintf(stderr, "bad arguments: %s\n", e.what());
-    return 2;
+    return false;
   }
-  const double period_ms = 1e3 / rate;
-  std::printf("vadop_monitor_bench: MonitorCore cycle (odometry in + registry + world + ImpactArray), prediction on "
-              "%d thread(s)%s\n", threads, threads == 1 ? "" : " (cpu = the cycle thread's only: read wall)");
-  std::printf("  %d cycles after %d warm-up, %.0f Hz (period %.2f ms), horizon %.1f s, %.1f m^2 per body, "
-              "0.3-1.5 m/s, turning at up to %.2f rad/s%s\n",
-              cycles, warmup, rate, period_ms, horizon, area, turn, markers ? ", markers built every cycle" : "");
-  if (o.joints && links < 2) {
-    std::fprintf(stderr, "--joints needs --links K with K >= 2\n");
-    return 2;
-  }
-  if (links >= 2 && !o.joints) std::printf("  each body a %d-link robot (URDF, links rigid with the body)\n", links);
+  return true;
+}
+
+// The workload's lines after the first two: robots, broad phase, noise, coherence, and the
+// columns' header.
+void printWorkload(const Options& o) {
+  if (o.links >= 2 && !o.joints) std::printf("  each body a %d-link robot (URDF, links rigid with the body)\n", o.links);
   if (o.joints) {
     std::printf("  each body a mobile manipulator: a base and a %d-link arm on revolute joints, one joint state "
-                "per cycle, links predicted along the joints' motion\n", links - 1);
+                "per cycle, links predicted along the joints' motion\n", o.links - 1);
   }
-  std::printf("  broad phase %s%s%s\n", broad_phase.c_str(), fast > 0 ? ", a share of fast bodies (5x)" : "",
-              ceiling > 0 ? ", 3D (climbing and sinking)" : "");
+  std::printf("  broad phase %s%s%s\n", o.broad_phase.c_str(), o.fast > 0 ? ", a share of fast bodies (5x)" : "",
+              o.ceiling > 0 ? ", 3D (climbing and sinking)" : "");
   if (o.noise > 0) std::printf("  odometry twist noise %.3f (m/s, rad/s; 1 sigma, every message)\n", o.noise);
   if (o.clearance > 0) {
     std::printf("  temporal coherence: clearance %.3f m, lookahead %.2f s (~coherence_clearance, ~coherence_lookahead)\n",
@@ -588,44 +667,75 @@ int main(int argc, char** argv) {
   std::printf("%7s %9s %9s %9s %9s %9s %9s %8s %10s %10s %9s %11s %9s %9s %9s\n", "bodies", "cpu_mean", "cpu_p95",
               "wall_mean", "wall_med", "wall_p95", "wall_max", "feed", "predict", "markers", "cpu%per", "candidates",
               "impacts", "culled", "registry");
+}
+
+// One run's line, and the lines its options add (certificates, paired, tracks, links, gates).
+void printResult(const Result& r, const Options& o, double period_ms) {
+  std::printf("%7zu %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %8.3f %10.3f %10.3f %8.1f%% %11.1f %9.1f %9.1f %9.3f\n", r.n,
+              r.cpu_mean, r.cpu_p95, r.mean, r.median, r.p95, r.max, r.feed_mean, r.predict_mean, r.markers_mean,
+              100.0 * r.cpu_mean / period_ms, r.candidates, r.impacts, r.culled, r.registry_mean);
+  if (o.clearance > 0) std::printf("  (of the candidate pairs, %.1f per cycle answered by certificates)\n", r.reused);
+  if (o.paired) {
+    std::printf("  paired, the same cycles without coherence (alternating which runs first): CPU ms median %.3f "
+                "against %.3f; per-cycle ratio median %.3f (quartiles %.3f-%.3f)\n",
+                r.cpu_median, r.paired_median, r.ratio_median, r.ratio_p25, r.ratio_p75);
+  }
+  if (o.tracks) {
+    std::printf("  (tracked objects in one array per cycle: %zu in the world at the end, %llu expired over the run; "
+                "feed = Tracks::onArray)\n",
+                r.tracked, static_cast<unsigned long long>(r.expired));
+  }
+  if (o.links >= 2) {
+    std::printf("  (%zu elements in the world; narrow-phase calls per cycle on pairs then ignored: %.1f)\n",
+                r.elements, r.ignored_tested);
+  }
+  std::fflush(stdout);
+  if (!r.gate_ms.empty()) {
+    const double count = static_cast<double>(r.gate_ms.size());
+    std::printf("  gates: %zu commands, latency (ms) median %.3f p99 %.3f max %.3f; %.1f scales tried per command; "
+                "slowed %.1f%%, stopped %.1f%%, not checked %.1f%%\n",
+                r.gate_ms.size(), percentile(r.gate_ms, 0.5), percentile(r.gate_ms, 0.99),
+                *std::max_element(r.gate_ms.begin(), r.gate_ms.end()), r.gate_evaluations / count,
+                100.0 * r.gate_slowed / count, 100.0 * r.gate_stopped / count, 100.0 * r.gate_unchecked / count);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CommandLine cl;
+  const int status = parseCommandLine(argc, argv, cl);
+  if (status >= 0) return status;
+  if (!cl.startup_sizes.empty()) {
+    startup(cl.startup_sizes);
+    return 0;
+  }
+  if (!optionsConsistent(cl)) return 2;
+  const Options& o = cl.o;
+  const double period_ms = 1e3 / o.rate;
+  std::printf("vadop_monitor_bench: MonitorCore cycle (odometry in + registry + world + ImpactArray), prediction on "
+              "%d thread(s)%s\n", o.threads, o.threads == 1 ? "" : " (cpu = the cycle thread's only: read wall)");
+  std::printf("  %d cycles after %d warm-up, %.0f Hz (period %.2f ms), horizon %.1f s, %.1f m^2 per body, "
+              "0.3-1.5 m/s, turning at up to %.2f rad/s%s\n",
+              o.cycles, o.warmup, o.rate, period_ms, o.horizon, o.area, o.turn,
+              o.markers ? ", markers built every cycle" : "");
+  if (o.joints && o.links < 2) {
+    std::fprintf(stderr, "--joints needs --links K with K >= 2\n");
+    return 2;
+  }
+  printWorkload(o);
   int verdict = -1;
-  for (const size_t n : sizes) {
+  for (const size_t n : cl.sizes) {
     const Result r = run(n, o);
-    std::printf("%7zu %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %8.3f %10.3f %10.3f %8.1f%% %11.1f %9.1f %9.1f %9.3f\n", r.n,
-                r.cpu_mean, r.cpu_p95, r.mean, r.median, r.p95, r.max, r.feed_mean, r.predict_mean, r.markers_mean,
-                100.0 * r.cpu_mean / period_ms, r.candidates, r.impacts, r.culled, r.registry_mean);
-    if (o.clearance > 0) std::printf("  (of the candidate pairs, %.1f per cycle answered by certificates)\n", r.reused);
-    if (o.paired) {
-      std::printf("  paired, the same cycles without coherence (alternating which runs first): CPU ms median %.3f "
-                  "against %.3f; per-cycle ratio median %.3f (quartiles %.3f-%.3f)\n",
-                  r.cpu_median, r.paired_median, r.ratio_median, r.ratio_p25, r.ratio_p75);
-    }
-    if (tracks) {
-      std::printf("  (tracked objects in one array per cycle: %zu in the world at the end, %llu expired over the run; "
-                  "feed = Tracks::onArray)\n",
-                  r.tracked, static_cast<unsigned long long>(r.expired));
-    }
-    if (links >= 2) {
-      std::printf("  (%zu elements in the world; narrow-phase calls per cycle on pairs then ignored: %.1f)\n",
-                  r.elements, r.ignored_tested);
-    }
-    std::fflush(stdout);
-    if (!r.gate_ms.empty()) {
-      const double count = static_cast<double>(r.gate_ms.size());
-      std::printf("  gates: %zu commands, latency (ms) median %.3f p99 %.3f max %.3f; %.1f scales tried per command; "
-                  "slowed %.1f%%, stopped %.1f%%, not checked %.1f%%\n",
-                  r.gate_ms.size(), percentile(r.gate_ms, 0.5), percentile(r.gate_ms, 0.99),
-                  *std::max_element(r.gate_ms.begin(), r.gate_ms.end()), r.gate_evaluations / count,
-                  100.0 * r.gate_slowed / count, 100.0 * r.gate_stopped / count, 100.0 * r.gate_unchecked / count);
-    }
+    printResult(r, o, period_ms);
     if (n == 1000) verdict = r.cpu_mean < period_ms / 3.0 ? 1 : 0;
   }
   std::printf("  (ms per cycle, wall clock; feed = odometry into the registry; of the cycle after it, registry = the "
               "registry's update (tf, motions) and its copy into the world, predict = World::predict, the rest the "
               "ImpactArray)\n");
   if (verdict >= 0) {
-    std::printf("1000 bodies at %.0f Hz: mean cycle (CPU time) %s a third of the period (%.2f ms) on one core\n", rate,
-                verdict ? "IS under" : "is NOT under", period_ms / 3.0);
+    std::printf("1000 bodies at %.0f Hz: mean cycle (CPU time) %s a third of the period (%.2f ms) on one core\n",
+                o.rate, verdict ? "IS under" : "is NOT under", period_ms / 3.0);
   }
   return 0;
 }

@@ -22,11 +22,10 @@
 
 #include <ros/time.h>
 
+#include <chrono>
 #include <functional>
-
 #include <limits>
 #include <memory>
-#include <mutex>
 #include <string>
 #include <vector>
 
@@ -116,8 +115,31 @@ class MonitorCore {
   void elementNames(size_t element, std::string& body, std::string& link) const;
   const MonitorParams& params() const { return params_; }
 
-  // Runs one cycle at `now` and returns the impacts (header stamped `now`, in the fixed frame).
+  // Runs one cycle at `now` and returns the impacts (header stamped `now`, in the fixed frame):
+  // the phases below, one after the other, on one thread.
   const vadop::ImpactArray& cycle(const ros::Time& now, TransformSource& tf);
+
+  // The same cycle in phases, for a caller that shares the core between threads under a lock
+  // of its own (the node: its callbacks and the gates' thread), so that nothing waits for a
+  // prediction: the gates answer from their own copy of the world (checkCommand), synced at
+  // the end of every cycle, and may do so while the cycle's world predicts. Every call into
+  // the core holds the caller's lock, but for predictCycle():
+  //   lock;   startCycle(now, tf);
+  //   do { unlock; predictCycle(); lock; } while (retryCycle(now));
+  //   const ImpactArray& impacts = finishCycle(now);  // still locked
+  // startCycle reads the inputs (registry, tracks) into the cycle's world; predictCycle touches
+  // the cycle's world and this cycle's result only, nothing a callback or a gate uses;
+  // retryCycle, after a failed prediction, leaves out the elements the world refused and says
+  // whether to predict once more; finishCycle writes the impacts and syncs the gates' world.
+  // Between startCycle and finishCycle the other calls may come, with these effects: the gates
+  // answer from their world of the last cycle's end (checkCommand does not read the predicting
+  // world), a new padding (reconfigure) takes effect at the next cycle's start, and the
+  // impacts are clamped to the horizon the world predicted over. Not reset() (the caller's
+  // cycle thread calls it between cycles).
+  void startCycle(const ros::Time& now, TransformSource& tf);
+  void predictCycle();
+  bool retryCycle(const ros::Time& now);
+  const vadop::ImpactArray& finishCycle(const ros::Time& now);
   const vadop::ImpactArray& lastImpacts() const { return impacts_; }
   const CycleStats& lastStats() const { return stats_; }
 
@@ -166,13 +188,6 @@ class MonitorCore {
   CommandCheck checkCommand(size_t body, const Eigen::Vector3d& v, const Eigen::Vector3d& w, const ros::Time& now,
                             TransformSource& tf, double window, double state_timeout,
                             const std::function<bool(size_t element)>& skip = {});
-
-  // Threads (the node): the gates answer from their own copy of the world, synced at the end
-  // of every cycle, so that a command never waits for a prediction. With `lock` set, the
-  // caller holds it around cycle() and every other call, and cycle() releases it while the
-  // world predicts (only the cycle's own world is used then): a gate's thread may then check
-  // a command, locking it, in the middle of a cycle. Null (the default): one thread.
-  void setPredictionLock(std::mutex* lock) { prediction_lock_ = lock; }
 
   // Time jumped backwards: forget every state (and the world's moving elements).
   void reset();
@@ -227,7 +242,22 @@ class MonitorCore {
   // a checking thread needs a configured gate, as the node's has).
   bool gate_world_wanted_ = false;
   bool gate_world_current_ = false;  // gate_predictor_ reflects the last cycle's end
-  std::mutex* prediction_lock_ = nullptr;
+  // The cycle's phases (startCycle .. finishCycle): between them the world predicts
+  // (predicting_), over cycle_horizon_ from t0_; raw_impacts_ is its answer.
+  std::chrono::steady_clock::time_point cycle_start_, predict_start_;
+  double cycle_horizon_ = 0.0;
+  int predict_attempts_ = 0;
+  bool predicting_ = false;
+  bool worlds_stale_ = false;  // a new padding came while predicting: clear both worlds at the next start
+  std::vector<RawImpact> raw_impacts_;
+  // The body can be checked: a moving body with a fresh state and its elements in the gates'
+  // world; false, with out's status and why, when not.
+  bool commandCheckable(size_t body, const ros::Time& now, double state_timeout, CommandCheck& out) const;
+  void logPredictionOutcome();  // the recovered / failed lines (throttled)
+  // The kept impacts (pair rules) into impacts_, and each body's soonest time to impact.
+  void writeImpacts(const ros::Time& now);
+  // Counts the undecided pairs the rules keep and names the first (stats_), with its warning.
+  void noteUndecided();
   vadop::ImpactArray impacts_;
   CycleStats stats_;
   std::vector<double> soonest_;
