@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <mutex>
@@ -704,6 +705,9 @@ TEST(BodyRegistry, UpdateOnThreadsEqualsOneThread) {
         const std::lock_guard<std::mutex> lock(mutex_);
         threads_.insert(std::this_thread::get_id());
       }
+      // A lookup that takes a moment, as tf2's does: on a loaded machine the calling thread
+      // could otherwise finish every chunk before the pool's threads wake.
+      std::this_thread::sleep_for(std::chrono::microseconds(20));
       return FakeTf::lookup(target, source, time, pose, stamp, error);
     }
     size_t threads() const { return threads_.size(); }
