@@ -289,114 +289,20 @@ std::vector<WorldImpact> World::predict(double t0, double horizon, const std::ve
 
 std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector<BodyId>* only) {
   requireEngine("predict");
-  if (!std::isfinite(t0)) throw InvalidArgument("predict: t0 must be finite, got " + formatNumber(t0));
-  if (!std::isfinite(horizon) || horizon < 0.0) {
-    throw InvalidArgument("predict: horizon must be finite and >= 0, got " + formatNumber(horizon));
-  }
-  const double t1 = t0 + horizon;
-  // The range of limits.h: the window's times, and every body's position over the window.
-  for (const auto& [value, field] : {std::pair<double, const char*>{t0, "predict: t0"}, {t1, "predict: t0 + horizon"}}) {
-    const std::string error = rangeError(value, kMaxTime, field, "s");
-    if (!error.empty()) throw InvalidArgument(error);
-  }
-  // A cheap bound of each coordinate of the body's origin over [t0, t1]: the pivot moves in a
-  // straight line (its coordinates are largest at an end) and the origin stays within
-  // |pivot_offset| of it. Motions are within range (validateMotion), so nothing overflows.
-  // Every body for a full predict; for a query, the bodies it involves (before anything runs).
-  auto checkMotionReach = [&](BodyId id, const Motion& m, double s, double e) {
-    const Eigen::Vector3d c0 = m.centreAt(s), c1 = m.centreAt(e);
-    const double arm = m.pivotArm();
-    for (int k = 0; k < 3; ++k) {
-      const double reach = std::max(std::abs(c0[k]), std::abs(c1[k])) + arm;
-      if (reach <= kMaxReach) continue;  // the message (two formatted numbers) only on failure
-      const std::string error = rangeError(reach, kMaxReach,
-                                           "position[" + std::to_string(k) + "] over [" + formatNumber(s) + ", " +
-                                               formatNumber(e) + "] (bound)",
-                                           "m");
-      if (!error.empty()) throw InvalidArgument("predict: body " + quoted(records_[id].name) + ": " + error);
-    }
-  };
-  // A body on a path: each piece over its stretch of the window (records_ read only when some
-  // body is on one: a query's hot path reads no more than the broad phase's motion).
-  const bool paths = !path_bodies_.empty();
-  auto checkReach = [&](BodyId id) {
-    const TimedPath* path = paths && records_[id].chain ? &records_[id].chain->base() : nullptr;
-    if (!path) return checkMotionReach(id, broad_phase_->motion(id), t0, t1);
-    path->forEachPiece(t0, t1, [&](size_t k, double s, double e) { checkMotionReach(id, path->motion(k), s, e); });
-  };
-  if (!only) {
+  const double t1 = checkedWindow("predict", t0, horizon);
+  // The candidate pairs: the whole broad phase, or the queries of `only`.
+  std::vector<Pair> queried;
+  bool all_parts = false;
+  if (only) {
+    queryPairs(*only, t0, t1, queried);
+  } else {
     // In id order (a removed body's record holds no shape): the motions are read as stored.
     for (BodyId id = 0; id < records_.size(); ++id) {
-      if (records_[id].prepared) checkReach(id);
+      if (records_[id].prepared) checkReach(id, t0, t1);
     }
+    all_parts = allPairs(t0, t1, queried);
   }
-
-  // The candidate pairs: the whole broad phase, or the queries of `only` (a pair of two of them
-  // once: from the query of its smaller id).
-  std::vector<Pair> queried;
-  if (only) {
-    // `only` is sorted: membership by binary search, no O(n) mask per query.
-    auto in_only = [only](BodyId id) { return std::binary_search(only->begin(), only->end(), id); };
-    std::vector<BodyId> found;
-    for (BodyId id : *only) checkReach(id);
-    for (BodyId id : *only) {
-      if (paths && onPath(id)) continue;  // from pathPairs
-      broad_phase_->query(id, t0, t1, found);
-      for (BodyId other : found) {
-        if (other < id && in_only(other)) continue;
-        if (paths && onPath(other)) continue;  // the broad phase holds it at rest: from pathPairs
-        if (!in_only(other)) checkReach(other);
-        queried.push_back(makePair(id, other));
-      }
-    }
-    const size_t direct = queried.size();
-    if (paths) pathPairs(t0, t1, only, queried);
-    for (size_t i = direct; i < queried.size(); ++i) {
-      for (BodyId id : {queried[i].a, queried[i].b}) {
-        if (!in_only(id)) checkReach(id);
-      }
-    }
-    std::sort(queried.begin(), queried.end());
-    queried.erase(std::unique(queried.begin(), queried.end()), queried.end());
-  }
-  // A crowded world's full predict: every body's part boxes first, their unions the broad
-  // phase's boxes, and the path bodies' boxes in pathPairs (the broad phase holds those at rest:
-  // with paths it computes the others' boxes itself).
-  const bool all_parts = !only && parts_for_all_ && config_.time_slices > 1 && t1 > t0;
-  if (!only) {
-    if (all_parts) {
-      fillAllPartBoxes(t0, t1);
-      if (!paths) broad_phase_->setFrameBoxes(frame_boxes_.data());
-    }
-    // Every body on a path (a fleet of arms on joint states): the broad phase would find only
-    // pairs of path bodies, all dropped, so it is not updated (no query of this world asks it
-    // then: othersThanPaths). Without path bodies it always is: its pairs are the candidates.
-    const bool broad = !paths || othersThanPaths();
-    if (broad) broad_phase_->update(t0, t1);
-    if (paths) {
-      // The broad phase's pairs without the path bodies (it holds them at rest), and theirs.
-      if (broad) {
-        for (const Pair& p : broad_phase_->pairs()) {
-          if (!onPath(p.a) && !onPath(p.b)) queried.push_back(p);
-        }
-      }
-      pathPairs(t0, t1, nullptr, queried, all_parts);
-      std::sort(queried.begin(), queried.end());
-      queried.erase(std::unique(queried.begin(), queried.end()), queried.end());
-    }
-  }
-  // The pair filters, before the narrow phase, on this thread (the predicate is the caller's).
-  std::vector<Candidate> tests;
-  const uint64_t every_part = config_.time_slices == 64 ? ~uint64_t{0} : (uint64_t{1} << config_.time_slices) - 1;
-  for (const Pair& p : only || paths ? queried : broad_phase_->pairs()) {
-    BodyId ia = p.a, ib = p.b;
-    if (records_[ib].key < records_[ia].key) std::swap(ia, ib);  // a = the body added first
-    const Record& ra = records_[ia];
-    const Record& rb = records_[ib];
-    if (!(ra.group & rb.mask) || !(rb.group & ra.mask)) continue;
-    if (pair_filter_ && !pair_filter_(ra.key, rb.key)) continue;
-    tests.push_back({ia, ib, every_part});
-  }
+  std::vector<Candidate> tests = testedPairs(only || !path_bodies_.empty() ? queried : broad_phase_->pairs());
   const size_t found = tests.size();
   cullBySlices(tests, t0, t1, all_parts);
   if (!only) parts_for_all_ = (all_parts ? 2 * found : found) >= records_.size();
@@ -404,8 +310,128 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
   if (certificates_ && !only) certificates_->beginPass();
   narrowAll(tests, t0, t1, results);
   if (certificates_ && !only) certificates_->endPass();
-  // The contacts by time (then keys), and the undecided pairs alike: the order is found on
-  // small records and each WorldImpact is built once, in place (thousands a cycle in a fleet).
+  std::vector<WorldImpact> out = contactsInOrder(tests, results, false);
+  std::vector<WorldImpact> undecided = contactsInOrder(tests, results, true);
+  // Nothing above throws once the narrow phase has run: the statistics change together.
+  last_candidates_ = tests.size();
+  last_slice_culled_ = found - tests.size();
+  last_undecided_ = std::move(undecided);
+  return out;
+}
+
+double World::checkedWindow(const char* operation, double t0, double horizon) const {
+  const std::string op = operation;
+  if (!std::isfinite(t0)) throw InvalidArgument(op + ": t0 must be finite, got " + formatNumber(t0));
+  if (!std::isfinite(horizon) || horizon < 0.0) {
+    throw InvalidArgument(op + ": horizon must be finite and >= 0, got " + formatNumber(horizon));
+  }
+  const double t1 = t0 + horizon;
+  // The range of limits.h for the window's times (the bodies' positions: checkReach).
+  for (const auto& [field, value] : {std::pair<std::string, double>{op + ": t0", t0}, {op + ": t0 + horizon", t1}}) {
+    const std::string error = rangeError(value, kMaxTime, field, "s");
+    if (!error.empty()) throw InvalidArgument(error);
+  }
+  return t1;
+}
+
+// A cheap bound of each coordinate of the body's origin over [s, e]: the pivot moves in a
+// straight line (its coordinates are largest at an end) and the origin stays within
+// |pivot_offset| of it. Motions are within range (validateMotion), so nothing overflows.
+void World::checkMotionReach(BodyId id, const Motion& m, double s, double e) const {
+  const Eigen::Vector3d c0 = m.centreAt(s), c1 = m.centreAt(e);
+  const double arm = m.pivotArm();
+  for (int k = 0; k < 3; ++k) {
+    const double reach = std::max(std::abs(c0[k]), std::abs(c1[k])) + arm;
+    if (reach <= kMaxReach) continue;  // the message (two formatted numbers) only on failure
+    const std::string error = rangeError(reach, kMaxReach,
+                                         "position[" + std::to_string(k) + "] over [" + formatNumber(s) + ", " +
+                                             formatNumber(e) + "] (bound)",
+                                         "m");
+    if (!error.empty()) throw InvalidArgument("predict: body " + quoted(records_[id].name) + ": " + error);
+  }
+}
+
+void World::checkReach(BodyId id, double t0, double t1) const {
+  // records_ read only when some body is on a path: a query's hot path reads no more than the
+  // broad phase's motion.
+  const TimedPath* path = !path_bodies_.empty() && records_[id].chain ? &records_[id].chain->base() : nullptr;
+  if (!path) return checkMotionReach(id, broad_phase_->motion(id), t0, t1);
+  path->forEachPiece(t0, t1, [&](size_t k, double s, double e) { checkMotionReach(id, path->motion(k), s, e); });
+}
+
+void World::queryPairs(const std::vector<BodyId>& only, double t0, double t1, std::vector<Pair>& out) {
+  const bool paths = !path_bodies_.empty();
+  // `only` is sorted: membership by binary search, no O(n) mask per query.
+  auto in_only = [&only](BodyId id) { return std::binary_search(only.begin(), only.end(), id); };
+  std::vector<BodyId> found;
+  for (BodyId id : only) checkReach(id, t0, t1);
+  for (BodyId id : only) {
+    if (paths && onPath(id)) continue;  // from pathPairs
+    broad_phase_->query(id, t0, t1, found);
+    for (BodyId other : found) {
+      if (other < id && in_only(other)) continue;  // a pair of two of them once: from the smaller id
+      if (paths && onPath(other)) continue;  // the broad phase holds it at rest: from pathPairs
+      if (!in_only(other)) checkReach(other, t0, t1);
+      out.push_back(makePair(id, other));
+    }
+  }
+  const size_t direct = out.size();
+  if (paths) pathPairs(t0, t1, &only, out);
+  for (size_t i = direct; i < out.size(); ++i) {
+    for (BodyId id : {out[i].a, out[i].b}) {
+      if (!in_only(id)) checkReach(id, t0, t1);
+    }
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+}
+
+bool World::allPairs(double t0, double t1, std::vector<Pair>& out) {
+  const bool paths = !path_bodies_.empty();
+  // A crowded world: every body's part boxes first, their unions the broad phase's boxes, and
+  // the path bodies' boxes in pathPairs (the broad phase holds those at rest: with paths it
+  // computes the others' boxes itself).
+  const bool all_parts = parts_for_all_ && config_.time_slices > 1 && t1 > t0;
+  if (all_parts) {
+    fillAllPartBoxes(t0, t1);
+    if (!paths) broad_phase_->setFrameBoxes(frame_boxes_.data());
+  }
+  // Every body on a path (a fleet of arms on joint states): the broad phase would find only
+  // pairs of path bodies, all dropped, so it is not updated (no query of this world asks it
+  // then: othersThanPaths). Without path bodies it always is: its pairs are the candidates
+  // (left in the broad phase, `out` stays empty).
+  const bool broad = !paths || othersThanPaths();
+  if (broad) broad_phase_->update(t0, t1);
+  if (!paths) return all_parts;
+  // The broad phase's pairs without the path bodies (it holds them at rest), and theirs.
+  if (broad) {
+    for (const Pair& p : broad_phase_->pairs()) {
+      if (!onPath(p.a) && !onPath(p.b)) out.push_back(p);
+    }
+  }
+  pathPairs(t0, t1, nullptr, out, all_parts);
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return all_parts;
+}
+
+std::vector<World::Candidate> World::testedPairs(const std::vector<Pair>& pairs) const {
+  // On this thread: the predicate is the caller's.
+  std::vector<Candidate> tests;
+  const uint64_t every_part = config_.time_slices == 64 ? ~uint64_t{0} : (uint64_t{1} << config_.time_slices) - 1;
+  for (const Pair& p : pairs) {
+    BodyId ia = p.a, ib = p.b;
+    if (records_[ib].key < records_[ia].key) std::swap(ia, ib);  // a = the body added first
+    if (!shouldTest(records_[ia], records_[ib])) continue;
+    tests.push_back({ia, ib, every_part});
+  }
+  return tests;
+}
+
+std::vector<WorldImpact> World::contactsInOrder(const std::vector<Candidate>& tests, const std::vector<Impact>& results,
+                                                bool undecided) const {
+  // The order is found on small records and each WorldImpact is built once, in place
+  // (thousands a cycle in a fleet).
   struct Found {
     double time;
     uint64_t a_key, b_key;
@@ -416,35 +442,24 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
       return b_key < o.b_key;
     }
   };
-  std::vector<Found> found_hits, found_undecided;
-  const size_t calls = tests.size();
+  std::vector<Found> order;
   for (size_t k = 0; k < tests.size(); ++k) {
     const Impact& hit = results[k];
-    if (!hit.hit && !hit.undecided) continue;
-    (hit.hit ? found_hits : found_undecided)
-        .push_back({hit.time, records_[tests[k].a].key, records_[tests[k].b].key, static_cast<uint32_t>(k)});
+    if (undecided ? hit.hit || !hit.undecided : !hit.hit) continue;
+    order.push_back({hit.time, records_[tests[k].a].key, records_[tests[k].b].key, static_cast<uint32_t>(k)});
   }
-  auto build = [&](std::vector<Found>& order) {
-    std::sort(order.begin(), order.end());
-    std::vector<WorldImpact> list(order.size());
-    for (size_t i = 0; i < order.size(); ++i) {
-      const Candidate& c = tests[order[i].test];
-      WorldImpact& w = list[i];
-      w.a = records_[c.a].name;
-      w.b = records_[c.b].name;
-      w.a_key = order[i].a_key;
-      w.b_key = order[i].b_key;
-      w.impact = results[order[i].test];
-    }
-    return list;
-  };
-  std::vector<WorldImpact> out = build(found_hits);
-  std::vector<WorldImpact> undecided = build(found_undecided);
-  // Nothing above throws once the narrow phase has run: the statistics change together.
-  last_candidates_ = calls;
-  last_slice_culled_ = found - calls;
-  last_undecided_ = std::move(undecided);
-  return out;
+  std::sort(order.begin(), order.end());
+  std::vector<WorldImpact> list(order.size());
+  for (size_t i = 0; i < order.size(); ++i) {
+    const Candidate& c = tests[order[i].test];
+    WorldImpact& w = list[i];
+    w.a = records_[c.a].name;
+    w.b = records_[c.b].name;
+    w.a_key = order[i].a_key;
+    w.b_key = order[i].b_key;
+    w.impact = results[order[i].test];
+  }
+  return list;
 }
 
 std::optional<Shape> World::pathVolume(BodyId p, double t0, double t1) const {
@@ -827,21 +842,8 @@ std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::
     throw InvalidArgument(std::string(op) + ": " + std::to_string(movers.size()) + " movers but " +
                           std::to_string(motions.size()) + " motions");
   }
-  if (!std::isfinite(t0)) throw InvalidArgument(std::string(op) + ": t0 must be finite, got " + formatNumber(t0));
-  if (!std::isfinite(horizon) || horizon < 0.0) {
-    throw InvalidArgument(std::string(op) + ": horizon must be finite and >= 0, got " + formatNumber(horizon));
-  }
-  double t1 = t0 + horizon;
-  for (const auto& [value, field] : {std::pair<double, const char*>{t0, "firstContactIf: t0"}, {t1, "firstContactIf: t0 + horizon"}}) {
-    const std::string error = rangeError(value, kMaxTime, field, "s");
-    if (!error.empty()) throw InvalidArgument(error);
-  }
-  std::vector<BodyId> ids;
-  ids.reserve(movers.size());
-  for (size_t i = 0; i < movers.size(); ++i) {
-    ids.push_back(bodyId(movers[i], op));
-    if (!isValidMotion(motions[i])) validateMotion(motions[i], std::string(op) + ": motion of " + quoted(movers[i]));
-  }
+  double t1 = checkedWindow(op, t0, horizon);
+  const std::vector<BodyId> ids = moverIds(movers, motions);
   std::vector<BodyId> sorted = ids;
   std::sort(sorted.begin(), sorted.end());
   if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end()) {
@@ -853,48 +855,22 @@ std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::
   for (size_t i = 0; i < ids.size(); ++i) {
     const Record& rm = records_[ids[i]];
     std::optional<LinkChain> mover_chain;  // made for the first path body met
-    // The broad phase holds the mover's shape padded by the tolerance, as for its own queries.
     if (among) {
       found.clear();
       for (BodyId b : among->ids) {
         if (broad_phase_->contains(b)) found.push_back(b);
       }
     } else {
-      found.clear();
-      if (othersThanPaths()) broad_phase_->query(broad_phase_->shape(ids[i]), motions[i], t0, t1, found);
-      // The broad phase holds the path bodies at rest: those whose boxes over the window
-      // (pathBox, computed once a call) overlap the mover's swept box are candidates.
-      if (!path_bodies_.empty()) {
-        found.erase(std::remove_if(found.begin(), found.end(), [this](BodyId b) { return onPath(b); }), found.end());
-        if (path_boxes.empty()) path_boxes = pathBoxes(t0, t1);
-        double box[6];
-        SweptBody(broad_phase_->shape(ids[i]), motions[i], t0, t1).box(box);
-        for (size_t k = 0; k < path_bodies_.size(); ++k) {
-          if (boxesOverlap(&path_boxes[6 * k], box)) found.push_back(path_bodies_[k]);
-        }
-      }
+      moverPartners(ids[i], motions[i], t0, t1, path_boxes, found);
     }
     for (BodyId other : found) {
       if (std::binary_search(sorted.begin(), sorted.end(), other)) continue;
       const Record& ro = records_[other];
-      if (!(rm.group & ro.mask) || !(ro.group & rm.mask)) continue;
-      if (pair_filter_ && !pair_filter_(std::min(rm.key, ro.key), std::max(rm.key, ro.key))) continue;
+      if (!shouldTest(rm, ro)) continue;
       if (skip && skip(ro.key)) continue;
       // Only the first contact matters: later windows shrink to the best time so far.
-      const LinkChain* oc = ro.chain.get();
-      const LinkChain* mc = oc ? (mover_chain ? &*mover_chain : &mover_chain.emplace(TimedPath(motions[i]))) : nullptr;
-      const Impact hit =
-          !oc ? timeOfImpact(*rm.prepared, motions[i], *ro.prepared, broad_phase_->motion(other), t0, t1, config_.toi)
-          : oc->joints().empty()
-              ? timeOfImpact(*rm.prepared, mc->base(), *ro.prepared, oc->base(), t0, t1, config_.toi)
-              : timeOfImpact(*rm.prepared, *mc, *ro.prepared, *oc, t0, t1, config_.toi);
+      const Impact hit = moverImpact(rm, motions[i], other, mover_chain, t0, t1);
       if (!hit.hit && !hit.undecided) continue;
-      if (hit.hit && hit.initially_touching) {
-        const Eigen::Vector3d other_velocity =
-            oc ? oc->velocityOfPoint(hit.point, t0) : broad_phase_->motion(other).velocityOfPoint(hit.point, t0);
-        const Eigen::Vector3d closing = motions[i].velocityOfPoint(hit.point, t0) - other_velocity;
-        if (closing.dot(hit.normal) <= 0.0) continue;  // separating or sliding: not blocked
-      }
       if (!best || hit.time < best->impact.time) {
         best = MoverContact{i, ro.name, ro.key, hit, hit.undecided};
         t1 = hit.time;
@@ -902,6 +878,53 @@ std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::
     }
   }
   return best;
+}
+
+std::vector<BodyId> World::moverIds(const std::vector<std::string>& movers, const std::vector<Motion>& motions) const {
+  const char* op = "firstContactIf";
+  std::vector<BodyId> ids;
+  ids.reserve(movers.size());
+  for (size_t i = 0; i < movers.size(); ++i) {
+    ids.push_back(bodyId(movers[i], op));
+    if (!isValidMotion(motions[i])) validateMotion(motions[i], std::string(op) + ": motion of " + quoted(movers[i]));
+  }
+  return ids;
+}
+
+void World::moverPartners(BodyId mover, const Motion& motion, double t0, double t1, std::vector<double>& path_boxes,
+                          std::vector<BodyId>& found) const {
+  // The broad phase holds the mover's shape padded by the tolerance, as for its own queries.
+  found.clear();
+  if (othersThanPaths()) broad_phase_->query(broad_phase_->shape(mover), motion, t0, t1, found);
+  if (path_bodies_.empty()) return;
+  // The broad phase holds the path bodies at rest: those whose boxes over the window (pathBox,
+  // computed once a call, into path_boxes) overlap the mover's swept box are candidates.
+  found.erase(std::remove_if(found.begin(), found.end(), [this](BodyId b) { return onPath(b); }), found.end());
+  if (path_boxes.empty()) path_boxes = pathBoxes(t0, t1);
+  double box[6];
+  SweptBody(broad_phase_->shape(mover), motion, t0, t1).box(box);
+  for (size_t k = 0; k < path_bodies_.size(); ++k) {
+    if (boxesOverlap(&path_boxes[6 * k], box)) found.push_back(path_bodies_[k]);
+  }
+}
+
+Impact World::moverImpact(const Record& rm, const Motion& motion, BodyId other, std::optional<LinkChain>& mover_chain,
+                          double t0, double t1) const {
+  const Record& ro = records_[other];
+  const LinkChain* oc = ro.chain.get();
+  const LinkChain* mc = oc ? (mover_chain ? &*mover_chain : &mover_chain.emplace(TimedPath(motion))) : nullptr;
+  Impact hit = !oc ? timeOfImpact(*rm.prepared, motion, *ro.prepared, broad_phase_->motion(other), t0, t1, config_.toi)
+               : oc->joints().empty()
+                   ? timeOfImpact(*rm.prepared, mc->base(), *ro.prepared, oc->base(), t0, t1, config_.toi)
+                   : timeOfImpact(*rm.prepared, *mc, *ro.prepared, *oc, t0, t1, config_.toi);
+  if (hit.hit && hit.initially_touching) {
+    const Eigen::Vector3d other_velocity =
+        oc ? oc->velocityOfPoint(hit.point, t0) : broad_phase_->motion(other).velocityOfPoint(hit.point, t0);
+    const Eigen::Vector3d closing = motion.velocityOfPoint(hit.point, t0) - other_velocity;
+    // Separating or sliding: not blocked (no contact).
+    if (closing.dot(hit.normal) <= 0.0) return Impact{};
+  }
+  return hit;
 }
 
 }  // namespace vadop

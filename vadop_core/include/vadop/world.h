@@ -39,6 +39,7 @@
 #include "vadop/timed_path.h"
 #include "vadop/vadop.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -344,6 +345,42 @@ class World {
   // Throws InvalidArgument when this World was moved from (no broad phase).
   void requireEngine(const char* operation) const;
   std::vector<WorldImpact> run(double t0, double horizon, const std::vector<BodyId>* only);
+  // t0 + horizon; throws, naming `operation`, for a window that is not finite or out of range.
+  double checkedWindow(const char* operation, double t0, double horizon) const;
+  // Throws when the body's origin may leave the range of limits.h over [t0, t1] (along each
+  // piece of its path for a path body): checkMotionReach for one motion over [s, e].
+  void checkReach(BodyId id, double t0, double t1) const;
+  void checkMotionReach(BodyId id, const Motion& m, double s, double e) const;
+  // The candidate pairs of a query: the broad phase's pairs involving one of `only` (sorted),
+  // and pathPairs' (sorted, unique); checks the reach of every body they involve.
+  void queryPairs(const std::vector<BodyId>& only, double t0, double t1, std::vector<Pair>& out);
+  // A full predict's broad phase: updated (and given the part boxes' unions when they are all
+  // filled: returns true then). With path bodies its pairs without them and pathPairs' go to
+  // `out` (sorted, unique); without, `out` stays empty (the candidates are broad_phase_->pairs()).
+  bool allPairs(double t0, double t1, std::vector<Pair>& out);
+  // The pair rule, in one place (see the top of this file): the masks of setFilter, then the
+  // predicate of setPairFilter with the keys in insertion order.
+  bool shouldTest(const Record& a, const Record& b) const {
+    if (!(a.group & b.mask) || !(b.group & a.mask)) return false;
+    return !pair_filter_ || pair_filter_(std::min(a.key, b.key), std::max(a.key, b.key));
+  }
+  // The pairs that pass shouldTest, a = the body added first, every time slice searched.
+  std::vector<Candidate> testedPairs(const std::vector<Pair>& pairs) const;
+  // The contacts (or with `undecided`, the undecided pairs) of `results`, sorted by (time,
+  // a_key, b_key).
+  std::vector<WorldImpact> contactsInOrder(const std::vector<Candidate>& tests, const std::vector<Impact>& results,
+                                           bool undecided) const;
+  // firstContactIf's movers by id, their motions validated (throws naming the mover).
+  std::vector<BodyId> moverIds(const std::vector<std::string>& movers, const std::vector<Motion>& motions) const;
+  // The bodies the broad phase finds near a mover moving with `motion`, and the path bodies
+  // whose boxes (path_boxes: filled on the first call) overlap its swept box.
+  void moverPartners(BodyId mover, const Motion& motion, double t0, double t1, std::vector<double>& path_boxes,
+                     std::vector<BodyId>& found) const;
+  // The narrow phase of mover rm moving with `motion` against `other` as set (a chain's
+  // narrow phase when other is on a path: mover_chain is the mover's, made once); a pair
+  // touching at t0 that the motions do not press together is no contact (Impact{}).
+  Impact moverImpact(const Record& rm, const Motion& motion, BodyId other, std::optional<LinkChain>& mover_chain,
+                     double t0, double t1) const;
 
   WorldConfig config_;
   int threads_ = 1;  // config_.threads resolved
