@@ -402,7 +402,7 @@ PosedTwist LinkChain::stateAt(double t) const {
   return s;
 }
 
-Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedShape& b, const LinkChain& cb,
+TimeOfImpact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedShape& b, const LinkChain& cb,
                     double t0, double t1, const ToiOptions& options) {
   if (!(std::isfinite(t0) && std::isfinite(t1) && t0 <= t1)) {
     throw InvalidArgument("timeOfImpact: need finite t0 <= t1, got t0 = " + formatNumber(t0) +
@@ -421,7 +421,7 @@ Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedS
   dopt.tolerance = options.tolerance / 200.0;
   dopt.relative_tolerance = 4e-3;
   detail::WarmStart warm;  // from one twist step to the next
-  Impact out;
+  TimeOfImpact out;
   int used = 0;
   double t = t0;
   auto fill = [&](double at, const DistanceResult& c) {
@@ -447,7 +447,7 @@ Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedS
       }
       const Motion& ma = ca.base().motion(ca.base().pieceAt(mid));
       const Motion& mb = cb.base().motion(cb.base().pieceAt(mid));
-      Impact r = timeOfImpact(a, carried(ma, fa), b, carried(mb, fb), t, e, o);
+      TimeOfImpact r = timeOfImpact(a, carried(ma, fa), b, carried(mb, fb), t, e, o);
       used += r.iterations;
       r.iterations = used;
       r.initially_touching = r.initially_touching && t == t0;

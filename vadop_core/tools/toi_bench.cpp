@@ -14,6 +14,7 @@
 #include "toi_scenes.h"
 #include "toi_truth.h"
 
+#include "vadop/distance.h"  // PreparedShape (internal: src/)
 #include "vadop/time_of_impact.h"
 
 #include <fcl/fcl.h>
@@ -259,7 +260,7 @@ int main(int argc, char** argv) {
               out.hit = res.is_collide;
               out.time = sc.t0 + res.time_of_contact * (sc.t1 - sc.t0);
             } else {
-              const vadop::Impact imp = vadop::timeOfImpact(*c.pa, sc.ma, *c.pb, sc.mb, sc.t0, sc.t1);
+              const vadop::TimeOfImpact imp = vadop::timeOfImpact(*c.pa, sc.ma, *c.pb, sc.mb, sc.t0, sc.t1);
               out.hit = imp.hit;
               out.time = imp.time;
             }
