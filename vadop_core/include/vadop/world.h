@@ -43,7 +43,7 @@
 
 #include <Eigen/Core>
 
-#include <algorithm>
+#include <algorithm>  // kept for includers that had it through the engines' headers
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -308,7 +308,6 @@ class World {
 // touched; when every grid point leads to a contact, the one whose first contact comes latest
 // (driving away from a danger is then never blocked). It does not build motions or know the
 // world; it only decides which scales to try, largest first, and stops at the first clear one.
-
 struct GateScale {
   double scale = 0.0;
   bool clear = false;           // no contact at `scale` within the window
