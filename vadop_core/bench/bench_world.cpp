@@ -192,7 +192,7 @@ std::vector<vadop::Motion> ContinuousWorld::motions() const {
   return m;
 }
 
-vadop::Impact ContinuousWorld::wallContact(vadop::BodyId, const vadop::Motion& m, double from, double t1) const {
+vadop::TimeOfImpact ContinuousWorld::wallContact(vadop::BodyId, const vadop::Motion& m, double from, double t1) const {
   // The centre reaches a wall plane (|x_k| = wall_) moving outwards; the earliest axis.
   const Eigen::Vector3d p = m.positionAt(from);
   const Eigen::Vector3d& v = m.linear_velocity;
@@ -212,7 +212,7 @@ vadop::Impact ContinuousWorld::wallContact(vadop::BodyId, const vadop::Motion& m
       axis = k;
     }
   }
-  vadop::Impact imp;
+  vadop::TimeOfImpact imp;
   if (axis < 0 || from + best > t1) return imp;
   imp.hit = true;
   imp.time = from + best;

@@ -112,7 +112,7 @@ class ContinuousWorld {
   size_t memoryBytes() const { return loop_.memoryBytes(); }  // the loop's own structures
 
  private:
-  vadop::Impact wallContact(vadop::BodyId id, const vadop::Motion& m, double from, double t1) const;
+  vadop::TimeOfImpact wallContact(vadop::BodyId id, const vadop::Motion& m, double from, double t1) const;
 
   uint32_t n_;
   double dt_, wall_;  // wall_ = half - radius: the range of the centres

@@ -4,6 +4,7 @@
 #include "bench_adapters.h"
 #include "bench_world.h"
 
+#include "vadop/distance.h"  // PreparedShape (internal: src/)
 #include "vadop/axis_pool.h"
 #include "vadop/motion.h"
 #include "vadop/sweep_prune.h"
@@ -202,7 +203,7 @@ void BM_FleetTimeOfImpact(benchmark::State& state) {
   for (auto _ : state) {
     hits = 0;
     for (const Case& c : cases) {
-      const vadop::Impact r = vadop::timeOfImpact(shapes[c.a], c.ma, shapes[c.b], c.mb, 0.0, 2.0);
+      const vadop::TimeOfImpact r = vadop::timeOfImpact(shapes[c.a], c.ma, shapes[c.b], c.mb, 0.0, 2.0);
       hits += r.hit;
       benchmark::DoNotOptimize(r);
     }

@@ -6,6 +6,7 @@
 // query's by more than single-precision rounding (Bullet holds floats).
 #include "bench_adapters.h"
 #include "bench_world.h"
+#include "vadop/distance.h"  // PreparedShape (internal: src/)
 #include "vadop/time_of_impact.h"
 #include "vadop/vadop.h"
 
@@ -88,7 +89,7 @@ TEST(AdapterQueries, CompleteAndBoundedForFclAndBullet) {
             }
             if (near(qbox, must, -1e-9)) EXPECT_EQ(answer.count(j), 1u) << name << " misses " << j << " query " << q;
             if (!near(qbox, may, 1e-5 * 32.0)) EXPECT_EQ(answer.count(j), 0u) << name << " lists far " << j;
-            const vadop::Impact hit = vadop::timeOfImpact(prepared, cur[q], prepared, cur[j], t0, t1);
+            const vadop::TimeOfImpact hit = vadop::timeOfImpact(prepared, cur[q], prepared, cur[j], t0, t1);
             if (hit.hit) {
               ++contacts;
               EXPECT_EQ(answer.count(j), 1u) << name << " misses contact " << j << " query " << q;

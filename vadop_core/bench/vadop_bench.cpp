@@ -392,7 +392,7 @@ class Progress {
   bool on_;
 };
 
-// Impact lists: exact comparison; on a difference, the multiset differences by (a, b, time).
+// TimeOfImpact lists: exact comparison; on a difference, the multiset differences by (a, b, time).
 void diffImpacts(const std::vector<LoggedImpact>& ref, const std::vector<LoggedImpact>& got, size_t& missed,
                  size_t& extra) {
   auto key = [](const LoggedImpact& x) { return std::make_tuple(x.a, x.b, x.time); };

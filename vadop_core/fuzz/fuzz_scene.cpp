@@ -78,10 +78,10 @@ vadop::World makeWorld(vadop::BroadPhaseKind kind) {
 
 // Predicts with `world` (contacts, and the undecided pairs into *undecided when given), prints
 // both as vadop_predict does, and removes the scene's bodies again.
-std::vector<vadop::WorldImpact> predict(const vadop::Scene& scene, vadop::World& world, std::string* lines,
-                                        std::vector<vadop::WorldImpact>* undecided = nullptr) {
+std::vector<vadop::Contact> predict(const vadop::Scene& scene, vadop::World& world, std::string* lines,
+                                        std::vector<vadop::Contact>* undecided = nullptr) {
   vadop::addToWorld(scene, world);
-  std::vector<vadop::WorldImpact> impacts;
+  std::vector<vadop::Contact> impacts;
   try {
     impacts = world.predict(0.0, scene.horizon);
   } catch (...) {
@@ -117,7 +117,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const bool fresh = std::getenv("VADOP_FUZZ_FRESH") != nullptr;
   static vadop::World shared = makeWorld(vadop::BroadPhaseKind::kVadop);
   std::string lines, sap_lines, brute_lines;
-  std::vector<vadop::WorldImpact> impacts, undecided;
+  std::vector<vadop::Contact> impacts, undecided;
   try {
     if (fresh) {
       vadop::World own = makeWorld(vadop::BroadPhaseKind::kVadop);
@@ -143,7 +143,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   // Invariants of every impact and undecided pair, and the printed lines read back exactly: each
   // line is the next contact or the next undecided pair, and the lines are sorted by (time, a, b).
   for (const auto& w : impacts) {
-    const vadop::Impact& i = w.impact;
+    const vadop::TimeOfImpact& i = w.impact;
     check(i.hit && !i.undecided && i.time >= 0.0 && i.time <= scene.horizon);
     check(w.a_key < w.b_key && w.a != w.b);
     check(i.point.allFinite() && i.normal.allFinite() && std::abs(i.normal.norm() - 1.0) < 1e-6);
@@ -155,10 +155,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::istringstream in(lines);
   std::string line;
   size_t next_impact = 0, next_undecided = 0;
-  const vadop::WorldImpact* previous = nullptr;
+  const vadop::Contact* previous = nullptr;
   while (std::getline(in, line)) {
     const auto j = nlohmann::json::parse(line);
-    const vadop::WorldImpact* w = nullptr;
+    const vadop::Contact* w = nullptr;
     if (j.contains("undecided_after")) {
       check(next_undecided < undecided.size() && j.size() == 3);
       w = &undecided[next_undecided++];
@@ -166,7 +166,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     } else {
       check(next_impact < impacts.size() && j.size() == 5);
       w = &impacts[next_impact++];
-      const vadop::Impact& i = w->impact;
+      const vadop::TimeOfImpact& i = w->impact;
       check(j.at("time").get<double>() == i.time);
       for (int k = 0; k < 3; ++k) {
         check(j.at("point").at(k).get<double>() == i.point[k]);
@@ -175,7 +175,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
     check(j.at("a").get<std::string>() == w->a && j.at("b").get<std::string>() == w->b);
     if (previous) {
-      const auto key = [](const vadop::WorldImpact* x) { return std::make_tuple(x->impact.time, x->a_key, x->b_key); };
+      const auto key = [](const vadop::Contact* x) { return std::make_tuple(x->impact.time, x->a_key, x->b_key); };
       check(key(previous) < key(w));
     }
     previous = w;
@@ -186,7 +186,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   vadop::ImpactQueue queue;
   for (const auto& w : impacts) {
     // Pushed as (b, a) on purpose, with the normal then from b to a: stored as (a, b).
-    vadop::Impact reversed = w.impact;
+    vadop::TimeOfImpact reversed = w.impact;
     reversed.normal = -w.impact.normal;
     queue.push(w.b_key, w.a_key, reversed);
   }

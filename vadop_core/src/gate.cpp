@@ -1,4 +1,4 @@
-#include "vadop/gate.h"
+#include "vadop/world.h"
 
 #include "vadop/error.h"
 

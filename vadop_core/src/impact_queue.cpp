@@ -30,7 +30,7 @@ size_t ImpactQueue::PairHash::operator()(const PairKey& k) const {
 
 size_t ImpactQueue::BodyHash::operator()(uint64_t k) const { return static_cast<size_t>(mix(k)); }
 
-void ImpactQueue::push(uint64_t a, uint64_t b, const Impact& impact) {
+void ImpactQueue::push(uint64_t a, uint64_t b, const TimeOfImpact& impact) {
   if (a == b) throw InvalidArgument("ImpactQueue::push: a pair needs two bodies, got " + std::to_string(a) + " twice");
   if (!std::isfinite(impact.time)) {
     throw InvalidArgument("ImpactQueue::push: impact time is not finite: " + formatNumber(impact.time));

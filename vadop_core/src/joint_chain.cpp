@@ -420,7 +420,7 @@ class ChainImpactSearch {
     dopt_.relative_tolerance = 4e-3;
   }
 
-  Impact run() {
+  TimeOfImpact run() {
     for (;;) {
       const double e = std::min({t1_, ca_.nextBreak(t_), cb_.nextBreak(t_)});
       const bool rigid = !ca_.jointsMove(t_, e) && !cb_.jointsMove(t_, e);
@@ -453,7 +453,7 @@ class ChainImpactSearch {
     }
     const Motion& ma = ca_.base().motion(ca_.base().pieceAt(mid));
     const Motion& mb = cb_.base().motion(cb_.base().pieceAt(mid));
-    Impact r = timeOfImpact(a_, carried(ma, fa), b_, carried(mb, fb), t, e, o);
+    TimeOfImpact r = timeOfImpact(a_, carried(ma, fa), b_, carried(mb, fb), t, e, o);
     used_ += r.iterations;
     r.iterations = used_;
     r.initially_touching = r.initially_touching && t == t0_;
@@ -549,14 +549,14 @@ class ChainImpactSearch {
   bool mesh_ = false;
   DistanceOptions dopt_;
   detail::WarmStart warm_;  // from one twist step to the next
-  Impact out_;
+  TimeOfImpact out_;
   int used_ = 0;
   double t_;
 };
 
 }  // namespace
 
-Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedShape& b, const LinkChain& cb,
+TimeOfImpact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedShape& b, const LinkChain& cb,
                     double t0, double t1, const ToiOptions& options) {
   if (!(std::isfinite(t0) && std::isfinite(t1) && t0 <= t1)) {
     throw InvalidArgument("timeOfImpact: need finite t0 <= t1, got t0 = " + formatNumber(t0) +

@@ -1,5 +1,4 @@
-// The range checks of limits.h: one message format for every limit.
-#include "vadop/limits.h"
+// The range checks of error.h: one message format for every limit.
 
 #include "vadop/error.h"
 

@@ -1,7 +1,6 @@
 #include "vadop/motion.h"
 
 #include "vadop/error.h"
-#include "vadop/limits.h"
 
 #include <algorithm>
 #include <cmath>
@@ -17,7 +16,7 @@ void requireInRange(const std::string& error, const std::string& what) {
   if (!error.empty()) throw InvalidArgument(what + ": " + error);
 }
 
-// Every coordinate within limit (limits.h: kMaxCoordinate).
+// Every coordinate within limit (error.h: kMaxCoordinate).
 void requireCoordinates(const Eigen::Vector3d& v, double limit, const std::string& what, const char* field) {
   for (int k = 0; k < 3; ++k) {
     if (std::abs(v[k]) <= limit) continue;  // the field's name is spelled out for an error only
@@ -35,7 +34,7 @@ void requireSpeed(const Eigen::Vector3d& v, double limit, const std::string& wha
   requireInRange(rangeError(norm, limit, std::string("|") + field + "|", unit), what);
 }
 
-// The range of limits.h for the fields of a motion (all finite already).
+// The range of error.h for the fields of a motion (all finite already).
 void requireMotionRange(const Eigen::Vector3d& position, const Eigen::Vector3d& pivot_offset,
                         const Eigen::Vector3d& linear_velocity, const Eigen::Vector3d& angular_velocity,
                         double t_ref, const std::string& what) {
@@ -157,7 +156,7 @@ Motion makeMotion(const Eigen::Vector3d& position, const Eigen::Quaterniond& ori
 }
 
 bool isValidMotion(const Motion& m) {
-  // The range of limits.h, as validateMotion checks it; every comparison is false for a NaN, and
+  // The range of error.h, as validateMotion checks it; every comparison is false for a NaN, and
   // an Inf is beyond every limit, so a non-finite value fails too.
   // (Not maxCoeff(), which may skip a NaN.)
   return (m.position.array().abs() <= kMaxCoordinate).all() && (m.pivot_offset.array().abs() <= kMaxCoordinate).all() &&

@@ -1,7 +1,6 @@
 #include "vadop/response_loop.h"
 
 #include "vadop/error.h"
-#include "vadop/limits.h"
 #include "grid_cells.h"
 
 #include <algorithm>
@@ -157,16 +156,16 @@ void ResponseLoop::predict(BodyId a, BodyId b, double from, double t1) {
   const Kinematics& ka = kinematics_[a];
   const Kinematics& kb = kinematics_[b];
   if (!mayTouch(ka, kb, from, t1)) return;
-  const Impact hit = timeOfImpact(*shapes_[ka.shape].prepared, bp_->motion(a), *shapes_[kb.shape].prepared,
+  const TimeOfImpact hit = timeOfImpact(*shapes_[ka.shape].prepared, bp_->motion(a), *shapes_[kb.shape].prepared,
                                   bp_->motion(b), from, t1, toi_);
-  if (hit.undecided) ++stats_.undecided;  // not a contact (see Impact::undecided)
+  if (hit.undecided) ++stats_.undecided;  // not a contact (see TimeOfImpact::undecided)
   if (!hit.hit || reportedAt(a, b, hit.time)) return;
   queue_.push(a, b, hit);
 }
 
 void ResponseLoop::predictBoundary(BodyId id, double from, double t1) {
   if (!boundary_) return;
-  const Impact hit = boundary_(id, bp_->motion(id), from, t1);
+  const TimeOfImpact hit = boundary_(id, bp_->motion(id), from, t1);
   if (!hit.hit) return;
   if (!(hit.time >= from && hit.time <= t1) || !hit.point.allFinite() || !hit.normal.allFinite()) {
     throw InvalidArgument("ResponseLoop: the boundary function returned, for body " + std::to_string(id) +

@@ -1,7 +1,6 @@
 #include "vadop/scene_io.h"
 
 #include "vadop/error.h"
-#include "vadop/limits.h"
 
 #include <nlohmann/json.hpp>
 
@@ -624,7 +623,7 @@ void addToWorld(const Scene& scene, World& world) {
   }
 }
 
-std::string impactToJson(const WorldImpact& w) {
+std::string impactToJson(const Contact& w) {
   auto vec = [](const Eigen::Vector3d& v) {
     // + 0.0 turns -0 into +0: the same point, one spelling.
     return nlohmann::ordered_json::array({v.x() + 0.0, v.y() + 0.0, v.z() + 0.0});
@@ -638,16 +637,16 @@ std::string impactToJson(const WorldImpact& w) {
   return j.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
 }
 
-std::string impactsToJsonLines(const std::vector<WorldImpact>& impacts) {
+std::string impactsToJsonLines(const std::vector<Contact>& impacts) {
   std::string out;
-  for (const WorldImpact& w : impacts) {
+  for (const Contact& w : impacts) {
     out += impactToJson(w);
     out += '\n';
   }
   return out;
 }
 
-std::string undecidedToJson(const WorldImpact& w) {
+std::string undecidedToJson(const Contact& w) {
   nlohmann::ordered_json j;
   j["a"] = w.a;
   j["b"] = w.b;
@@ -655,14 +654,14 @@ std::string undecidedToJson(const WorldImpact& w) {
   return j.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
 }
 
-std::string predictionToJsonLines(const std::vector<WorldImpact>& impacts, const std::vector<WorldImpact>& undecided) {
-  std::vector<std::pair<const WorldImpact*, bool>> all;  // (pair, undecided)
+std::string predictionToJsonLines(const std::vector<Contact>& impacts, const std::vector<Contact>& undecided) {
+  std::vector<std::pair<const Contact*, bool>> all;  // (pair, undecided)
   all.reserve(impacts.size() + undecided.size());
-  for (const WorldImpact& w : impacts) all.emplace_back(&w, false);
-  for (const WorldImpact& w : undecided) all.emplace_back(&w, true);
+  for (const Contact& w : impacts) all.emplace_back(&w, false);
+  for (const Contact& w : undecided) all.emplace_back(&w, true);
   std::stable_sort(all.begin(), all.end(), [](const auto& x, const auto& y) {
-    const WorldImpact& a = *x.first;
-    const WorldImpact& b = *y.first;
+    const Contact& a = *x.first;
+    const Contact& b = *y.first;
     if (a.impact.time != b.impact.time) return a.impact.time < b.impact.time;
     if (a.a_key != b.a_key) return a.a_key < b.a_key;
     return a.b_key < b.b_key;

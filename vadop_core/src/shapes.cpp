@@ -1,7 +1,6 @@
 #include "vadop/shapes.h"
 
 #include "vadop/error.h"
-#include "vadop/limits.h"
 
 #include <cmath>
 #include <sstream>
@@ -35,7 +34,7 @@ void requireSize(double value, const std::string& field) {
   if (!error.empty()) throw InvalidArgument(error);
 }
 
-// The range of limits.h (kMaxSize) for every dimension, point and the margin of a shape whose
+// The range of error.h (kMaxSize) for every dimension, point and the margin of a shape whose
 // fields are otherwise valid (finite, positive). One check for validateShape and the make*
 // functions. Edge lengths and lengths are the full ones, as the make* functions take them.
 void requireShapeRange(const Shape& s) {

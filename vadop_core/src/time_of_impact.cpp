@@ -55,13 +55,13 @@ void validateCommon(const Motion& ma, const Motion& mb, double t0, double t1, co
 // |d0 + dv s| - R, and the first time it reaches tol/2 is the smaller root of a quadratic,
 // solved in units of |d0| and |d0| / |dv| so that no intermediate can overflow or underflow
 // whatever the scale (all its coefficients are of order 1).
-Impact sphereSphere(const Shape& a, const Motion& ma, const Shape& b, const Motion& mb, double t0,
+TimeOfImpact sphereSphere(const Shape& a, const Motion& ma, const Shape& b, const Motion& mb, double t0,
                     double t1, double tol) {
   const double ra = a.radius + a.margin, rb = b.radius + b.margin;
   const double R = ra + rb;
   const Eigen::Vector3d d0 = mb.positionAt(t0) - ma.positionAt(t0);
   const Eigen::Vector3d dv = mb.linear_velocity - ma.linear_velocity;
-  Impact out;
+  TimeOfImpact out;
   out.iterations = 1;
   auto fill = [&](double t) {
     out.time = t;
@@ -167,12 +167,12 @@ constexpr int kPatience = 24;
 constexpr int kMaxPatience = 1 << 12;
 constexpr double kSmallStep = 64.0;
 
-Impact conservativeAdvancement(const PreparedShape& a, const Motion& ma, const PreparedShape& b,
+TimeOfImpact conservativeAdvancement(const PreparedShape& a, const Motion& ma, const PreparedShape& b,
                                const Motion& mb, double t0, double t1, const ToiOptions& o) {
   const double touch = o.tolerance;
   const double advance = 0.5 * o.tolerance;
   const bool rotating = ma.isRotating() || mb.isRotating();
-  Impact out;
+  TimeOfImpact out;
   auto fill = [&](double t, const DistanceResult& c) {
     out.time = t;
     out.normal = c.normal;
@@ -234,7 +234,7 @@ Impact conservativeAdvancement(const PreparedShape& a, const Motion& ma, const P
 
 }  // namespace
 
-Impact timeOfImpact(const PreparedShape& a, const Motion& ma, const PreparedShape& b,
+TimeOfImpact timeOfImpact(const PreparedShape& a, const Motion& ma, const PreparedShape& b,
                     const Motion& mb, double t0, double t1, const ToiOptions& options) {
   validateCommon(ma, mb, t0, t1, options);
   if (a.shape().type == ShapeType::kSphere && b.shape().type == ShapeType::kSphere && !ma.hasPivot() &&
@@ -244,7 +244,7 @@ Impact timeOfImpact(const PreparedShape& a, const Motion& ma, const PreparedShap
   return conservativeAdvancement(a, ma, b, mb, t0, t1, options);
 }
 
-Impact timeOfImpact(const Shape& a, const Motion& ma, const Shape& b, const Motion& mb, double t0,
+TimeOfImpact timeOfImpact(const Shape& a, const Motion& ma, const Shape& b, const Motion& mb, double t0,
                     double t1, const ToiOptions& options) {
   validateShape(a, "timeOfImpact: shape a");
   validateShape(b, "timeOfImpact: shape b");

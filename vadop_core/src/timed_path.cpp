@@ -109,7 +109,7 @@ size_t TimedPath::pieceAt(double t) const {
   return static_cast<size_t>(std::upper_bound(start_.begin(), start_.end(), t) - start_.begin());
 }
 
-Impact timeOfImpact(const PreparedShape& a, const TimedPath& pa, const PreparedShape& b, const TimedPath& pb,
+TimeOfImpact timeOfImpact(const PreparedShape& a, const TimedPath& pa, const PreparedShape& b, const TimedPath& pb,
                     double t0, double t1, const ToiOptions& options) {
   if (!(std::isfinite(t0) && std::isfinite(t1) && t0 <= t1)) {
     throw InvalidArgument("timeOfImpact: need finite t0 <= t1, got t0 = " + formatNumber(t0) +
@@ -120,7 +120,7 @@ Impact timeOfImpact(const PreparedShape& a, const TimedPath& pa, const PreparedS
   int iterations = 0;
   for (;;) {
     const double e = std::min({t1, pa.start(ka + 1), pb.start(kb + 1)});
-    Impact out = timeOfImpact(a, pa.motion(ka), b, pb.motion(kb), s, e, options);
+    TimeOfImpact out = timeOfImpact(a, pa.motion(ka), b, pb.motion(kb), s, e, options);
     iterations += out.iterations;
     if (out.hit || out.undecided || e >= t1) {
       out.iterations = iterations;

@@ -1,11 +1,10 @@
-#include "vadop/world.h"
+#include "world_engine.h"
 
 #include "name_index.h"
 #include "pair_certificates.h"
 
 #include "vadop/detail/parallel_for.h"
 #include "vadop/error.h"
-#include "vadop/limits.h"
 #include "vadop/sweep_prune.h"
 #include "vadop/vadop_grid.h"
 
@@ -78,7 +77,7 @@ BroadPhaseKind parseBroadPhaseKind(const std::string& name) {
   throw InvalidArgument("unknown broad phase " + quoted(name) + " (expected vadop, vadop_sap, sap, grid or brute)");
 }
 
-World::World(const WorldConfig& config) : config_(config), by_name_(std::make_unique<detail::NameIndex>()) {
+WorldEngine::WorldEngine(const WorldConfig& config) : config_(config), by_name_(std::make_unique<detail::NameIndex>()) {
   static std::atomic<uint64_t> worlds{0};
   serial_ = ++worlds;
   const ToiOptions& o = config.toi;
@@ -117,20 +116,19 @@ World::World(const WorldConfig& config) : config_(config), by_name_(std::make_un
 }
 
 // by_name_ keeps no names: they live in the records.
-struct World::NameOf {
+struct WorldEngine::NameOf {
   const detail::LargeArray<Record>& records;
   const std::string& operator()(BodyId b) const { return records[b].name; }
 };
 
-World::~World() = default;
-World::World(World&&) noexcept = default;
-World& World::operator=(World&&) noexcept = default;
+WorldEngine::WorldEngine(Empty) {}
+WorldEngine::~WorldEngine() = default;
 
-void World::requireEngine(const char* operation) const {
+void WorldEngine::requireEngine(const char* operation) const {
   if (!broad_phase_) throw InvalidArgument(std::string(operation) + ": this World was moved from");
 }
 
-void World::add(const std::string& id, const Shape& shape, const Motion& motion) {
+void WorldEngine::add(const std::string& id, const Shape& shape, const Motion& motion, uint64_t user) {
   requireEngine("add");
   const std::string what = "add body " + quoted(id);
   if (id.empty()) throw InvalidArgument("add: the body id must not be empty");
@@ -142,6 +140,7 @@ void World::add(const std::string& id, const Shape& shape, const Motion& motion)
   Record rec;
   rec.name = id;
   rec.key = next_key_;
+  rec.user = user;
   rec.prepared.emplace(shape);
   // Padded by the narrow phase's tolerance: every pair the narrow phase can report as touching
   // (gap <= tolerance) then has intersecting swept volumes, hence is a candidate for every
@@ -163,7 +162,7 @@ void World::add(const std::string& id, const Shape& shape, const Motion& motion)
   ++next_key_;
 }
 
-void World::remove(const std::string& id) {
+void WorldEngine::remove(const std::string& id) {
   const BodyId bid = bodyId(id, "remove");
   broad_phase_->remove(bid);  // strong guarantee; nothing below throws
   by_name_->erase(id, NameOf{records_});
@@ -171,16 +170,16 @@ void World::remove(const std::string& id) {
   records_[bid] = Record{};
 }
 
-void World::setMotion(const std::string& id, const Motion& motion) { setMotionOf(bodyId(id, "setMotion"), motion); }
+void WorldEngine::setMotion(const std::string& id, const Motion& motion) { setMotionOf(bodyId(id, "setMotion"), motion); }
 
-World::Handle World::handle(const std::string& id) const {
+WorldEngine::Handle WorldEngine::handle(const std::string& id) const {
   const BodyId bid = bodyId(id, "handle");
   return Handle{static_cast<uint32_t>(bid), records_[bid].key, serial_};
 }
 
-void World::setMotion(const Handle& body, const Motion& motion) { setMotionOf(handleId(body, "setMotion"), motion); }
+void WorldEngine::setMotion(const Handle& body, const Motion& motion) { setMotionOf(handleId(body, "setMotion"), motion); }
 
-BodyId World::handleId(const Handle& body, const char* operation) const {
+BodyId WorldEngine::handleId(const Handle& body, const char* operation) const {
   if (body.world != serial_ || body.index >= records_.size() || !records_[body.index].prepared ||
       records_[body.index].key != body.key) {
     throw InvalidArgument(std::string(operation) + ": the handle (key " + std::to_string(body.key) +
@@ -189,7 +188,7 @@ BodyId World::handleId(const Handle& body, const char* operation) const {
   return body.index;
 }
 
-void World::setMotionOf(BodyId bid, const Motion& motion) {
+void WorldEngine::setMotionOf(BodyId bid, const Motion& motion) {
   // The message is built only for a motion the quick test refuses (setMotion runs per body per cycle).
   if (!isValidMotion(motion)) validateMotion(motion, "setMotion body " + quoted(records_[bid].name) + ": motion");
   broad_phase_->setMotion(bid, motion);  // strong guarantee; nothing below throws
@@ -199,42 +198,42 @@ void World::setMotionOf(BodyId bid, const Motion& motion) {
   }
 }
 
-void World::setPath(const std::string& id, const TimedPath& path) {
+void WorldEngine::setPath(const std::string& id, const TimedPath& path) {
   bodyId(id, "setPath");
   setChain(id, LinkChain(path));
 }
 
-void World::setChain(const std::string& id, const LinkChain& chain) {
+void WorldEngine::setChain(const std::string& id, const LinkChain& chain) {
   setChainOf(bodyId(id, "setChain"), std::make_shared<const LinkChain>(chain));
 }
 
-void World::setChain(const Handle& body, std::shared_ptr<const LinkChain> chain) {
+void WorldEngine::setChain(const Handle& body, std::shared_ptr<const LinkChain> chain) {
   const BodyId bid = handleId(body, "setChain");
   if (!chain) throw InvalidArgument("setChain: body " + quoted(records_[bid].name) + ": no chain (null)");
   setChainOf(bid, std::move(chain));
 }
 
-void World::setChainOf(BodyId bid, std::shared_ptr<const LinkChain> chain) {
+void WorldEngine::setChainOf(BodyId bid, std::shared_ptr<const LinkChain> chain) {
   path_bodies_.reserve(path_bodies_.size() + 1);
   broad_phase_->setMotion(bid, chain->base().motion(0));  // strong guarantee; nothing below throws
   if (!records_[bid].chain) path_bodies_.insert(std::lower_bound(path_bodies_.begin(), path_bodies_.end(), bid), bid);
   records_[bid].chain = std::move(chain);
 }
 
-const TimedPath* World::path(const std::string& id) const {
+const TimedPath* WorldEngine::path(const std::string& id) const {
   const Record& r = record(id, "path");
   return r.chain ? &r.chain->base() : nullptr;
 }
 
-const LinkChain* World::chain(const std::string& id) const { return record(id, "chain").chain.get(); }
+const LinkChain* WorldEngine::chain(const std::string& id) const { return record(id, "chain").chain.get(); }
 
-void World::setFilter(const std::string& id, uint32_t group, uint32_t mask) {
+void WorldEngine::setFilter(const std::string& id, uint32_t group, uint32_t mask) {
   Record& r = records_[bodyId(id, "setFilter")];
   r.group = group;
   r.mask = mask;
 }
 
-std::vector<std::string> World::ids() const {
+std::vector<std::string> WorldEngine::ids() const {
   if (!by_name_) return {};  // moved from
   std::vector<const Record*> alive;
   alive.reserve(by_name_->size());
@@ -246,38 +245,38 @@ std::vector<std::string> World::ids() const {
   return out;
 }
 
-bool World::contains(const std::string& id) const { return findBody(id) != kUnknownBody; }
+bool WorldEngine::contains(const std::string& id) const { return findBody(id) != kUnknownBody; }
 
-size_t World::size() const { return by_name_ ? by_name_->size() : 0; }
+size_t WorldEngine::size() const { return by_name_ ? by_name_->size() : 0; }
 
-BodyId World::findBody(const std::string& id) const {
+BodyId WorldEngine::findBody(const std::string& id) const {
   static_assert(detail::NameIndex::kNone == kUnknownBody, "one value for no body");
   if (!by_name_) return kUnknownBody;  // moved from
   return by_name_->find(id, NameOf{records_});
 }
 
-BodyId World::bodyId(const std::string& id, const char* operation) const {
+BodyId WorldEngine::bodyId(const std::string& id, const char* operation) const {
   const BodyId b = findBody(id);
   if (b == kUnknownBody) throw InvalidArgument(std::string(operation) + ": unknown body " + quoted(id));
   return b;
 }
 
-const World::Record& World::record(const std::string& id, const char* operation) const {
+const WorldEngine::Record& WorldEngine::record(const std::string& id, const char* operation) const {
   return records_[bodyId(id, operation)];
 }
 
-const Shape& World::shape(const std::string& id) const { return record(id, "shape").prepared->shape(); }
+const Shape& WorldEngine::shape(const std::string& id) const { return record(id, "shape").prepared->shape(); }
 
-const Motion& World::motion(const std::string& id) const {
+const Motion& WorldEngine::motion(const std::string& id) const {
   const BodyId b = bodyId(id, "motion");  // first: a moved-from World has no broad phase
   return broad_phase_->motion(b);
 }
 
-uint64_t World::key(const std::string& id) const { return record(id, "key").key; }
+uint64_t WorldEngine::key(const std::string& id) const { return record(id, "key").key; }
 
-std::vector<WorldImpact> World::predict(double t0, double horizon) { return run(t0, horizon, nullptr); }
+std::vector<Contact> WorldEngine::predict(double t0, double horizon) { return run(t0, horizon, nullptr); }
 
-std::vector<WorldImpact> World::predict(double t0, double horizon, const std::vector<std::string>& only) {
+std::vector<Contact> WorldEngine::predict(double t0, double horizon, const std::vector<std::string>& only) {
   std::vector<BodyId> ids;
   ids.reserve(only.size());
   for (const std::string& id : only) ids.push_back(bodyId(id, "predict"));
@@ -287,125 +286,151 @@ std::vector<WorldImpact> World::predict(double t0, double horizon, const std::ve
   return run(t0, horizon, &ids);
 }
 
-std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector<BodyId>* only) {
+std::vector<Contact> WorldEngine::run(double t0, double horizon, const std::vector<BodyId>* only) {
   requireEngine("predict");
-  if (!std::isfinite(t0)) throw InvalidArgument("predict: t0 must be finite, got " + formatNumber(t0));
-  if (!std::isfinite(horizon) || horizon < 0.0) {
-    throw InvalidArgument("predict: horizon must be finite and >= 0, got " + formatNumber(horizon));
-  }
-  const double t1 = t0 + horizon;
-  // The range of limits.h: the window's times, and every body's position over the window.
-  for (const auto& [value, field] : {std::pair<double, const char*>{t0, "predict: t0"}, {t1, "predict: t0 + horizon"}}) {
-    const std::string error = rangeError(value, kMaxTime, field, "s");
-    if (!error.empty()) throw InvalidArgument(error);
-  }
-  // A cheap bound of each coordinate of the body's origin over [t0, t1]: the pivot moves in a
-  // straight line (its coordinates are largest at an end) and the origin stays within
-  // |pivot_offset| of it. Motions are within range (validateMotion), so nothing overflows.
-  // Every body for a full predict; for a query, the bodies it involves (before anything runs).
-  auto checkMotionReach = [&](BodyId id, const Motion& m, double s, double e) {
-    const Eigen::Vector3d c0 = m.centreAt(s), c1 = m.centreAt(e);
-    const double arm = m.pivotArm();
-    for (int k = 0; k < 3; ++k) {
-      const double reach = std::max(std::abs(c0[k]), std::abs(c1[k])) + arm;
-      if (reach <= kMaxReach) continue;  // the message (two formatted numbers) only on failure
-      const std::string error = rangeError(reach, kMaxReach,
-                                           "position[" + std::to_string(k) + "] over [" + formatNumber(s) + ", " +
-                                               formatNumber(e) + "] (bound)",
-                                           "m");
-      if (!error.empty()) throw InvalidArgument("predict: body " + quoted(records_[id].name) + ": " + error);
-    }
-  };
-  // A body on a path: each piece over its stretch of the window (records_ read only when some
-  // body is on one: a query's hot path reads no more than the broad phase's motion).
-  const bool paths = !path_bodies_.empty();
-  auto checkReach = [&](BodyId id) {
-    const TimedPath* path = paths && records_[id].chain ? &records_[id].chain->base() : nullptr;
-    if (!path) return checkMotionReach(id, broad_phase_->motion(id), t0, t1);
-    path->forEachPiece(t0, t1, [&](size_t k, double s, double e) { checkMotionReach(id, path->motion(k), s, e); });
-  };
-  if (!only) {
+  const double t1 = checkedWindow("predict", t0, horizon);
+  // The candidate pairs: the whole broad phase, or the queries of `only`.
+  std::vector<Pair> queried;
+  bool all_parts = false;
+  if (only) {
+    queryPairs(*only, t0, t1, queried);
+  } else {
     // In id order (a removed body's record holds no shape): the motions are read as stored.
     for (BodyId id = 0; id < records_.size(); ++id) {
-      if (records_[id].prepared) checkReach(id);
+      if (records_[id].prepared) checkReach(id, t0, t1);
     }
+    all_parts = allPairs(t0, t1, queried);
   }
-
-  // The candidate pairs: the whole broad phase, or the queries of `only` (a pair of two of them
-  // once: from the query of its smaller id).
-  std::vector<Pair> queried;
-  if (only) {
-    // `only` is sorted: membership by binary search, no O(n) mask per query.
-    auto in_only = [only](BodyId id) { return std::binary_search(only->begin(), only->end(), id); };
-    std::vector<BodyId> found;
-    for (BodyId id : *only) checkReach(id);
-    for (BodyId id : *only) {
-      if (paths && onPath(id)) continue;  // from pathPairs
-      broad_phase_->query(id, t0, t1, found);
-      for (BodyId other : found) {
-        if (other < id && in_only(other)) continue;
-        if (paths && onPath(other)) continue;  // the broad phase holds it at rest: from pathPairs
-        if (!in_only(other)) checkReach(other);
-        queried.push_back(makePair(id, other));
-      }
-    }
-    const size_t direct = queried.size();
-    if (paths) pathPairs(t0, t1, only, queried);
-    for (size_t i = direct; i < queried.size(); ++i) {
-      for (BodyId id : {queried[i].a, queried[i].b}) {
-        if (!in_only(id)) checkReach(id);
-      }
-    }
-    std::sort(queried.begin(), queried.end());
-    queried.erase(std::unique(queried.begin(), queried.end()), queried.end());
-  }
-  // A crowded world's full predict: every body's part boxes first, their unions the broad
-  // phase's boxes, and the path bodies' boxes in pathPairs (the broad phase holds those at rest:
-  // with paths it computes the others' boxes itself).
-  const bool all_parts = !only && parts_for_all_ && config_.time_slices > 1 && t1 > t0;
-  if (!only) {
-    if (all_parts) {
-      fillAllPartBoxes(t0, t1);
-      if (!paths) broad_phase_->setFrameBoxes(frame_boxes_.data());
-    }
-    // Every body on a path (a fleet of arms on joint states): the broad phase would find only
-    // pairs of path bodies, all dropped, so it is not updated (no query of this world asks it
-    // then: othersThanPaths). Without path bodies it always is: its pairs are the candidates.
-    const bool broad = !paths || othersThanPaths();
-    if (broad) broad_phase_->update(t0, t1);
-    if (paths) {
-      // The broad phase's pairs without the path bodies (it holds them at rest), and theirs.
-      if (broad) {
-        for (const Pair& p : broad_phase_->pairs()) {
-          if (!onPath(p.a) && !onPath(p.b)) queried.push_back(p);
-        }
-      }
-      pathPairs(t0, t1, nullptr, queried, all_parts);
-      std::sort(queried.begin(), queried.end());
-      queried.erase(std::unique(queried.begin(), queried.end()), queried.end());
-    }
-  }
-  // The pair filters, before the narrow phase, on this thread (the predicate is the caller's).
-  std::vector<Candidate> tests;
-  const uint64_t every_part = config_.time_slices == 64 ? ~uint64_t{0} : (uint64_t{1} << config_.time_slices) - 1;
-  for (const Pair& p : only || paths ? queried : broad_phase_->pairs()) {
-    BodyId ia = p.a, ib = p.b;
-    if (records_[ib].key < records_[ia].key) std::swap(ia, ib);  // a = the body added first
-    const Record& ra = records_[ia];
-    const Record& rb = records_[ib];
-    if (!(ra.group & rb.mask) || !(rb.group & ra.mask)) continue;
-    if (pair_filter_ && !pair_filter_(ra.key, rb.key)) continue;
-    tests.push_back({ia, ib, every_part});
-  }
+  std::vector<Candidate> tests = testedPairs(only || !path_bodies_.empty() ? queried : broad_phase_->pairs());
   const size_t found = tests.size();
   cullBySlices(tests, t0, t1, all_parts);
   if (!only) parts_for_all_ = (all_parts ? 2 * found : found) >= records_.size();
-  std::vector<Impact> results;
+  std::vector<TimeOfImpact> results;
   if (certificates_ && !only) certificates_->beginPass();
   narrowAll(tests, t0, t1, results);
   if (certificates_ && !only) certificates_->endPass();
-  // The contacts by time (then keys), and the undecided pairs alike: the order is found on
-  // small records and each WorldImpact is built once, in place (thousands a cycle in a fleet).
+  std::vector<Contact> out = contactsInOrder(tests, results, false);
+  std::vector<Contact> undecided = contactsInOrder(tests, results, true);
+  // Nothing above throws once the narrow phase has run: the statistics change together.
+  last_candidates_ = tests.size();
+  last_slice_culled_ = found - tests.size();
+  last_undecided_ = std::move(undecided);
+  return out;
+}
+
+double WorldEngine::checkedWindow(const char* operation, double t0, double horizon) const {
+  const std::string op = operation;
+  if (!std::isfinite(t0)) throw InvalidArgument(op + ": t0 must be finite, got " + formatNumber(t0));
+  if (!std::isfinite(horizon) || horizon < 0.0) {
+    throw InvalidArgument(op + ": horizon must be finite and >= 0, got " + formatNumber(horizon));
+  }
+  const double t1 = t0 + horizon;
+  // The range of error.h for the window's times (the bodies' positions: checkReach).
+  for (const auto& [field, value] : {std::pair<std::string, double>{op + ": t0", t0}, {op + ": t0 + horizon", t1}}) {
+    const std::string error = rangeError(value, kMaxTime, field, "s");
+    if (!error.empty()) throw InvalidArgument(error);
+  }
+  return t1;
+}
+
+// A cheap bound of each coordinate of the body's origin over [s, e]: the pivot moves in a
+// straight line (its coordinates are largest at an end) and the origin stays within
+// |pivot_offset| of it. Motions are within range (validateMotion), so nothing overflows.
+void WorldEngine::checkMotionReach(BodyId id, const Motion& m, double s, double e) const {
+  const Eigen::Vector3d c0 = m.centreAt(s), c1 = m.centreAt(e);
+  const double arm = m.pivotArm();
+  for (int k = 0; k < 3; ++k) {
+    const double reach = std::max(std::abs(c0[k]), std::abs(c1[k])) + arm;
+    if (reach <= kMaxReach) continue;  // the message (two formatted numbers) only on failure
+    const std::string error = rangeError(reach, kMaxReach,
+                                         "position[" + std::to_string(k) + "] over [" + formatNumber(s) + ", " +
+                                             formatNumber(e) + "] (bound)",
+                                         "m");
+    if (!error.empty()) throw InvalidArgument("predict: body " + quoted(records_[id].name) + ": " + error);
+  }
+}
+
+void WorldEngine::checkReach(BodyId id, double t0, double t1) const {
+  // records_ read only when some body is on a path: a query's hot path reads no more than the
+  // broad phase's motion.
+  const TimedPath* path = !path_bodies_.empty() && records_[id].chain ? &records_[id].chain->base() : nullptr;
+  if (!path) return checkMotionReach(id, broad_phase_->motion(id), t0, t1);
+  path->forEachPiece(t0, t1, [&](size_t k, double s, double e) { checkMotionReach(id, path->motion(k), s, e); });
+}
+
+void WorldEngine::queryPairs(const std::vector<BodyId>& only, double t0, double t1, std::vector<Pair>& out) {
+  const bool paths = !path_bodies_.empty();
+  // `only` is sorted: membership by binary search, no O(n) mask per query.
+  auto in_only = [&only](BodyId id) { return std::binary_search(only.begin(), only.end(), id); };
+  std::vector<BodyId> found;
+  for (BodyId id : only) checkReach(id, t0, t1);
+  for (BodyId id : only) {
+    if (paths && onPath(id)) continue;  // from pathPairs
+    broad_phase_->query(id, t0, t1, found);
+    for (BodyId other : found) {
+      if (other < id && in_only(other)) continue;  // a pair of two of them once: from the smaller id
+      if (paths && onPath(other)) continue;  // the broad phase holds it at rest: from pathPairs
+      if (!in_only(other)) checkReach(other, t0, t1);
+      out.push_back(makePair(id, other));
+    }
+  }
+  const size_t direct = out.size();
+  if (paths) pathPairs(t0, t1, &only, out);
+  for (size_t i = direct; i < out.size(); ++i) {
+    for (BodyId id : {out[i].a, out[i].b}) {
+      if (!in_only(id)) checkReach(id, t0, t1);
+    }
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+}
+
+bool WorldEngine::allPairs(double t0, double t1, std::vector<Pair>& out) {
+  const bool paths = !path_bodies_.empty();
+  // A crowded world: every body's part boxes first, their unions the broad phase's boxes, and
+  // the path bodies' boxes in pathPairs (the broad phase holds those at rest: with paths it
+  // computes the others' boxes itself).
+  const bool all_parts = parts_for_all_ && config_.time_slices > 1 && t1 > t0;
+  if (all_parts) {
+    fillAllPartBoxes(t0, t1);
+    if (!paths) broad_phase_->setFrameBoxes(frame_boxes_.data());
+  }
+  // Every body on a path (a fleet of arms on joint states): the broad phase would find only
+  // pairs of path bodies, all dropped, so it is not updated (no query of this world asks it
+  // then: othersThanPaths). Without path bodies it always is: its pairs are the candidates
+  // (left in the broad phase, `out` stays empty).
+  const bool broad = !paths || othersThanPaths();
+  if (broad) broad_phase_->update(t0, t1);
+  if (!paths) return all_parts;
+  // The broad phase's pairs without the path bodies (it holds them at rest), and theirs.
+  if (broad) {
+    for (const Pair& p : broad_phase_->pairs()) {
+      if (!onPath(p.a) && !onPath(p.b)) out.push_back(p);
+    }
+  }
+  pathPairs(t0, t1, nullptr, out, all_parts);
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return all_parts;
+}
+
+std::vector<WorldEngine::Candidate> WorldEngine::testedPairs(const std::vector<Pair>& pairs) const {
+  // On this thread: the predicate is the caller's.
+  std::vector<Candidate> tests;
+  const uint64_t every_part = config_.time_slices == 64 ? ~uint64_t{0} : (uint64_t{1} << config_.time_slices) - 1;
+  for (const Pair& p : pairs) {
+    BodyId ia = p.a, ib = p.b;
+    if (records_[ib].key < records_[ia].key) std::swap(ia, ib);  // a = the body added first
+    if (!shouldTest(records_[ia], records_[ib])) continue;
+    tests.push_back({ia, ib, every_part});
+  }
+  return tests;
+}
+
+std::vector<Contact> WorldEngine::contactsInOrder(const std::vector<Candidate>& tests, const std::vector<TimeOfImpact>& results,
+                                                bool undecided) const {
+  // The order is found on small records and each Contact is built once, in place
+  // (thousands a cycle in a fleet).
   struct Found {
     double time;
     uint64_t a_key, b_key;
@@ -416,38 +441,29 @@ std::vector<WorldImpact> World::run(double t0, double horizon, const std::vector
       return b_key < o.b_key;
     }
   };
-  std::vector<Found> found_hits, found_undecided;
-  const size_t calls = tests.size();
+  std::vector<Found> order;
   for (size_t k = 0; k < tests.size(); ++k) {
-    const Impact& hit = results[k];
-    if (!hit.hit && !hit.undecided) continue;
-    (hit.hit ? found_hits : found_undecided)
-        .push_back({hit.time, records_[tests[k].a].key, records_[tests[k].b].key, static_cast<uint32_t>(k)});
+    const TimeOfImpact& hit = results[k];
+    if (undecided ? hit.hit || !hit.undecided : !hit.hit) continue;
+    order.push_back({hit.time, records_[tests[k].a].key, records_[tests[k].b].key, static_cast<uint32_t>(k)});
   }
-  auto build = [&](std::vector<Found>& order) {
-    std::sort(order.begin(), order.end());
-    std::vector<WorldImpact> list(order.size());
-    for (size_t i = 0; i < order.size(); ++i) {
-      const Candidate& c = tests[order[i].test];
-      WorldImpact& w = list[i];
-      w.a = records_[c.a].name;
-      w.b = records_[c.b].name;
-      w.a_key = order[i].a_key;
-      w.b_key = order[i].b_key;
-      w.impact = results[order[i].test];
-    }
-    return list;
-  };
-  std::vector<WorldImpact> out = build(found_hits);
-  std::vector<WorldImpact> undecided = build(found_undecided);
-  // Nothing above throws once the narrow phase has run: the statistics change together.
-  last_candidates_ = calls;
-  last_slice_culled_ = found - calls;
-  last_undecided_ = std::move(undecided);
-  return out;
+  std::sort(order.begin(), order.end());
+  std::vector<Contact> list(order.size());
+  for (size_t i = 0; i < order.size(); ++i) {
+    const Candidate& c = tests[order[i].test];
+    Contact& w = list[i];
+    w.a = records_[c.a].name;
+    w.b = records_[c.b].name;
+    w.a_key = order[i].a_key;
+    w.b_key = order[i].b_key;
+    w.impact = results[order[i].test];
+    w.a_user = records_[c.a].user;
+    w.b_user = records_[c.b].user;
+  }
+  return list;
 }
 
-std::optional<Shape> World::pathVolume(BodyId p, double t0, double t1) const {
+std::optional<Shape> WorldEngine::pathVolume(BodyId p, double t0, double t1) const {
   // A link whose joints move is found within its reach of the base's origin: a ball about the
   // base's origin moving with each piece of the base's path.
   const LinkChain& chain = *records_[p].chain;
@@ -455,14 +471,14 @@ std::optional<Shape> World::pathVolume(BodyId p, double t0, double t1) const {
   return makeSphere(broad_phase_->shape(p).bounding_radius + chain.reach(t0, t1));
 }
 
-void World::pathBox(BodyId p, double t0, double t1, double* box, bool tight) const {
+void WorldEngine::pathBox(BodyId p, double t0, double t1, double* box, bool tight) const {
   const std::optional<Shape> ball = pathVolume(p, t0, t1);
   if (!ball || !tight) return sweptAlongPath(p, ball ? *ball : broad_phase_->shape(p), t0, t1, box);
   records_[p].chain->partBoxes(broad_phase_->shape(p), t0, t1, 1, box);
   clipToReach(p, *ball, t0, t1, box);
 }
 
-void World::sweptAlongPath(BodyId p, const Shape& shape, double t0, double t1, double* box) const {
+void WorldEngine::sweptAlongPath(BodyId p, const Shape& shape, double t0, double t1, double* box) const {
   const TimedPath& path = records_[p].chain->base();
   for (int k = 0; k < 3; ++k) {
     box[k] = std::numeric_limits<double>::infinity();
@@ -478,7 +494,7 @@ void World::sweptAlongPath(BodyId p, const Shape& shape, double t0, double t1, d
   });
 }
 
-void World::clipToReach(BodyId p, const Shape& ball, double t0, double t1, double* box) const {
+void WorldEngine::clipToReach(BodyId p, const Shape& ball, double t0, double t1, double* box) const {
   // Both boxes hold the link; the ball's, at least its diameter wide, can cut the link's only
   // where that is wider (a long window): computed then only.
   const double diameter = 2.0 * ball.bounding_radius;
@@ -491,13 +507,13 @@ void World::clipToReach(BodyId p, const Shape& ball, double t0, double t1, doubl
   }
 }
 
-std::vector<double> World::pathBoxes(double t0, double t1) const {
+std::vector<double> WorldEngine::pathBoxes(double t0, double t1) const {
   std::vector<double> boxes(6 * path_bodies_.size());
   for (size_t k = 0; k < path_bodies_.size(); ++k) pathBox(path_bodies_[k], t0, t1, &boxes[6 * k], false);
   return boxes;
 }
 
-void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std::vector<Pair>& out, bool unions) {
+void WorldEngine::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std::vector<Pair>& out, bool unions) {
   auto in_only = [only](BodyId id) { return !only || std::binary_search(only->begin(), only->end(), id); };
   std::vector<BodyId> found;
   const size_t n = path_bodies_.size();
@@ -541,7 +557,7 @@ void World::pathPairs(double t0, double t1, const std::vector<BodyId>* only, std
   }
 }
 
-void World::parallelFor(size_t n, const std::function<void(size_t)>& f) const {
+void WorldEngine::parallelFor(size_t n, const std::function<void(size_t)>& f) const {
   // Below this many pairs per thread, starting threads costs more than it saves; pairs are
   // taken a few at a time: narrow-phase costs vary by orders of magnitude.
   constexpr size_t kPairsPerThread = 32;
@@ -549,9 +565,9 @@ void World::parallelFor(size_t n, const std::function<void(size_t)>& f) const {
   detail::parallelFor(threads_, n, kPairsPerThread, kChunk, f);
 }
 
-Impact World::narrowParts(const Candidate& c, double t0, double t1) const {
+TimeOfImpact WorldEngine::narrowParts(const Candidate& c, double t0, double t1) const {
   const int parts = config_.time_slices;
-  Impact r;
+  TimeOfImpact r;
   for (int k = 0; k < parts; ++k) {
     if (!(c.parts >> k & 1)) continue;
     int last = k;
@@ -566,8 +582,8 @@ Impact World::narrowParts(const Candidate& c, double t0, double t1) const {
   return r;
 }
 
-void World::narrowAll(const std::vector<Candidate>& tests, double t0, double t1, std::vector<Impact>& results) {
-  results.assign(tests.size(), Impact{});
+void WorldEngine::narrowAll(const std::vector<Candidate>& tests, double t0, double t1, std::vector<TimeOfImpact>& results) {
+  results.assign(tests.size(), TimeOfImpact{});
   last_reused_ = 0;
   if (!certificates_) {
     parallelFor(tests.size(), [&](size_t k) { results[k] = narrowParts(tests[k], t0, t1); });
@@ -615,7 +631,7 @@ void World::narrowAll(const std::vector<Candidate>& tests, double t0, double t1,
       // of time_of_impact.h) up to its time, or over the whole window without a hit.
       ToiOptions wide = config_.toi;
       wide.tolerance = 2.0 * clearance;
-      const Impact c = timeOfImpact(*records_[a].prepared, broad_phase_->motion(a), *records_[b].prepared,
+      const TimeOfImpact c = timeOfImpact(*records_[a].prepared, broad_phase_->motion(a), *records_[b].prepared,
                                     broad_phase_->motion(b), t0, t_end, wide);
       job.closed = !c.hit && !c.undecided;
       job.until = job.closed ? t_end : c.time;
@@ -630,7 +646,7 @@ void World::narrowAll(const std::vector<Candidate>& tests, double t0, double t1,
   for (const Job& job : jobs) {
     const BodyId a = tests[job.k].a, b = tests[job.k].b;
     if (records_[a].chain || records_[b].chain) continue;
-    const Impact& r = results[job.k];
+    const TimeOfImpact& r = results[job.k];
     if (!job.certify) {
       if (r.hit || r.undecided) certificates_->markNear(body(a), body(b));  // still touching: wait again
     } else if (job.clear) {
@@ -649,7 +665,7 @@ constexpr size_t kBodiesPerThread = 256;
 constexpr size_t kBodyChunk = 128;
 }  // namespace
 
-void World::fillAllPartBoxes(double t0, double t1) {
+void WorldEngine::fillAllPartBoxes(double t0, double t1) {
   ++predict_count_;
   if (slice_of_.size() < records_.size()) slice_of_.resize(records_.size());
   for (BodyId id = 0; id < records_.size(); ++id) {
@@ -659,7 +675,7 @@ void World::fillAllPartBoxes(double t0, double t1) {
   fillSlots(t0, t1, true);
 }
 
-void World::fillPartBoxesOfPairs(const std::vector<Candidate>& tests, double t0, double t1) {
+void WorldEngine::fillPartBoxesOfPairs(const std::vector<Candidate>& tests, double t0, double t1) {
   ++predict_count_;
   if (slice_of_.size() < records_.size()) slice_of_.resize(records_.size());
   // Slots in first-use order: a query touches a few bodies, whose boxes then share a few hot
@@ -683,7 +699,7 @@ void World::fillPartBoxesOfPairs(const std::vector<Candidate>& tests, double t0,
   fillSlots(t0, t1, false, 4 * slice_used_ < records_.size());
 }
 
-void World::fillSlots(double t0, double t1, bool unions, bool slots_assigned) {
+void WorldEngine::fillSlots(double t0, double t1, bool unions, bool slots_assigned) {
   const int slices = config_.time_slices;
   const size_t stride = 6 * static_cast<size_t>(slices);
   if (!slots_assigned) {
@@ -713,7 +729,7 @@ void World::fillSlots(double t0, double t1, bool unions, bool slots_assigned) {
   });
 }
 
-void World::cullBySlices(std::vector<Candidate>& tests, double t0, double t1, bool filled) {
+void WorldEngine::cullBySlices(std::vector<Candidate>& tests, double t0, double t1, bool filled) {
   const int slices = config_.time_slices;
   if (slices <= 1 || tests.empty() || !(t1 > t0)) return;
   const size_t stride = 6 * static_cast<size_t>(slices);
@@ -731,7 +747,7 @@ void World::cullBySlices(std::vector<Candidate>& tests, double t0, double t1, bo
   tests.erase(std::remove_if(tests.begin(), tests.end(), [](const Candidate& c) { return c.parts == 0; }), tests.end());
 }
 
-void World::fillPartBoxes(BodyId id, double t0, double t1, double* out) const {
+void WorldEngine::fillPartBoxes(BodyId id, double t0, double t1, double* out) const {
   const int slices = config_.time_slices;
   // Each part's box bounds the padded shape over [s, e] (SweptBody is conservative in floating
   // point; a path body's pathBox is the union of SweptBody boxes along its pieces);
@@ -755,7 +771,7 @@ void World::fillPartBoxes(BodyId id, double t0, double t1, double* out) const {
   }
 }
 
-Impact World::narrow(BodyId a, BodyId b, double t0, double t1) const {
+TimeOfImpact WorldEngine::narrow(BodyId a, BodyId b, double t0, double t1) const {
   const Record& ra = records_[a];
   const Record& rb = records_[b];
   if (!ra.chain && !rb.chain) {
@@ -770,7 +786,7 @@ Impact World::narrow(BodyId a, BodyId b, double t0, double t1) const {
   return timeOfImpact(*ra.prepared, ca, *rb.prepared, cb, t0, t1, config_.toi);
 }
 
-World::Reachable World::reachable(const std::vector<std::string>& movers, const std::vector<Eigen::Vector3d>& origins,
+WorldEngine::Reachable WorldEngine::reachable(const std::vector<std::string>& movers, const std::vector<Eigen::Vector3d>& origins,
                                   const std::vector<double>& reach, double t0, double horizon) {
   const char* op = "reachable";
   if (movers.size() != origins.size() || movers.size() != reach.size()) {
@@ -817,7 +833,7 @@ World::Reachable World::reachable(const std::vector<std::string>& movers, const 
   return out;
 }
 
-std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::string>& movers,
+std::optional<WorldEngine::MoverContact> WorldEngine::firstContactIf(const std::vector<std::string>& movers,
                                                          const std::vector<Motion>& motions, double t0,
                                                          double horizon,
                                                          const std::function<bool(uint64_t key)>& skip,
@@ -827,21 +843,8 @@ std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::
     throw InvalidArgument(std::string(op) + ": " + std::to_string(movers.size()) + " movers but " +
                           std::to_string(motions.size()) + " motions");
   }
-  if (!std::isfinite(t0)) throw InvalidArgument(std::string(op) + ": t0 must be finite, got " + formatNumber(t0));
-  if (!std::isfinite(horizon) || horizon < 0.0) {
-    throw InvalidArgument(std::string(op) + ": horizon must be finite and >= 0, got " + formatNumber(horizon));
-  }
-  double t1 = t0 + horizon;
-  for (const auto& [value, field] : {std::pair<double, const char*>{t0, "firstContactIf: t0"}, {t1, "firstContactIf: t0 + horizon"}}) {
-    const std::string error = rangeError(value, kMaxTime, field, "s");
-    if (!error.empty()) throw InvalidArgument(error);
-  }
-  std::vector<BodyId> ids;
-  ids.reserve(movers.size());
-  for (size_t i = 0; i < movers.size(); ++i) {
-    ids.push_back(bodyId(movers[i], op));
-    if (!isValidMotion(motions[i])) validateMotion(motions[i], std::string(op) + ": motion of " + quoted(movers[i]));
-  }
+  double t1 = checkedWindow(op, t0, horizon);
+  const std::vector<BodyId> ids = moverIds(movers, motions);
   std::vector<BodyId> sorted = ids;
   std::sort(sorted.begin(), sorted.end());
   if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end()) {
@@ -853,55 +856,76 @@ std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::
   for (size_t i = 0; i < ids.size(); ++i) {
     const Record& rm = records_[ids[i]];
     std::optional<LinkChain> mover_chain;  // made for the first path body met
-    // The broad phase holds the mover's shape padded by the tolerance, as for its own queries.
     if (among) {
       found.clear();
       for (BodyId b : among->ids) {
         if (broad_phase_->contains(b)) found.push_back(b);
       }
     } else {
-      found.clear();
-      if (othersThanPaths()) broad_phase_->query(broad_phase_->shape(ids[i]), motions[i], t0, t1, found);
-      // The broad phase holds the path bodies at rest: those whose boxes over the window
-      // (pathBox, computed once a call) overlap the mover's swept box are candidates.
-      if (!path_bodies_.empty()) {
-        found.erase(std::remove_if(found.begin(), found.end(), [this](BodyId b) { return onPath(b); }), found.end());
-        if (path_boxes.empty()) path_boxes = pathBoxes(t0, t1);
-        double box[6];
-        SweptBody(broad_phase_->shape(ids[i]), motions[i], t0, t1).box(box);
-        for (size_t k = 0; k < path_bodies_.size(); ++k) {
-          if (boxesOverlap(&path_boxes[6 * k], box)) found.push_back(path_bodies_[k]);
-        }
-      }
+      moverPartners(ids[i], motions[i], t0, t1, path_boxes, found);
     }
     for (BodyId other : found) {
       if (std::binary_search(sorted.begin(), sorted.end(), other)) continue;
       const Record& ro = records_[other];
-      if (!(rm.group & ro.mask) || !(ro.group & rm.mask)) continue;
-      if (pair_filter_ && !pair_filter_(std::min(rm.key, ro.key), std::max(rm.key, ro.key))) continue;
+      if (!shouldTest(rm, ro)) continue;
       if (skip && skip(ro.key)) continue;
       // Only the first contact matters: later windows shrink to the best time so far.
-      const LinkChain* oc = ro.chain.get();
-      const LinkChain* mc = oc ? (mover_chain ? &*mover_chain : &mover_chain.emplace(TimedPath(motions[i]))) : nullptr;
-      const Impact hit =
-          !oc ? timeOfImpact(*rm.prepared, motions[i], *ro.prepared, broad_phase_->motion(other), t0, t1, config_.toi)
-          : oc->joints().empty()
-              ? timeOfImpact(*rm.prepared, mc->base(), *ro.prepared, oc->base(), t0, t1, config_.toi)
-              : timeOfImpact(*rm.prepared, *mc, *ro.prepared, *oc, t0, t1, config_.toi);
+      const TimeOfImpact hit = moverImpact(rm, motions[i], other, mover_chain, t0, t1);
       if (!hit.hit && !hit.undecided) continue;
-      if (hit.hit && hit.initially_touching) {
-        const Eigen::Vector3d other_velocity =
-            oc ? oc->velocityOfPoint(hit.point, t0) : broad_phase_->motion(other).velocityOfPoint(hit.point, t0);
-        const Eigen::Vector3d closing = motions[i].velocityOfPoint(hit.point, t0) - other_velocity;
-        if (closing.dot(hit.normal) <= 0.0) continue;  // separating or sliding: not blocked
-      }
       if (!best || hit.time < best->impact.time) {
-        best = MoverContact{i, ro.name, ro.key, hit, hit.undecided};
+        best = MoverContact{i, ro.name, ro.key, ro.user, hit, hit.undecided};
         t1 = hit.time;
       }
     }
   }
   return best;
+}
+
+std::vector<BodyId> WorldEngine::moverIds(const std::vector<std::string>& movers, const std::vector<Motion>& motions) const {
+  const char* op = "firstContactIf";
+  std::vector<BodyId> ids;
+  ids.reserve(movers.size());
+  for (size_t i = 0; i < movers.size(); ++i) {
+    ids.push_back(bodyId(movers[i], op));
+    if (!isValidMotion(motions[i])) validateMotion(motions[i], std::string(op) + ": motion of " + quoted(movers[i]));
+  }
+  return ids;
+}
+
+void WorldEngine::moverPartners(BodyId mover, const Motion& motion, double t0, double t1, std::vector<double>& path_boxes,
+                          std::vector<BodyId>& found) const {
+  // The broad phase holds the mover's shape padded by the tolerance, as for its own queries.
+  found.clear();
+  if (othersThanPaths()) broad_phase_->query(broad_phase_->shape(mover), motion, t0, t1, found);
+  if (path_bodies_.empty()) return;
+  // The broad phase holds the path bodies at rest: those whose boxes over the window (pathBox,
+  // computed once a call, into path_boxes) overlap the mover's swept box are candidates.
+  found.erase(std::remove_if(found.begin(), found.end(), [this](BodyId b) { return onPath(b); }), found.end());
+  if (path_boxes.empty()) path_boxes = pathBoxes(t0, t1);
+  double box[6];
+  SweptBody(broad_phase_->shape(mover), motion, t0, t1).box(box);
+  for (size_t k = 0; k < path_bodies_.size(); ++k) {
+    if (boxesOverlap(&path_boxes[6 * k], box)) found.push_back(path_bodies_[k]);
+  }
+}
+
+TimeOfImpact WorldEngine::moverImpact(const Record& rm, const Motion& motion, BodyId other, std::optional<LinkChain>& mover_chain,
+                          double t0, double t1) const {
+  const Record& ro = records_[other];
+  const LinkChain* oc = ro.chain.get();
+  const LinkChain* mc = oc ? (mover_chain ? &*mover_chain : &mover_chain.emplace(TimedPath(motion))) : nullptr;
+  TimeOfImpact hit = !oc ? timeOfImpact(*rm.prepared, motion, *ro.prepared, broad_phase_->motion(other), t0, t1, config_.toi)
+               : oc->joints().empty()
+                   ? timeOfImpact(*rm.prepared, mc->base(), *ro.prepared, oc->base(), t0, t1, config_.toi)
+                   : timeOfImpact(*rm.prepared, *mc, *ro.prepared, *oc, t0, t1, config_.toi);
+  if (hit.hit && hit.initially_touching) {
+    const Eigen::Vector3d other_velocity =
+        oc ? oc->velocityOfPoint(hit.point, t0) : broad_phase_->motion(other).velocityOfPoint(hit.point, t0);
+    const Eigen::Vector3d closing = motion.velocityOfPoint(hit.point, t0) - other_velocity;
+    // Separating or sliding: not blocked (no contact).
+    if (closing.dot(hit.normal) <= 0.0) return TimeOfImpact{};
+  }
+  return hit;
 }
 
 }  // namespace vadop

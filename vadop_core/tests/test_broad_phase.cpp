@@ -11,7 +11,6 @@
 // VADOP_SOAK_FRAMES sets the total number of frames (default: a fast CI subset).
 #include "vadop/broad_phase.h"
 #include "vadop/error.h"
-#include "vadop/limits.h"
 #include "vadop/sweep_prune.h"
 #include "vadop/vadop_grid.h"
 #include "broad_phase_access.h"
@@ -634,7 +633,7 @@ TEST(VadopGrid, LargeBodiesAndFarCoordinatesAreStillExact) {
   (void)far;
   // Bodies far out force coarser cells, so that cell coordinates cannot overflow. (This used
   // bodies at 1e12 m with 1 m cells; positions are now limited to kMaxCoordinate = 1e7 m
-  // (limits.h), so 1 cm cells at +-1e7 m, 1e9 cells out, beyond the grid's 2^29.)
+  // (error.h), so 1 cm cells at +-1e7 m, 1e9 cells out, beyond the grid's 2^29.)
   VadopGridBroadPhase fine(VadopConfig{}, 0.01);
   const BodyId x1 = fine.add(makeSphere(0.001), linear({kMaxCoordinate, 0, 0}, {0, 0, 0}));
   const BodyId x2 = fine.add(makeSphere(0.001), linear({kMaxCoordinate - 0.0015, 0, 0}, {0, 0, 0}));

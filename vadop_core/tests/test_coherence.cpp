@@ -222,7 +222,7 @@ TEST(Coherence, CoherentWorldReportsWhatThePlainWorldReports) {
       }
       const std::string expected = impactsToJsonLines(plain.predict(t0, g.horizon)) +
                                    "undecided:\n" + impactsToJsonLines(plain.lastUndecided());
-      const std::vector<WorldImpact> got_impacts = coherent.predict(t0, g.horizon);
+      const std::vector<Contact> got_impacts = coherent.predict(t0, g.horizon);
       const std::string got = impactsToJsonLines(got_impacts) + "undecided:\n" +
                               impactsToJsonLines(coherent.lastUndecided());
       ASSERT_EQ(got, expected) << "seed " << seed << " step " << step;

@@ -4,7 +4,7 @@
 // with brute force: a second world (brute-force broad phase) in which the links are given the
 // scaled motions and predicted, over every grid point and a fine grid of scales.
 #include "vadop/error.h"
-#include "vadop/gate.h"
+#include "vadop/world.h"
 #include "vadop/world.h"
 
 #include "impact_compare.h"
@@ -131,7 +131,7 @@ TEST(GateScale, MatchesBruteForceOnRandomScenes) {
       const std::vector<Motion> m = robot.motions(s, t0);
       for (size_t i = 0; i < links.size(); ++i) brute.setMotion(links[i], m[i]);
       double first = kInf;
-      for (const WorldImpact& hit : brute.predict(t0, window, links)) {
+      for (const Contact& hit : brute.predict(t0, window, links)) {
         const bool own = hit.a.rfind("robot/", 0) == 0 && hit.b.rfind("robot/", 0) == 0;
         if (own) continue;
         // A pair touching at t0 blocks only when pressed together (World::firstContactIf).

@@ -18,8 +18,8 @@
 namespace vadop {
 namespace {
 
-Impact at(double time, Eigen::Vector3d normal = Eigen::Vector3d::UnitX()) {
-  Impact i;
+TimeOfImpact at(double time, Eigen::Vector3d normal = Eigen::Vector3d::UnitX()) {
+  TimeOfImpact i;
   i.hit = true;
   i.time = time;
   i.normal = normal;
@@ -136,7 +136,7 @@ TEST(ImpactQueue, BadInputThrowsAndLeavesTheQueueUnchanged) {
   EXPECT_THROW(q.push(3, 3, at(0.1)), InvalidArgument);
   EXPECT_THROW(q.push(3, 4, at(std::numeric_limits<double>::quiet_NaN())), InvalidArgument);
   EXPECT_THROW(q.push(1, 2, at(std::numeric_limits<double>::infinity())), InvalidArgument);
-  Impact bad = at(0.1);
+  TimeOfImpact bad = at(0.1);
   bad.normal.x() = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW(q.push(3, 4, bad), InvalidArgument);
   EXPECT_EQ(q.size(), 1u);
@@ -149,7 +149,7 @@ TEST(ImpactQueue, BadInputThrowsAndLeavesTheQueueUnchanged) {
 
 // The reference: every pending impact in a map, sorted on demand.
 struct Reference {
-  std::map<std::pair<uint64_t, uint64_t>, Impact> pending;
+  std::map<std::pair<uint64_t, uint64_t>, TimeOfImpact> pending;
   std::vector<QueuedImpact> sorted() const {
     std::vector<QueuedImpact> out;
     for (const auto& kv : pending) out.push_back(QueuedImpact{kv.first.first, kv.first.second, kv.second});
@@ -194,7 +194,7 @@ TEST(ImpactQueue, MatchesABruteForceReferenceUnderRandomOperations) {
         if (a == b) continue;
         const double t = u01(rng) < 0.5 ? 0.05 * coarse(rng) : u01(rng);
         Eigen::Vector3d n = Eigen::Vector3d::Random().normalized();
-        Impact imp = at(t, n);
+        TimeOfImpact imp = at(t, n);
         imp.point = Eigen::Vector3d::Random();
         q.push(a, b, imp);
         if (a > b) {

@@ -10,6 +10,7 @@
 #include "toi_scenes.h"
 #include "toi_truth.h"
 
+#include "vadop/distance.h"  // PreparedShape (internal: src/)
 #include "vadop/error.h"
 #include "vadop/joint_chain.h"
 #include "vadop/scene_io.h"
@@ -390,7 +391,7 @@ TEST(LinkChain, ArmTurnsIntoThePostOnTime) {
   const LinkChain post(TimedPath(vadop::makeMotion(Vector3d(std::cos(1.0), std::sin(1.0), 0), Quaterniond::Identity(),
                                                    Vector3d::Zero(), Vector3d::Zero())));
   const vadop::PreparedShape ball(vadop::makeSphere(0.1));
-  const vadop::Impact hit = vadop::timeOfImpact(ball, arm, ball, post, 0.0, 2.0);
+  const vadop::TimeOfImpact hit = vadop::timeOfImpact(ball, arm, ball, post, 0.0, 2.0);
   ASSERT_TRUE(hit.hit);
   const double expected = 1.0 - 2.0 * std::asin(0.1);
   EXPECT_NEAR(hit.time, expected, 2e-6);
@@ -408,7 +409,7 @@ TEST(LinkChain, ArmTurnsIntoThePostOnTime) {
   slide.path = JointPath::constantVelocity(0.0, 0.0, 0.5);
   const LinkChain far(TimedPath(vadop::makeMotion(Vector3d(1, 0, 0), Quaterniond::Identity(), Vector3d::Zero(),
                                                   Vector3d::Zero())));
-  const vadop::Impact slid = vadop::timeOfImpact(ball, LinkChain(TimedPath(vadop::Motion()), {slide}), ball, far, 0.0, 2.0);
+  const vadop::TimeOfImpact slid = vadop::timeOfImpact(ball, LinkChain(TimedPath(vadop::Motion()), {slide}), ball, far, 0.0, 2.0);
   ASSERT_TRUE(slid.hit);
   EXPECT_NEAR(slid.time, 1.6, 1e-5);
 }
@@ -428,7 +429,7 @@ TEST(LinkChain, ACertificateEndsAtTheNextVelocityBreak) {
   const LinkChain post(TimedPath(vadop::makeMotion(Vector3d(std::cos(post_angle), std::sin(post_angle), 0),
                                                    Quaterniond::Identity(), Vector3d::Zero(), Vector3d::Zero())));
   const vadop::PreparedShape ball(vadop::makeSphere(0.1));
-  const vadop::Impact hit = vadop::timeOfImpact(ball, arm, ball, post, 0.0, 2.0);
+  const vadop::TimeOfImpact hit = vadop::timeOfImpact(ball, arm, ball, post, 0.0, 2.0);
   ASSERT_TRUE(hit.hit);
   // The joint reaches post_angle - 2 asin(0.1) at 1.5 + (that - 0.02) / 6 s.
   const double expected = 1.5 + (post_angle - 2.0 * std::asin(0.1) - 0.02) / 6.0;
@@ -444,7 +445,7 @@ std::vector<std::pair<std::string, double>> everyPairsImpact(const std::vector<s
   std::vector<std::pair<std::string, double>> out;
   for (size_t i = 0; i < ids.size(); ++i) {
     for (size_t j = i + 1; j < ids.size(); ++j) {
-      const vadop::Impact hit = vadop::timeOfImpact(vadop::PreparedShape(shapes[i]), chains[i],
+      const vadop::TimeOfImpact hit = vadop::timeOfImpact(vadop::PreparedShape(shapes[i]), chains[i],
                                                     vadop::PreparedShape(shapes[j]), chains[j], 0.0, 2.0);
       if (hit.hit) out.emplace_back(ids[i] + "-" + ids[j], hit.time);
     }
@@ -483,7 +484,7 @@ TEST(LinkChain, WorldFindsEveryPairOfEveryLink) {
       shapes.push_back(s);
       chains.push_back(chain);
     }
-    const std::vector<vadop::WorldImpact> got = w.predict(0.0, 2.0);
+    const std::vector<vadop::Contact> got = w.predict(0.0, 2.0);
     std::vector<std::pair<std::string, double>> expected = everyPairsImpact(ids, shapes, chains);
     ASSERT_EQ(got.size(), expected.size()) << vadop::toString(kind);
     std::vector<std::pair<std::string, double>> found;
@@ -561,7 +562,7 @@ TEST(LinkChain, AFleetOfArmsIsPrunedAndNoPairIsMissed) {
     }
     // Twice: the first predict finds the world crowded (more pairs than bodies), so the second
     // takes the path bodies' boxes from the unions of their part boxes.
-    std::vector<vadop::WorldImpact> got;
+    std::vector<vadop::Contact> got;
     for (int pass = 0; pass < 2; ++pass) {
       got = w.predict(0.0, 2.0);
       std::vector<std::pair<std::string, double>> found;
@@ -591,7 +592,7 @@ TEST(LinkChain, AFleetOfArmsIsPrunedAndNoPairIsMissed) {
       double best = 1e9;
       const LinkChain mover_chain{vadop::TimedPath(m)};
       for (size_t i = 0; i < ids.size(); ++i) {
-        const vadop::Impact hit =
+        const vadop::TimeOfImpact hit =
             vadop::timeOfImpact(vadop::PreparedShape(ball), mover_chain, vadop::PreparedShape(shapes[i]), chains[i], 0.0, 2.0);
         if (!hit.hit) continue;
         if (hit.initially_touching &&
@@ -665,7 +666,7 @@ void matchesCertifiedTruth(int joints, bool on_path) {
     const vadop::PreparedShape pa(k.sa), pb(k.sb);
     const LinkChain ca = ours(k.a), cb = ours(k.b);
     double t = cpuSeconds();
-    const vadop::Impact got = vadop::timeOfImpact(pa, ca, pb, cb, t0, t1);
+    const vadop::TimeOfImpact got = vadop::timeOfImpact(pa, ca, pb, cb, t0, t1);
     chain_s += cpuSeconds() - t;
     iterations += got.iterations;
     // The constant-twist call on the same shapes: each link frozen on its base's twist at t0.

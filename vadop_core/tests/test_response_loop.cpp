@@ -5,6 +5,7 @@
 //    same times, and the same final motions;
 //  - the same with walls (ResponseLoop::setBoundary) interleaving with the pairs;
 //  - callbacks that change bodies not in the contact, a throwing callback, bad input.
+#include "vadop/distance.h"  // PreparedShape (internal: src/)
 #include "vadop/error.h"
 #include "vadop/response_loop.h"
 #include "vadop/sweep_prune.h"
@@ -103,9 +104,9 @@ std::vector<Logged> referenceLoop(const std::vector<Shape>& shapes, std::vector<
   for (;;) {
     bool found = false;
     Logged best{0, 0, INFINITY};
-    Impact best_hit;
+    TimeOfImpact best_hit;
     // Order of the queue: time, then a, then b (the boundary after every body).
-    auto consider = [&](BodyId a, BodyId b, const Impact& hit) {
+    auto consider = [&](BodyId a, BodyId b, const TimeOfImpact& hit) {
       const bool earlier = hit.time < best.time ||
                            (hit.time == best.time && (a < best.a || (a == best.a && b < best.b)));
       if (!found || earlier) {
@@ -117,11 +118,11 @@ std::vector<Logged> referenceLoop(const std::vector<Shape>& shapes, std::vector<
     for (BodyId a = 0; a < n; ++a) {
       for (BodyId b = a + 1; b < n; ++b) {
         const double from = std::max(changed_at[a], changed_at[b]);
-        const Impact hit = timeOfImpact(prepared[a], motions[a], prepared[b], motions[b], from, t1);
+        const TimeOfImpact hit = timeOfImpact(prepared[a], motions[a], prepared[b], motions[b], from, t1);
         if (hit.hit && hit.time > reported[a][b]) consider(a, b, hit);
       }
       if (boundary) {
-        const Impact hit = boundary(a, motions[a], changed_at[a], t1);
+        const TimeOfImpact hit = boundary(a, motions[a], changed_at[a], t1);
         if (hit.hit && hit.time > reported[a][n]) consider(a, kWall, hit);
       }
     }
@@ -214,7 +215,7 @@ ResponseLoop::Boundary boxWalls(const std::vector<Shape>& shapes) {
   return [&shapes](BodyId id, const Motion& m, double from, double t1) {
     const double reach = 3.0 - shapes[id].bounding_radius;
     const Eigen::Vector3d p = m.positionAt(from), v = m.linear_velocity;
-    Impact best;
+    TimeOfImpact best;
     for (int k = 0; k < 3; ++k) {
       if (v[k] == 0.0) continue;
       const double gap = v[k] > 0.0 ? reach - p[k] : reach + p[k];
@@ -240,7 +241,7 @@ TEST(ResponseLoop, ABoundaryContactOutsideTheIntervalThrows) {
   ResponseLoop loop(std::make_unique<BruteForceBroadPhase>());
   loop.add(makeSphere(0.5), moving({0, 0, 0}, {1, 0, 0}));
   loop.setBoundary([](BodyId, const Motion&, double, double t1) {
-    Impact hit;
+    TimeOfImpact hit;
     hit.hit = true;
     hit.time = t1 + 1.0;
     hit.normal = Eigen::Vector3d::UnitX();

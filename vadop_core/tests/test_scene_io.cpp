@@ -5,10 +5,9 @@
 //  - impact lines have a fixed key order and numbers that read back to the same doubles;
 //    undecided pairs print as lines of their own, merged with the contacts by time;
 //  - limits (issue 13): nesting depth, input size, NUL bytes, bounded messages, the ranges of
-//    limits.h, quaternions normalised scale-safely;
+//    error.h, quaternions normalised scale-safely;
 //  - the fuzz seed corpus consists of valid scenes, and of bad_*.json seeds that are rejected.
 #include "vadop/error.h"
-#include "vadop/limits.h"
 #include "vadop/scene_io.h"
 
 #include <gtest/gtest.h>
@@ -460,7 +459,7 @@ TEST(SceneIo, ReadSceneFile) {
 
 TEST(SceneIo, UndecidedPairsPrintAsLinesOfTheirOwnInTimeOrder) {
   auto pair = [](const char* a, const char* b, uint64_t ka, uint64_t kb, double t, bool undecided) {
-    WorldImpact w;
+    Contact w;
     w.a = a;
     w.b = b;
     w.a_key = ka;
@@ -470,13 +469,13 @@ TEST(SceneIo, UndecidedPairsPrintAsLinesOfTheirOwnInTimeOrder) {
     w.impact.time = t;
     return w;
   };
-  const WorldImpact u = pair("p", "q\"", 0, 5, 0.25, true);
+  const Contact u = pair("p", "q\"", 0, 5, 0.25, true);
   EXPECT_EQ(undecidedToJson(u), R"({"a":"p","b":"q\"","undecided_after":0.25})");
   EXPECT_EQ(undecidedToJson(pair("p", "q", 0, 5, -0.0, true)), R"({"a":"p","b":"q","undecided_after":0.0})");
   // Merged with the contacts by time, then the input order of a, then of b.
-  const std::vector<WorldImpact> contacts = {pair("a", "b", 0, 1, 0.0, false), pair("c", "d", 2, 3, 0.25, false),
+  const std::vector<Contact> contacts = {pair("a", "b", 0, 1, 0.0, false), pair("c", "d", 2, 3, 0.25, false),
                                              pair("a", "d", 0, 3, 0.5, false)};
-  const std::vector<WorldImpact> undecided = {pair("a", "c", 0, 2, 0.25, true), pair("b", "c", 1, 2, 0.25, true),
+  const std::vector<Contact> undecided = {pair("a", "c", 0, 2, 0.25, true), pair("b", "c", 1, 2, 0.25, true),
                                               pair("c", "e", 2, 4, 0.75, true)};
   EXPECT_EQ(predictionToJsonLines(contacts, undecided),
             impactToJson(contacts[0]) + "\n" + undecidedToJson(undecided[0]) + "\n" + undecidedToJson(undecided[1]) + "\n" +
@@ -495,11 +494,11 @@ TEST(SceneIo, UndecidedPairsPrintAsLinesOfTheirOwnInTimeOrder) {
   config.toi.max_iterations = 1;
   World world(config);
   addToWorld(s, world);
-  const std::vector<WorldImpact> found = world.predict(0.0, s.horizon);
+  const std::vector<Contact> found = world.predict(0.0, s.horizon);
   ASSERT_EQ(found.size(), 1u);
   EXPECT_EQ(found[0].a + found[0].b, "ball1ball2");
   ASSERT_EQ(world.lastUndecided().size(), 1u);
-  const WorldImpact& open = world.lastUndecided()[0];
+  const Contact& open = world.lastUndecided()[0];
   EXPECT_EQ(open.a + open.b, "box1box2");
   EXPECT_TRUE(open.impact.undecided);
   EXPECT_LT(open.impact.time, 1.0);  // certified clear only before the contact at t = 1
@@ -510,7 +509,7 @@ TEST(SceneIo, UndecidedPairsPrintAsLinesOfTheirOwnInTimeOrder) {
 }
 
 TEST(SceneIo, ImpactLinesHaveAFixedLayoutAndRoundTrip) {
-  WorldImpact w;
+  Contact w;
   w.a = "left";
   w.b = "ri\"ght";
   w.impact.hit = true;

@@ -3,7 +3,6 @@
 // same geometry; and a link offset from a turning body's origin, expressed that way, is
 // predicted on its true arc (the straight-line extrapolation of its own centre misses).
 #include "vadop/error.h"
-#include "vadop/limits.h"
 #include "vadop/shapes.h"
 #include "vadop/time_of_impact.h"
 
@@ -86,7 +85,7 @@ TEST(TransformShape, ArmOfATurningBodyIsPredictedOnItsArc) {
                                   Eigen::Vector3d(0, 0, 1));
   const Motion obstacle = makeMotion(Eigen::Vector3d(std::cos(1.0), std::sin(1.0), 0), Eigen::Quaterniond::Identity(),
                                      Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
-  const Impact hit = timeOfImpact(transformShape(ball, arm), robot, ball, obstacle, 0.0, 2.0);
+  const TimeOfImpact hit = timeOfImpact(transformShape(ball, arm), robot, ball, obstacle, 0.0, 2.0);
   ASSERT_TRUE(hit.hit);
   EXPECT_NEAR(hit.time, 1.0 - 2.0 * std::asin(0.1), 1e-4);
   // The ball's own centre extrapolated along its velocity (1 m/s along y) passes 0.46 m wide.
@@ -95,7 +94,7 @@ TEST(TransformShape, ArmOfATurningBodyIsPredictedOnItsArc) {
   EXPECT_FALSE(timeOfImpact(ball, tangent, ball, obstacle, 0.0, 2.0).hit);
 }
 
-// Issue 13, defect 10: every dimension, point and the margin within kMaxSize (limits.h), in the
+// Issue 13, defect 10: every dimension, point and the margin within kMaxSize (error.h), in the
 // make* functions and validateShape alike; inside and just beyond, the message naming the
 // field and the value.
 TEST(ShapeRange, EveryDimensionWithinKMaxSize) {

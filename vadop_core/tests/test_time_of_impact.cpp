@@ -5,7 +5,6 @@
 //   gap(time) <= tol, normal from a to b, point between the two surfaces.
 #include "vadop/distance.h"
 #include "vadop/error.h"
-#include "vadop/limits.h"
 #include "vadop/time_of_impact.h"
 #include "advance_step.h"  // internal (vadop_core/src): the swept-volume certificate
 
@@ -25,7 +24,7 @@ namespace {
 using Eigen::AngleAxisd;
 using Eigen::Quaterniond;
 using Eigen::Vector3d;
-using vadop::Impact;
+using vadop::TimeOfImpact;
 using vadop::Motion;
 using vadop::Shape;
 using vadop::ToiOptions;
@@ -45,20 +44,20 @@ double angleDeg(const Vector3d& a, const Vector3d& b) {
 }
 
 // The reported time lies in [t_star - tol / closing - 1e-12, t_star + 1e-12].
-void expectTime(const Impact& imp, double t_star, double closing, double tol = kTol) {
+void expectTime(const TimeOfImpact& imp, double t_star, double closing, double tol = kTol) {
   ASSERT_TRUE(imp.hit);
   EXPECT_LE(imp.time, t_star + 1e-12);
   EXPECT_GE(imp.time, t_star - tol / closing - 1e-12);
   EXPECT_FALSE(imp.undecided);
 }
 
-void expectNormal(const Impact& imp, const Vector3d& n, double max_deg = 1e-3) {
+void expectNormal(const TimeOfImpact& imp, const Vector3d& n, double max_deg = 1e-3) {
   EXPECT_NEAR(imp.normal.norm(), 1.0, 1e-12);
   EXPECT_LE(angleDeg(imp.normal, n), max_deg) << "normal " << imp.normal.transpose() << " expected "
                                               << n.transpose();
 }
 
-void expectPoint(const Impact& imp, const Vector3d& p, double tol) {
+void expectPoint(const TimeOfImpact& imp, const Vector3d& p, double tol) {
   EXPECT_LE((imp.point - p).norm(), tol) << "point " << imp.point.transpose() << " expected "
                                          << p.transpose();
 }
@@ -101,7 +100,7 @@ TEST(TimeOfImpact, HeadOnSpheresClosedFormAndAdvancement) {
   // Gap 3 - 0.75 = 2.25 closes at 1 m/s: t* = 2.25, contact point x = 0.5, normal +x.
   const Shape sa = vadop::makeSphere(0.5), sb = vadop::makeSphere(0.25);
   const Motion ma = motion(Vector3d::Zero()), mb = motion(Vector3d(3, 0, 0), Vector3d(-1, 0, 0));
-  const Impact imp = vadop::timeOfImpact(sa, ma, sb, mb, 0.0, 5.0);
+  const TimeOfImpact imp = vadop::timeOfImpact(sa, ma, sb, mb, 0.0, 5.0);
   expectTime(imp, 2.25, 1.0);
   EXPECT_FALSE(imp.initially_touching);
   EXPECT_LE(imp.distance, kTol);
@@ -110,7 +109,7 @@ TEST(TimeOfImpact, HeadOnSpheresClosedFormAndAdvancement) {
 
   // The same geometry through conservative advancement: a capsule of zero length is a sphere.
   const Shape ca = vadop::makeCapsule(0.5, 0.0);
-  const Impact imp2 = vadop::timeOfImpact(ca, ma, sb, mb, 0.0, 5.0);
+  const TimeOfImpact imp2 = vadop::timeOfImpact(ca, ma, sb, mb, 0.0, 5.0);
   expectTime(imp2, 2.25, 1.0);
   expectNormal(imp2, Vector3d::UnitX());
   expectPoint(imp2, Vector3d(0.5, 0, 0), kTol);
@@ -122,7 +121,7 @@ TEST(TimeOfImpact, HeadOnSpheresClosedFormAndAdvancement) {
   const Motion ma2 = motion(Vector3d::Zero(), Vector3d(0.5, 0, 0), Vector3d::Zero(), Quaterniond::Identity(), 1.0);
   const Motion mb2 = motion(Vector3d(4, 0, 0), Vector3d(-1.5, 0, 0), Vector3d::Zero(), Quaterniond::Identity(), 1.0);
   for (const Shape* s : {&sa, &ca}) {
-    const Impact imp3 = vadop::timeOfImpact(*s, ma2, sb, mb2, 1.0, 4.0);
+    const TimeOfImpact imp3 = vadop::timeOfImpact(*s, ma2, sb, mb2, 1.0, 4.0);
     expectTime(imp3, 2.625, 2.0);
     expectPoint(imp3, Vector3d(0.8125 + 0.5, 0, 0), kTol);
   }
@@ -138,7 +137,7 @@ TEST(TimeOfImpact, GlancingTangentPathIsAHit) {
   const Shape ca = vadop::makeCapsule(0.5, 0.0);
   const Motion ma = motion(Vector3d::Zero()), mb = motion(Vector3d(-3, 1, 0), Vector3d(1, 0, 0));
   for (const Shape* a : {&sa, &ca}) {
-    const Impact imp = vadop::timeOfImpact(*a, ma, sb, mb, 0.0, 6.0);
+    const TimeOfImpact imp = vadop::timeOfImpact(*a, ma, sb, mb, 0.0, 6.0);
     ASSERT_TRUE(imp.hit);
     EXPECT_LE(imp.time, 3.0 + 1e-12);
     const double g = std::sqrt(1.0 + (imp.time - 3.0) * (imp.time - 3.0)) - 1.0;
@@ -158,7 +157,7 @@ TEST(TimeOfImpact, GlancingTangentPathIsAHit) {
   // It touches the edge (x = -0.5, y = 0.5) at t = 2.5 and then slides along the face.
   const Shape box = vadop::makeBox(Vector3d(1, 1, 1));
   const Shape s2 = vadop::makeSphere(0.2);
-  const Impact imp = vadop::timeOfImpact(box, motion(Vector3d::Zero()), s2,
+  const TimeOfImpact imp = vadop::timeOfImpact(box, motion(Vector3d::Zero()), s2,
                                          motion(Vector3d(-3, 0.7, 0), Vector3d(1, 0, 0)), 0.0, 4.0);
   ASSERT_TRUE(imp.hit);
   EXPECT_LE(imp.time, 2.5 + 1e-12);
@@ -170,7 +169,7 @@ TEST(TimeOfImpact, GlancingTangentPathIsAHit) {
 TEST(TimeOfImpact, AlreadyOverlappingOrTouching) {
   const Shape sa = vadop::makeSphere(0.5), sb = vadop::makeSphere(0.5);
   // Overlapping spheres: centre to centre (1,1,0)/sqrt 2.
-  Impact imp = vadop::timeOfImpact(sa, motion(Vector3d::Zero()), sb,
+  TimeOfImpact imp = vadop::timeOfImpact(sa, motion(Vector3d::Zero()), sb,
                                    motion(Vector3d(0.3, 0.3, 0), Vector3d(-1, 0, 0)), 0.5, 2.0);
   ASSERT_TRUE(imp.hit);
   EXPECT_TRUE(imp.initially_touching);
@@ -207,7 +206,7 @@ TEST(TimeOfImpact, SeparatingAndParallelMotion) {
   const Shape box = vadop::makeBox(Vector3d(1, 1, 1));
   const Shape cyl = vadop::makeCylinder(0.2, 0.6);
   // Moving apart.
-  Impact imp = vadop::timeOfImpact(box, motion(Vector3d::Zero(), Vector3d(-1, 0, 0)), cyl,
+  TimeOfImpact imp = vadop::timeOfImpact(box, motion(Vector3d::Zero(), Vector3d(-1, 0, 0)), cyl,
                                    motion(Vector3d(1.0, 0, 0), Vector3d(1, 0.2, 0)), 0.0, 10.0);
   EXPECT_FALSE(imp.hit);
   EXPECT_EQ(imp.time, 10.0);
@@ -260,7 +259,7 @@ TEST(TimeOfImpact, ThinFastBodyCrossesThinWall) {
     EXPECT_GT(d.distance, 0.4) << "sample " << i;
   }
   const double t_star = (4.55 - 0.0015) / 100.0;
-  Impact imp = vadop::timeOfImpact(body, mbody, wall, mw, 0.0, 0.1);
+  TimeOfImpact imp = vadop::timeOfImpact(body, mbody, wall, mw, 0.0, 0.1);
   expectTime(imp, t_star, 100.0);
   expectNormal(imp, Vector3d::UnitX());  // from the body (a) to the wall (b)
   EXPECT_NEAR(imp.point.x(), -0.0005, kTol);
@@ -284,7 +283,7 @@ TEST(TimeOfImpact, RotatingBarSweepsSphere) {
   const double th = std::acos((hw + r) / D);
   const double t_star = th / w;
   const double closing = w * D * std::sin(th);  // speed of the face point along the normal
-  const Impact imp = vadop::timeOfImpact(bar, mbar, ball, mball, 0.0, 2.0);
+  const TimeOfImpact imp = vadop::timeOfImpact(bar, mbar, ball, mball, 0.0, 2.0);
   expectTime(imp, t_star, closing);
   const Vector3d n(-std::sin(th), std::cos(th), 0.0);  // bar frame +y'
   expectNormal(imp, n, 0.05);
@@ -296,12 +295,12 @@ TEST(TimeOfImpact, RotatingBarSweepsSphere) {
   // with a 1e-4 m clearance.
   const double reach = std::hypot(1.0, hw);
   const Motion mfar = motion(Vector3d(0, reach + r + 1e-4, 0));
-  const Impact miss = vadop::timeOfImpact(bar, mbar, ball, mfar, 0.0, 1.1 * kPi / w);
+  const TimeOfImpact miss = vadop::timeOfImpact(bar, mbar, ball, mfar, 0.0, 1.1 * kPi / w);
   EXPECT_FALSE(miss.hit);
   EXPECT_FALSE(miss.undecided);
   // ... and 0.3 tol inside its reach: the corner touches it at th = pi/2 - atan(hw).
   const Motion mnear = motion(Vector3d(0, reach + r - 0.3 * kTol, 0));
-  const Impact hit = vadop::timeOfImpact(bar, mbar, ball, mnear, 0.0, 1.1 * kPi / w);
+  const TimeOfImpact hit = vadop::timeOfImpact(bar, mbar, ball, mnear, 0.0, 1.1 * kPi / w);
   ASSERT_TRUE(hit.hit);
   EXPECT_LE(hit.time, (kPi / 2 - std::atan(hw)) / w + 1e-9);
   EXPECT_GE(hit.time, (kPi / 2 - std::atan(hw)) / w - 2e-3);  // grazing: sqrt(2 gap / (w^2 reach))
@@ -312,7 +311,7 @@ TEST(TimeOfImpact, RotatingBarSweepsSphere) {
   const Shape cap = vadop::makeCapsule(hw, 2.0);
   const Motion mcap = motion(Vector3d::Zero(), Vector3d::Zero(), Vector3d(w, 0, 0));
   const Motion mball2 = motion(Vector3d(0, -D, 0));
-  const Impact imp2 = vadop::timeOfImpact(cap, mcap, ball, mball2, 0.0, 2.0);
+  const TimeOfImpact imp2 = vadop::timeOfImpact(cap, mcap, ball, mball2, 0.0, 2.0);
   expectTime(imp2, t_star, closing);
   const Vector3d axis(0, -std::sin(th), std::cos(th));
   const Vector3d c(0, -D, 0);
@@ -323,7 +322,7 @@ TEST(TimeOfImpact, RotatingBarSweepsSphere) {
   // Rotation plus translation: the same bar moving at +0.5 m/s in y meets the sphere
   // earlier; all we know in closed form is that it must hit before the pure-rotation time.
   const Motion mbar2 = motion(Vector3d::Zero(), Vector3d(0, 0.5, 0), Vector3d(0, 0, w));
-  const Impact imp3 = vadop::timeOfImpact(bar, mbar2, ball, mball, 0.0, 2.0);
+  const TimeOfImpact imp3 = vadop::timeOfImpact(bar, mbar2, ball, mball, 0.0, 2.0);
   ASSERT_TRUE(imp3.hit);
   EXPECT_LT(imp3.time, t_star);
   // At the reported time the gap (evaluated independently by the distance layer) is <= tol.
@@ -353,16 +352,16 @@ TEST(TimeOfImpact, EveryShapeTypeHitHeadOn) {
   const Motion mb = motion(Vector3d(3, 0, 0), Vector3d(-2, 0, 0));
   for (const Case& c : cases) {
     SCOPED_TRACE(vadop::toString(c.s.type));
-    const Impact imp = vadop::timeOfImpact(c.s, motion(Vector3d::Zero()), ball, mb, 0.0, 2.0);
+    const TimeOfImpact imp = vadop::timeOfImpact(c.s, motion(Vector3d::Zero()), ball, mb, 0.0, 2.0);
     expectTime(imp, (2.9 - c.e) / 2.0, 2.0);
     expectNormal(imp, Vector3d::UnitX());
     expectPoint(imp, Vector3d(c.e, 0, 0), kTol);
     // Swapped roles: the normal flips.
-    const Impact sw = vadop::timeOfImpact(ball, mb, c.s, motion(Vector3d::Zero()), 0.0, 2.0);
+    const TimeOfImpact sw = vadop::timeOfImpact(ball, mb, c.s, motion(Vector3d::Zero()), 0.0, 2.0);
     expectTime(sw, (2.9 - c.e) / 2.0, 2.0);
     expectNormal(sw, -Vector3d::UnitX());
     // Prepared shapes give the same answer.
-    const Impact pr = vadop::timeOfImpact(vadop::PreparedShape(c.s), motion(Vector3d::Zero()),
+    const TimeOfImpact pr = vadop::timeOfImpact(vadop::PreparedShape(c.s), motion(Vector3d::Zero()),
                                           vadop::PreparedShape(ball), mb, 0.0, 2.0);
     EXPECT_EQ(pr.hit, imp.hit);
     EXPECT_EQ(pr.time, imp.time);
@@ -374,7 +373,7 @@ TEST(TimeOfImpact, CylinderAndConvexContacts) {
   const Shape cyl = vadop::makeCylinder(0.3, 0.8);
   const Shape floor = vadop::makeBox(Vector3d(4, 4, 1));
   const Motion mfloor = motion(Vector3d(0, 0, -0.5));
-  Impact imp = vadop::timeOfImpact(cyl, motion(Vector3d(0.2, 0.1, 1.4), Vector3d(0, 0, -1)), floor, mfloor, 0.0, 2.0);
+  TimeOfImpact imp = vadop::timeOfImpact(cyl, motion(Vector3d(0.2, 0.1, 1.4), Vector3d(0, 0, -1)), floor, mfloor, 0.0, 2.0);
   expectTime(imp, 1.0, 1.0);
   expectNormal(imp, -Vector3d::UnitZ());
   EXPECT_NEAR(imp.point.z(), 0.0, kTol);
@@ -416,7 +415,7 @@ TEST(TimeOfImpact, MeshIsNotItsConvexHull) {
   const Shape pillars = twoPillars();  // inner faces at x = +-0.9, front faces y = +-1
   const Shape ball = vadop::makeSphere(0.3);
   // Through the middle: 0.6 m clear of each inner face: no hit (the hull would be hit).
-  Impact imp = vadop::timeOfImpact(pillars, motion(Vector3d::Zero()), ball,
+  TimeOfImpact imp = vadop::timeOfImpact(pillars, motion(Vector3d::Zero()), ball,
                                    motion(Vector3d(0, 3, 0), Vector3d(0, -2, 0)), 0.0, 3.0);
   EXPECT_FALSE(imp.hit);
   // Offset to x = 0.95: inside the right pillar's x range [0.9, 1.1]; it hits the
@@ -469,7 +468,7 @@ TEST(TimeOfImpact, MarginsPadTheShapes) {
   const Shape box = vadop::inflate(vadop::makeBox(Vector3d(1, 1, 1)), 0.1);
   const Shape ball = vadop::makeSphere(0.2);
   const Motion mb = motion(Vector3d(3, 0.2, -0.1), Vector3d(-1, 0, 0));
-  Impact imp = vadop::timeOfImpact(box, motion(Vector3d::Zero()), ball, mb, 0.0, 5.0);
+  TimeOfImpact imp = vadop::timeOfImpact(box, motion(Vector3d::Zero()), ball, mb, 0.0, 5.0);
   expectTime(imp, 2.2, 1.0);
   expectNormal(imp, Vector3d::UnitX());
   expectPoint(imp, Vector3d(0.6, 0.2, -0.1), kTol);
@@ -532,7 +531,7 @@ TEST(TimeOfImpact, RoundedShapeReachesItsContact) {
   const Shape cyl = vadop::makeCylinder(1.0, 2.0);
   const Shape capsule = vadop::makeCapsule(0.3, 4.0);
   const Quaterniond along_y(AngleAxisd(kPi / 2, Vector3d::UnitX()));
-  Impact imp = vadop::timeOfImpact(cyl, motion(Vector3d::Zero()), capsule,
+  TimeOfImpact imp = vadop::timeOfImpact(cyl, motion(Vector3d::Zero()), capsule,
                                    motion(Vector3d(3.3, 0.8, 0.0), Vector3d(-1, 0, 0), Vector3d::Zero(), along_y), 0.0, 5.0);
   expectTime(imp, 2.0, 1.0);
   expectNormal(imp, Vector3d::UnitX(), 1e-3);
@@ -552,7 +551,7 @@ TEST(TimeOfImpact, ToleranceAndWindowEdges) {
   // A coarser tolerance reports earlier, by at most tol / closing.
   ToiOptions coarse;
   coarse.tolerance = 1e-3;
-  Impact imp = vadop::timeOfImpact(box, ma, ball, mb, 0.0, 5.0, coarse);
+  TimeOfImpact imp = vadop::timeOfImpact(box, ma, ball, mb, 0.0, 5.0, coarse);
   expectTime(imp, 2.0, 1.0, 1e-3);
   EXPECT_LE(imp.distance, 1e-3);
   // Zero-length window: a static check.
@@ -706,17 +705,17 @@ TEST(TimeOfImpact, FastSpinnerNearMissIsClearNotAContact) {
   // issue's scenes) and reported a "conservative" contact.
   for (const auto& [w, horizon] : {std::pair<double, double>{20.0, 60.0}, {1000.0, 10.0}}) {
     const SpinScene sc(w, 0.01);
-    const Impact imp = vadop::timeOfImpact(sc.bar, sc.mbar, sc.block, sc.mblock, 0.0, horizon);
+    const TimeOfImpact imp = vadop::timeOfImpact(sc.bar, sc.mbar, sc.block, sc.mblock, 0.0, horizon);
     EXPECT_FALSE(imp.hit) << "w = " << w << ": contact reported at t = " << imp.time;
     EXPECT_FALSE(imp.undecided) << "w = " << w << ": undecided at t = " << imp.time;
     EXPECT_EQ(imp.time, horizon);
     EXPECT_LE(imp.iterations, 100) << "w = " << w;
     // Both orders of the pair, and the block turning too (slowly, about its own centre).
-    const Impact rev = vadop::timeOfImpact(sc.block, sc.mblock, sc.bar, sc.mbar, 0.0, horizon);
+    const TimeOfImpact rev = vadop::timeOfImpact(sc.block, sc.mblock, sc.bar, sc.mbar, 0.0, horizon);
     EXPECT_FALSE(rev.hit || rev.undecided) << "w = " << w;
     Motion slow = sc.mblock;
     slow.angular_velocity = Vector3d(0, 0, 1e-4);  // its near face comes < 1 mm closer over 60 s
-    const Impact both = vadop::timeOfImpact(sc.bar, sc.mbar, sc.block, slow, 0.0, horizon);
+    const TimeOfImpact both = vadop::timeOfImpact(sc.bar, sc.mbar, sc.block, slow, 0.0, horizon);
     EXPECT_FALSE(both.hit || both.undecided) << "w = " << w;
     const vadop::PreparedShape pa(sc.bar), pb(sc.block);
     const double ms = cpuMsPerCall([&] { (void)vadop::timeOfImpact(pa, sc.mbar, pb, sc.mblock, 0.0, horizon); }, 200);
@@ -727,7 +726,7 @@ TEST(TimeOfImpact, FastSpinnerNearMissIsClearNotAContact) {
   // staying beside it): the swept cylinder plus the pivot's path still clears the block.
   SpinScene sc(300.0, 1e-3);
   sc.mbar.linear_velocity = Vector3d(0, 0, 0.002);  // 6 cm up over 30 s, the block is 10 cm tall
-  const Impact imp = vadop::timeOfImpact(sc.bar, sc.mbar, sc.block, sc.mblock, 0.0, 30.0);
+  const TimeOfImpact imp = vadop::timeOfImpact(sc.bar, sc.mbar, sc.block, sc.mblock, 0.0, 30.0);
   EXPECT_FALSE(imp.hit || imp.undecided) << imp.time;
   EXPECT_LE(imp.iterations, 200);
 }
@@ -760,7 +759,7 @@ TEST(TimeOfImpact, ContactAfterLongSpinningIsFoundOnTime) {
   };
   const double t_tol = first(kTol), t_half = first(0.5 * kTol);
   ASSERT_GT(t_half, 25.0);
-  const Impact imp = vadop::timeOfImpact(bar, mbar, wall, mwall, 0.0, 60.0);
+  const TimeOfImpact imp = vadop::timeOfImpact(bar, mbar, wall, mwall, 0.0, 60.0);
   ASSERT_TRUE(imp.hit) << "undecided " << imp.undecided << " at " << imp.time;
   EXPECT_FALSE(imp.undecided);
   // The contract: gap > tol/2 before `time`, gap <= tol at `time`.
@@ -784,13 +783,13 @@ TEST(TimeOfImpact, TinyBudgetIsUndecidedWithACertifiedTime) {
   const Motion mblock = motion(Vector3d(0, D + 0.1, 0));
   const double th = std::asin(D / std::hypot(L, W)) - std::atan2(W, L);
   const double t_star = th / w;
-  const Impact full = vadop::timeOfImpact(bar, mbar, block, mblock, 0.0, 1.0);
+  const TimeOfImpact full = vadop::timeOfImpact(bar, mbar, block, mblock, 0.0, 1.0);
   ASSERT_TRUE(full.hit);
   EXPECT_NEAR(full.time, t_star, 1e-6);
   for (const int budget : {1, 2, 5}) {
     ToiOptions o;
     o.max_iterations = budget;
-    const Impact imp = vadop::timeOfImpact(bar, mbar, block, mblock, 0.0, 1.0, o);
+    const TimeOfImpact imp = vadop::timeOfImpact(bar, mbar, block, mblock, 0.0, 1.0, o);
     EXPECT_FALSE(imp.hit) << "budget " << budget;
     EXPECT_TRUE(imp.undecided) << "budget " << budget;
     EXPECT_LE(imp.iterations, budget);
@@ -868,7 +867,7 @@ TEST(SweptVolume, CertifiedBoundHoldsAgainstDenseSampling) {
 }
 
 // ---------------------------------------------------------------------------------------
-// The numerical range (limits.h; issue 13, defect 10).
+// The numerical range (error.h; issue 13, defect 10).
 
 TEST(Range, MotionLimitsInsideAndJustBeyond) {
   const double beyond = 1.0 + 1e-12;
@@ -948,7 +947,7 @@ TEST(Range, SphereSphereAtTheEdgesOfTheRange) {
   // form stays exact (it squared |d0| ~ 1e14 before, fine, but 1e150 overflowed).
   const double r = vadop::kMaxSize, x = vadop::kMaxCoordinate, v = 0.5 * vadop::kMaxLinearSpeed;
   const Shape big = vadop::makeSphere(r);
-  const Impact imp = vadop::timeOfImpact(big, motion(Vector3d(-x, 0, 0), Vector3d(v, 0, 0)), big,
+  const TimeOfImpact imp = vadop::timeOfImpact(big, motion(Vector3d(-x, 0, 0), Vector3d(v, 0, 0)), big,
                                          motion(Vector3d(x, 0, 0), Vector3d(-v, 0, 0)), 0.0, 2000.0);
   const double t_star = (2 * x - 2 * r) / (2 * v);
   expectTime(imp, t_star, 2 * v);
@@ -957,11 +956,11 @@ TEST(Range, SphereSphereAtTheEdgesOfTheRange) {
   ToiOptions fine;
   fine.tolerance = 1e-9;
   const Shape tiny = vadop::makeSphere(1e-6);
-  const Impact small = vadop::timeOfImpact(tiny, motion(Vector3d::Zero()), tiny,
+  const TimeOfImpact small = vadop::timeOfImpact(tiny, motion(Vector3d::Zero()), tiny,
                                            motion(Vector3d(1e-5, 0, 0), Vector3d(-1e-9, 0, 0)), 0.0, 1e5, fine);
   expectTime(small, (1e-5 - 2e-6) / 1e-9, 1e-9, 1e-9);
   // Crossing paths at the largest speed, far out: a miss by 1 m stays a miss.
-  const Impact miss = vadop::timeOfImpact(vadop::makeSphere(1.0), motion(Vector3d(-x, 0, 0), Vector3d(1e4, 0, 0)),
+  const TimeOfImpact miss = vadop::timeOfImpact(vadop::makeSphere(1.0), motion(Vector3d(-x, 0, 0), Vector3d(1e4, 0, 0)),
                                           vadop::makeSphere(1.0), motion(Vector3d(x, 3.0, 0), Vector3d(-1e4, 0, 0)),
                                           0.0, 3000.0);
   EXPECT_FALSE(miss.hit);

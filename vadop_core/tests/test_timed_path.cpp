@@ -14,6 +14,7 @@
 #include "toi_scenes.h"
 #include "toi_truth.h"
 
+#include "vadop/distance.h"  // PreparedShape (internal: src/)
 #include "vadop/error.h"
 #include "vadop/timed_path.h"
 
@@ -109,13 +110,13 @@ TEST(TimedPath, MeetsThePostOnTheCurveNotTheOneAhead) {
     return TimedPath(vadop::makeMotion(p, Quaterniond::Identity(), Vector3d::Zero(), Vector3d::Zero()));
   };
   const TimedPath on_curve = post(Vector3d(2, 1.5, 0)), ahead = post(Vector3d(3.5, 0, 0));
-  const vadop::Impact a = vadop::timeOfImpact(ball, path, ball, on_curve, 0.0, 2.0);
+  const vadop::TimeOfImpact a = vadop::timeOfImpact(ball, path, ball, on_curve, 0.0, 2.0);
   ASSERT_TRUE(a.hit);
   EXPECT_NEAR(a.time, 1.55, 1e-6);  // y = 1.1 at 2 m/s from t = 1
   EXPECT_NEAR(a.normal.y(), 1.0, 1e-6);
   EXPECT_FALSE(vadop::timeOfImpact(ball, path, ball, ahead, 0.0, 2.0).hit);
   EXPECT_FALSE(vadop::timeOfImpact(ball, straight, ball, on_curve, 0.0, 2.0).hit);
-  const vadop::Impact b = vadop::timeOfImpact(ball, straight, ball, ahead, 0.0, 2.0);
+  const vadop::TimeOfImpact b = vadop::timeOfImpact(ball, straight, ball, ahead, 0.0, 2.0);
   ASSERT_TRUE(b.hit);
   EXPECT_NEAR(b.time, 1.55, 1e-6);
   // A window starting on the second leg, and one ending before the contact.
@@ -283,7 +284,7 @@ TEST_P(TimedPathTruth, MatchesCertifiedTruth) {
     const vadop::PreparedShape pa(s.sa), pb(s.sb);
     const TimedPath a(s.ka, s.aa), b(s.kb, s.ab);
     double t = cpuSeconds();
-    const vadop::Impact ours = vadop::timeOfImpact(pa, a, pb, b, s.t0, s.t1);
+    const vadop::TimeOfImpact ours = vadop::timeOfImpact(pa, a, pb, b, s.t0, s.t1);
     path_s += cpuSeconds() - t;
     // The constant-twist call on the same shapes: each body's piece at t0 over the window.
     t = cpuSeconds();

@@ -143,7 +143,7 @@ TEST_P(ToiGroundTruth, MatchesCertifiedTruth) {
     const toi_truth::Scene sc = toi_scenes::randomScene(prm.a, prm.b, opt, rng);
 
     const double c0 = cpuSeconds();
-    const vadop::Impact imp = vadop::timeOfImpact(sc.shape_a, sc.ma, sc.shape_b, sc.mb, sc.t0, sc.t1);
+    const vadop::TimeOfImpact imp = vadop::timeOfImpact(sc.shape_a, sc.ma, sc.shape_b, sc.mb, sc.t0, sc.t1);
     const double c1 = cpuSeconds();
     toi_truth::Truth tr(sc);
     const toi_truth::Answer ans = toi_truth::classify(tr, sc, kTol, kEps);

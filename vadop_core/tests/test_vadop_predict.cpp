@@ -5,7 +5,7 @@
 //  - bad input or options: exit status 2, a one-line message naming body and field on stderr,
 //    nothing on stdout; --help: usage, exit 0;
 //  - hostile input (issue 13): 80,000 levels of nesting, /dev/zero, a NUL byte, megabyte ids and
-//    keys, values beyond the range of limits.h: exit status 2 with one bounded line, quickly;
+//    keys, values beyond the range of error.h: exit status 2 with one bounded line, quickly;
 //    quaternions whose norm overflows or underflows are rotations; values at the range's edge work.
 // The tool under test is the one built with these tests (VADOP_PREDICT_BIN), or the one named by
 // the environment variable VADOP_PREDICT_BIN (to show a test failing on another build).

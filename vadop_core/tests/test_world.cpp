@@ -6,7 +6,6 @@
 //    agrees with a world built from scratch each time;
 #include "vadop/error.h"
 #include "vadop/impact_queue.h"
-#include "vadop/limits.h"
 #include "vadop/scene_io.h"
 #include "vadop/world.h"
 
@@ -230,7 +229,7 @@ TEST(World, BadInputNamesTheBodyAndLeavesTheWorldUnchanged) {
   expectError([&] { w.predict(nan, 1.0); }, "t0", "finite");
   expectError([&] { w.predict(0.0, -1.0); }, "horizon", ">= 0");
   expectError([&] { w.predict(0.0, 1.0, {"a", "nope"}); }, "\"nope\"", "unknown");
-  // A motion that leaves the range (limits.h, kMaxReach) within the window: rejected by
+  // A motion that leaves the range (error.h, kMaxReach) within the window: rejected by
   // predict, naming the body. (A velocity of 1e300 m/s is now rejected by add itself.)
   w.add("fast", makeSphere(1.0), moving({0, 0, 0}, {kMaxLinearSpeed, 0, 0}));
   try {
@@ -436,7 +435,7 @@ TEST(World, SetFilterOnAnUnknownBodyThrowsNamingItAndChangesNothing) {
   EXPECT_EQ(w.size(), 1u);
 }
 
-// Issue 13, defect 10: the range of limits.h, inside and just beyond, in the library's own
+// Issue 13, defect 10: the range of error.h, inside and just beyond, in the library's own
 // checks (add/setMotion through validateMotion, predict for the window and the reach).
 TEST(World, RangeLimitsInsideAndJustBeyond) {
   const double up = 1.0 + 1e-12;
@@ -709,7 +708,7 @@ TEST(World, PredictRestrictedToSomeBodiesIsTheFilteredFullPrediction) {
   addToWorld(scene, w);
   const auto all = w.predict(0.0, scene.horizon);
   const std::vector<std::string> only{scene.bodies[3].id, scene.bodies[500].id, scene.bodies[999].id};
-  std::vector<WorldImpact> want;
+  std::vector<Contact> want;
   for (const auto& x : all) {
     for (const auto& id : only) {
       if (x.a == id || x.b == id) {

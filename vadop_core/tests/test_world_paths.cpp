@@ -9,6 +9,7 @@
 //  - firstContactIf of a mover (alone, and among the bodies reachable() lists) finds the
 //    reference's earliest contact among all bodies;
 //  - setMotion ends a path; bad input throws and changes nothing.
+#include "vadop/distance.h"  // PreparedShape (internal: src/)
 #include "vadop/error.h"
 #include "vadop/scene_io.h"
 #include "vadop/timed_path.h"
@@ -64,7 +65,7 @@ std::vector<PathBody> randomPathBodies(uint64_t seed, int count, double box) {
 }
 
 // Every pair, in insertion order, by the narrow phase along the paths.
-std::vector<WorldImpact> reference(const World& w, double t0, double t1, const std::set<std::string>* only = nullptr) {
+std::vector<Contact> reference(const World& w, double t0, double t1, const std::set<std::string>* only = nullptr) {
   const std::vector<std::string> ids = w.ids();
   std::vector<TimedPath> paths;
   std::vector<PreparedShape> shapes;
@@ -72,13 +73,13 @@ std::vector<WorldImpact> reference(const World& w, double t0, double t1, const s
     paths.push_back(w.path(id) ? *w.path(id) : TimedPath(w.motion(id)));
     shapes.emplace_back(w.shape(id));
   }
-  std::vector<WorldImpact> out;
+  std::vector<Contact> out;
   for (size_t i = 0; i < ids.size(); ++i) {
     for (size_t j = i + 1; j < ids.size(); ++j) {
       if (only && !only->count(ids[i]) && !only->count(ids[j])) continue;
-      const Impact hit = timeOfImpact(shapes[i], paths[i], shapes[j], paths[j], t0, t1);
+      const TimeOfImpact hit = timeOfImpact(shapes[i], paths[i], shapes[j], paths[j], t0, t1);
       if (!hit.hit) continue;
-      WorldImpact x;
+      Contact x;
       x.a = ids[i];
       x.b = ids[j];
       x.a_key = w.key(ids[i]);
@@ -87,7 +88,7 @@ std::vector<WorldImpact> reference(const World& w, double t0, double t1, const s
       out.push_back(x);
     }
   }
-  std::stable_sort(out.begin(), out.end(), [](const WorldImpact& x, const WorldImpact& y) { return x.impact.time < y.impact.time; });
+  std::stable_sort(out.begin(), out.end(), [](const Contact& x, const Contact& y) { return x.impact.time < y.impact.time; });
   return out;
 }
 
@@ -111,8 +112,8 @@ TEST(WorldPaths, PredictEqualsEveryPairAlongThePaths) {
       World w;
       fill(w, seed);
       for (const auto& [t0, h] : windows) {
-        const std::vector<WorldImpact> ref = reference(w, t0, t0 + h);
-        for (const WorldImpact& x : ref) path_impacts += x.a.rfind("path", 0) == 0 || x.b.rfind("path", 0) == 0;
+        const std::vector<Contact> ref = reference(w, t0, t0 + h);
+        for (const Contact& x : ref) path_impacts += x.a.rfind("path", 0) == 0 || x.b.rfind("path", 0) == 0;
         want.push_back(impactsToJsonLines(ref));
       }
     }
@@ -179,7 +180,7 @@ TEST(WorldPaths, FirstContactIfMeetsBodiesOnPaths) {
       for (const std::string& other : ids) {
         if (other == mover) continue;
         const TimedPath po = w.path(other) ? *w.path(other) : TimedPath(w.motion(other));
-        const Impact hit = timeOfImpact(ps, TimedPath(m), PreparedShape(w.shape(other)), po, 0.0, 2.0);
+        const TimeOfImpact hit = timeOfImpact(ps, TimedPath(m), PreparedShape(w.shape(other)), po, 0.0, 2.0);
         if (!hit.hit) continue;
         if (hit.initially_touching) {
           const Motion& mo = po.motion(po.pieceAt(0.0));

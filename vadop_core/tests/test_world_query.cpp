@@ -10,6 +10,7 @@
 //  - the other answers (every engine but the grids inside their frame) within the boxes of the
 //    swept bounding-sphere capsules: no engine may answer "everything".
 #include "broad_phase_access.h"
+#include "vadop/distance.h"  // PreparedShape (internal: src/)
 #include "vadop/broad_phase.h"
 #include "vadop/error.h"
 #include "vadop/scene_io.h"
@@ -62,7 +63,7 @@ std::string freshFilteredPredict(World& w, BroadPhaseKind kind, double t0, doubl
   c.broad_phase = kind;
   World fresh(c);
   for (const std::string& id : w.ids()) fresh.add(id, w.shape(id), w.motion(id));
-  std::vector<WorldImpact> all = fresh.predict(t0, h), kept;
+  std::vector<Contact> all = fresh.predict(t0, h), kept;
   for (auto& i : all) {
     if (only.count(i.a) || only.count(i.b)) kept.push_back(i);
   }
@@ -295,7 +296,7 @@ TEST(WorldQuery, QueriesAreCompleteBoundedAndExactForTheGrids) {
               if (!maybe) EXPECT_FALSE(answer.count(j)) << bp->name() << " beyond its volumes: " << j << " query " << q.id;
             }
             // Completeness: a contact found by the narrow phase is a candidate.
-            const Impact hit = timeOfImpact(qp, q.motion, prepared[j], cur[j], t0, t1);
+            const TimeOfImpact hit = timeOfImpact(qp, q.motion, prepared[j], cur[j], t0, t1);
             if (hit.hit) {
               ++hits_checked;
               EXPECT_TRUE(answer.count(j)) << bp->name() << ": missed body " << j << " (query " << q.id << ", ["

@@ -7,6 +7,7 @@
 // [rounds, default 5].
 #include "chain_scenes.h"
 
+#include "vadop/distance.h"  // PreparedShape (internal: src/)
 #include "vadop/joint_chain.h"
 #include "vadop/time_of_impact.h"
 

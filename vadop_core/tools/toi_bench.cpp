@@ -14,6 +14,7 @@
 #include "toi_scenes.h"
 #include "toi_truth.h"
 
+#include "vadop/distance.h"  // PreparedShape (internal: src/)
 #include "vadop/time_of_impact.h"
 
 #include <fcl/fcl.h>
@@ -255,7 +256,7 @@ Outcome fclContinuous(const Case& c, int k, bool rot) {
 Outcome runCase(const Case& c, int k, bool rot) {
   if (k < 3) return fclContinuous(c, k, rot);
   const toi_truth::Scene& sc = c.sc;
-  const vadop::Impact imp = vadop::timeOfImpact(*c.pa, sc.ma, *c.pb, sc.mb, sc.t0, sc.t1);
+  const vadop::TimeOfImpact imp = vadop::timeOfImpact(*c.pa, sc.ma, *c.pb, sc.mb, sc.t0, sc.t1);
   Outcome out;
   out.hit = imp.hit;
   out.time = imp.time;

@@ -187,7 +187,7 @@ int main(int argc, char** argv) {
           o.input == "-" ? vadop::readScene(std::cin, "standard input") : vadop::readSceneFile(o.input);
       vadop::addToWorld(scene, world);
       // Everything is computed before anything is printed: on an error stdout stays empty.
-      const std::vector<vadop::WorldImpact> contacts = world.predict(0.0, scene.horizon);
+      const std::vector<vadop::Contact> contacts = world.predict(0.0, scene.horizon);
       lines = vadop::predictionToJsonLines(contacts, world.lastUndecided());
     } catch (const vadop::InvalidArgument& e) {
       die(2, source + ": " + e.what());

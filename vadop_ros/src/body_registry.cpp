@@ -4,7 +4,6 @@
 
 #include <vadop/detail/parallel_for.h>
 #include <vadop/error.h>
-#include <vadop/limits.h>
 #include <vadop/joint_chain.h>
 #include <vadop/timed_path.h>
 

@@ -1,4 +1,4 @@
-// Checks of message fields against the library's range (vadop/limits.h), shared by the input
+// Checks of message fields against the library's range (vadop/error.h), shared by the input
 // sources (src/sources) and the tracked-object sources: each returns false and sets `why`
 // (naming the field) on NaN/Inf, a value out of range or a zero quaternion; and the texts
 // their messages are written with. Internal to vadop_ros (not installed).
@@ -10,7 +10,7 @@
 
 #include "vadop_ros/joint_kinematics.h"
 
-#include <vadop/limits.h>
+#include <vadop/error.h>
 
 #include <ros/time.h>
 
@@ -27,7 +27,7 @@ namespace vadop_ros {
 // Field names are views: a literal costs no string per message (the odometry of thousands of
 // bodies goes through these every cycle); the text is built only on failure.
 
-// Checks one value against the library's range for its kind (vadop/limits.h); returns false
+// Checks one value against the library's range for its kind (vadop/error.h); returns false
 // (and sets `why`) on NaN/Inf or beyond `limit`.
 inline bool checkValue(double v, double limit, const char* unit, std::string_view field, std::string& why) {
   if (!std::isfinite(v)) {

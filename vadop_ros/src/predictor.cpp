@@ -50,6 +50,8 @@ struct Predictor::Impl {
   vadop::World world;
   int threads;  // of the impacts' conversion, as the world's
   std::vector<Slot> slots;
+  // The world's insertion-order keys of the elements: for the pair filter and firstContact's skip,
+  // which the world asks by those keys (its contacts carry the element index itself).
   std::unordered_map<uint64_t, size_t> by_key;
   vadop::World::PairPredicate ignored;  // setIgnored's, as the world's pair filter
   bool ignored_on = true;               // enableIgnored
@@ -67,7 +69,7 @@ bool Predictor::set(size_t i, const std::string& id, const vadop::Shape& shape, 
   Impl::Slot& s = impl_->slots[i];
   try {
     if (!s.in) {
-      impl_->world.add(id, shape, motion);
+      impl_->world.add(id, shape, motion, i);  // contacts carry i back (Contact::a_user, b_user)
       impl_->world.setFilter(id, group, mask);  // the id is in: does not throw
       s.in = true;
       s.id = id;
@@ -171,9 +173,8 @@ bool Predictor::firstContact(const std::vector<size_t>& movers, const std::vecto
   const std::optional<vadop::World::MoverContact> hit =
       impl_->world.firstContactIf(ids, motions, t0, horizon, skip_key, impl_->reach ? &*impl_->reach : nullptr);
   if (!hit) return false;
-  const auto other = impl_->by_key.find(hit->other_key);
   contact.mover = movers[hit->mover];
-  contact.other = other == impl_->by_key.end() ? 0 : other->second;
+  contact.other = hit->other_user;
   contact.time = hit->impact.time;
   contact.undecided = hit->undecided;
   return true;
@@ -198,31 +199,25 @@ std::vector<RawImpact> Predictor::predict(double t0, double horizon) {
     }
   }
   impl_->undecided.clear();
-  const std::vector<vadop::WorldImpact> hits = impl_->world.predict(t0, horizon);
-  // The elements of a world pair (false when one of them is not ours).
-  auto elementsOf = [this](const vadop::WorldImpact& w, RawImpact& r) {
-    const auto ia = impl_->by_key.find(w.a_key);
-    const auto ib = impl_->by_key.find(w.b_key);
-    if (ia == impl_->by_key.end() || ib == impl_->by_key.end()) return false;
-    r.a = ia->second;
-    r.b = ib->second;
+  const std::vector<vadop::Contact> hits = impl_->world.predict(t0, horizon);
+  // Every body of the world is an element, added with its index as the caller's key.
+  auto elementsOf = [](const vadop::Contact& w, RawImpact& r) {
+    r.a = w.a_user;
+    r.b = w.b_user;
     r.time = w.impact.time;
-    return true;
   };
-  for (const vadop::WorldImpact& w : impl_->world.lastUndecided()) {
+  for (const vadop::Contact& w : impl_->world.lastUndecided()) {
     RawImpact r;
-    if (elementsOf(w, r)) impl_->undecided.push_back(r);
+    elementsOf(w, r);
+    impl_->undecided.push_back(r);
   }
-  // Thousands of impacts a cycle in a large fleet (two lookups and two point velocities each):
-  // on the threads, then the ones of elements not ours dropped in order.
+  // Thousands of impacts a cycle in a large fleet (two point velocities each): on the threads.
   std::vector<RawImpact> out(hits.size());
-  std::vector<uint8_t> ours(hits.size(), 0);
   constexpr size_t kImpactsPerThread = 128, kImpactChunk = 32;
   vadop::detail::parallelFor(impl_->threads, hits.size(), kImpactsPerThread, kImpactChunk, [&](size_t k) {
-    const vadop::WorldImpact& w = hits[k];
+    const vadop::Contact& w = hits[k];
     RawImpact& r = out[k];
-    if (!elementsOf(w, r)) return;
-    ours[k] = 1;
+    elementsOf(w, r);
     r.point = w.impact.point;
     r.normal = w.impact.normal;
     r.initially_touching = w.impact.initially_touching;
@@ -233,11 +228,6 @@ std::vector<RawImpact> Predictor::predict(double t0, double horizon) {
     };
     r.closing_speed = (velocity(sa) - velocity(sb)).dot(r.normal);
   });
-  size_t kept = 0;
-  for (size_t k = 0; k < out.size(); ++k) {
-    if (ours[k]) out[kept++] = out[k];
-  }
-  out.resize(kept);
   return out;
 }
 

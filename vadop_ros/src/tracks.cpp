@@ -3,7 +3,6 @@
 #include "message_checks.h"
 
 #include <vadop/error.h>
-#include <vadop/limits.h>
 
 #include <ros/console.h>
 

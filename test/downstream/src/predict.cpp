@@ -12,7 +12,7 @@ std::vector<PlainImpact> predictHeadOn() {
   world.add("left", vadop::makeSphere(0.5), moving(0.0, 1.0));
   world.add("right", vadop::makeSphere(0.25), moving(4.0, -2.0));
   std::vector<PlainImpact> out;
-  for (const vadop::WorldImpact& w : world.predict(0.0, 2.0)) {
+  for (const vadop::Contact& w : world.predict(0.0, 2.0)) {
     PlainImpact p;
     p.a = w.a;
     p.b = w.b;

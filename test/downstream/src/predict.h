@@ -1,7 +1,6 @@
-// The library side of the check, in a translation unit of its own: vadop_core's vadop::Impact
-// (vadop/time_of_impact.h, included by vadop/world.h) and the message vadop::Impact generated
-// for the package vadop (msg/Impact.msg) are two types of the same name, so no translation unit
-// may include both (vadop_ros does the same: vadop_ros/predictor.h).
+// The library side of the check: vadop_core's World predicts, and the result is given back as
+// plain data. (The library's types no longer share a name with the package's messages: the
+// narrow phase's result is vadop::TimeOfImpact; use_vadop.cpp includes both headers.)
 #pragma once
 
 #include <string>

@@ -3,6 +3,7 @@
 #include "predict.h"
 
 #include <vadop/ImpactArray.h>  // generated message of the vadop package
+#include <vadop/world.h>        // and the library, in the same translation unit
 
 #include <cmath>
 #include <cstdio>

@@ -144,7 +144,7 @@ class LinkChain {
 // narrow phase; otherwise conservative advancement on the certified GJK lower bound with the
 // chains' bounds (LinkChain::bounds) over each stretch of constant velocities.
 // Throws as timeOfImpact.
-Impact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedShape& b, const LinkChain& cb,
+TimeOfImpact timeOfImpact(const PreparedShape& a, const LinkChain& ca, const PreparedShape& b, const LinkChain& cb,
                     double t0, double t1, const ToiOptions& options = {});
 
 }  // namespace vadop

@@ -23,7 +23,7 @@
 //  - or instead of those four, path: [{"t": s, "position": [x, y, z], "orientation": [x, y, z,
 //    w] (optional)}, ...] with t increasing, and after_path: "hold" | "continue" (default):
 //    the body follows the timed poses (timed_path.h).
-// Range (limits.h): |position[i]| <= kMaxCoordinate; every shape dimension (radius, length,
+// Range (error.h): |position[i]| <= kMaxCoordinate; every shape dimension (radius, length,
 // size[i], point coordinates and |point|) <= kMaxSize; |velocity[i]| and |velocity| <=
 // kMaxLinearSpeed (m/s) / kMaxAngularSpeed (rad/s); horizon <= kMaxTime. Each is checked where
 // it is read, so the message names body, index and field:
@@ -100,17 +100,17 @@ void addToWorld(const Scene& scene, World& world);
 // One impact as a single-line JSON object, keys in this order:
 //   {"a":"<id>","b":"<id>","time":t,"point":[x,y,z],"normal":[x,y,z]}
 // Numbers are printed in the shortest form that reads back to the same double; -0 prints as 0.
-std::string impactToJson(const WorldImpact& impact);
+std::string impactToJson(const Contact& impact);
 // impactToJson of each, one a line, each line ending in '\n'.
-std::string impactsToJsonLines(const std::vector<WorldImpact>& impacts);
+std::string impactsToJsonLines(const std::vector<Contact>& impacts);
 
 // A pair the narrow phase could not decide within its budget (World::lastUndecided: clear up to
 // impact.time, unknown after; not a contact) as a single-line JSON object:
 //   {"a":"<id>","b":"<id>","undecided_after":t}
-std::string undecidedToJson(const WorldImpact& undecided);
+std::string undecidedToJson(const Contact& undecided);
 // The output of vadop_predict: impactToJson of each contact and undecidedToJson of each
 // undecided pair, one a line, merged and sorted by time, then a_key, then b_key (input order).
-std::string predictionToJsonLines(const std::vector<WorldImpact>& impacts,
-                                  const std::vector<WorldImpact>& undecided);
+std::string predictionToJsonLines(const std::vector<Contact>& impacts,
+                                  const std::vector<Contact>& undecided);
 
 }  // namespace vadop

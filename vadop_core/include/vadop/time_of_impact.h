@@ -23,13 +23,16 @@
 // (surfaces): a body wholly inside a closed mesh does not touch it.
 #pragma once
 
-#include "vadop/distance.h"
 #include "vadop/motion.h"
 #include "vadop/shapes.h"
 
 #include <Eigen/Core>
 
 namespace vadop {
+
+// A shape prepared for the narrow phase (its support mapping, mesh hierarchy): internal to
+// vadop_core (src/vadop/distance.h); the overloads taking it are the library's own.
+class PreparedShape;
 
 struct ToiOptions {
   double tolerance = 1e-6;      // m, target gap: hit once the gap is <= tolerance; > 0
@@ -39,7 +42,7 @@ struct ToiOptions {
   int max_iterations = 10000;
 };
 
-struct Impact {
+struct TimeOfImpact {
   bool hit = false;
   // hit: the time of impact (see the contract above); no hit: t1.
   double time = 0.0;
@@ -63,11 +66,11 @@ struct Impact {
 // The first t in [t0, t1] at which a (moving with ma) and b (moving with mb) touch.
 // Throws vadop::InvalidArgument when a shape or motion is invalid (validateShape /
 // validateMotion), t0 or t1 is not finite, t1 < t0, or the options are not positive.
-Impact timeOfImpact(const Shape& a, const Motion& ma, const Shape& b, const Motion& mb,
+TimeOfImpact timeOfImpact(const Shape& a, const Motion& ma, const Shape& b, const Motion& mb,
                     double t0, double t1, const ToiOptions& options = {});
 
 // The same for prepared shapes (reuse a mesh's bounding-volume tree across queries).
-Impact timeOfImpact(const PreparedShape& a, const Motion& ma, const PreparedShape& b,
+TimeOfImpact timeOfImpact(const PreparedShape& a, const Motion& ma, const PreparedShape& b,
                     const Motion& mb, double t0, double t1, const ToiOptions& options = {});
 
 }  // namespace vadop

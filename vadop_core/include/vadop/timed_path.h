@@ -33,7 +33,7 @@ class TimedPath {
  public:
   // Throws vadop::InvalidArgument naming the keyframe and field: no keyframe, a NaN/Inf, a
   // zero quaternion, times that do not increase, or a piece whose motion is beyond the range
-  // of limits.h (e.g. two keyframes 1 ns apart and metres away). Each piece turns the
+  // of error.h (e.g. two keyframes 1 ns apart and metres away). Each piece turns the
   // shortest way (at most half a turn): keyframes must be dense enough for that.
   explicit TimedPath(std::vector<Keyframe> keyframes, AfterPath after = AfterPath::kContinue);
   // One constant twist at every time (a path of one piece). Throws as validateMotion.
@@ -72,7 +72,7 @@ Motion screwBetween(double t0, const Eigen::Vector3d& p0, const Eigen::Quaternio
 // The first t in [t0, t1] at which a (along pa) and b (along pb) touch: timeOfImpact on each
 // stretch of the window where both stay on one piece, in time order, with its contract; an
 // undecided stretch ends the search (undecided from there). Throws as timeOfImpact.
-Impact timeOfImpact(const PreparedShape& a, const TimedPath& pa, const PreparedShape& b, const TimedPath& pb,
+TimeOfImpact timeOfImpact(const PreparedShape& a, const TimedPath& pa, const PreparedShape& b, const TimedPath& pb,
                     double t0, double t1, const ToiOptions& options = {});
 
 }  // namespace vadop

@@ -27,18 +27,23 @@
 //
 // Names are any non-empty strings. Bad input throws vadop::InvalidArgument naming the body and
 // leaves the world unchanged (strong guarantee). Not thread-safe.
+//
+// This header is the front door only: the broad phases, the narrow phase's prepared shapes and
+// the World's storage (WorldEngine) are internal to vadop_core (src/), behind a pointer.
+//
+// Also here, the gate's scale search (searchGateScale), the question a velocity gate asks of
+// World::firstContactIf over the scales of a command.
 #pragma once
 
-#include "vadop/broad_phase.h"
-#include "vadop/detail/large_array.h"
-#include "vadop/distance.h"
+#include "vadop/joint_chain.h"
 #include "vadop/motion.h"
 #include "vadop/shapes.h"
 #include "vadop/time_of_impact.h"
-#include "vadop/joint_chain.h"
 #include "vadop/timed_path.h"
-#include "vadop/vadop.h"
 
+#include <Eigen/Core>
+
+#include <algorithm>  // kept for includers that had it through the engines' headers
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -47,10 +52,35 @@
 #include <vector>
 
 namespace vadop {
-namespace detail {
-class PairCertificates;
-class NameIndex;
-}
+
+class WorldEngine;  // the storage and engines behind World (internal: vadop_core/src)
+
+// Rule for bodies that barely move, whose velocity direction is noise: aligning to it
+// would churn their axis sets every frame for no gain (their projections do not move).
+enum class SlowAxisRule {
+  kFixedZone,  // the zone orthogonal to VadopConfig::slow_direction: as cheap as a moving body
+  kAllAxes,    // every pool axis: the tightest volume, m slots per body
+};
+
+struct VadopConfig {
+  // Pool size m and zone half-width phi (0 selects the pool's covering radius rho, the
+  // paper's choice). phi = rho makes two bodies share only the few axes near v1 x v2, so
+  // pruning is nearly one-dimensional; a wider zone prunes far better for a little more
+  // sorting. 32 axes and 25 degrees balance the two on the paper's scene (README, figures).
+  int axes = 32;
+  double phi_deg = 25.0;
+  // A body is slow when |v| (t1 - t0) < slow_fraction * bounding radius.
+  double slow_fraction = 0.05;
+  SlowAxisRule slow_rule = SlowAxisRule::kFixedZone;
+  Eigen::Vector3d slow_direction = Eigen::Vector3d::UnitZ();
+  // A body's axes are chosen with phi + hysteresis / 2 and kept while they still hold the
+  // whole phi zone and lie within phi + hysteresis: a turning body changes lists only every
+  // hysteresis / 2 of turn (each change re-queries its pairs), at the price of a few more axes.
+  // Measured: 20 degrees takes the 1,000-body monitor cycle (turning robots) from 13.6 to
+  // 10.9 ms; bodies whose direction jumps (bounces) pay for the wider fresh zone instead.
+  double hysteresis_deg = 20.0;
+};
+
 
 enum class BroadPhaseKind {
   kVadop,     // VADOP volumes on a grid of swept AABBs (VadopGridBroadPhase), WorldConfig::vadop
@@ -102,11 +132,18 @@ struct WorldConfig {
 constexpr int kMaxTimeSlices = 64;
 constexpr int kMaxThreads = 256;
 
-struct WorldImpact {
+// A contact between two bodies of a World (predict, lastUndecided): the one type of the
+// library's answers about pairs. It names the two bodies three ways: their ids, their
+// insertion-order keys (World::key: the order of the result) and the caller's own keys given
+// to add() (`user`: e.g. an index into the caller's tables, so that a caller needs no table
+// from ids or keys back to its own objects).
+struct Contact {
   std::string a, b;     // a was added before b
-  uint64_t a_key = 0;   // insertion-order keys (World::key): a_key < b_key; for ImpactQueue
+  uint64_t a_key = 0;   // insertion-order keys (World::key): a_key < b_key
   uint64_t b_key = 0;
-  Impact impact;        // time, contact point, normal from a to b (see time_of_impact.h)
+  TimeOfImpact impact;  // time, contact point, normal from a to b (see time_of_impact.h)
+  uint64_t a_user = 0;  // the caller's keys of a and b (add's `user`)
+  uint64_t b_user = 0;
 };
 
 class World {
@@ -123,8 +160,10 @@ class World {
   World(World&&) noexcept;
   World& operator=(World&&) noexcept;
 
-  // Throws when the id is empty or already used, or the shape or motion is invalid.
-  void add(const std::string& id, const Shape& shape, const Motion& motion);
+  // Throws when the id is empty or already used, or the shape or motion is invalid. `user`: the
+  // caller's key of the body, returned in every Contact and MoverContact that involves it (the
+  // World does not read it; several bodies may share one).
+  void add(const std::string& id, const Shape& shape, const Motion& motion, uint64_t user = 0);
   // Throws when the id is unknown.
   void remove(const std::string& id);
   // A new velocity (or pose): takes effect at the next predict (and ends a path). Throws when
@@ -176,7 +215,7 @@ class World {
   // broad phase; what it throws propagates out of predict (statistics unchanged). An empty
   // function (the default) tests every pair.
   using PairPredicate = std::function<bool(uint64_t a_key, uint64_t b_key)>;
-  void setPairFilter(PairPredicate should_test) { pair_filter_ = std::move(should_test); }
+  void setPairFilter(PairPredicate should_test);
 
   bool contains(const std::string& id) const;
   size_t size() const;
@@ -187,19 +226,19 @@ class World {
   // keyframe): see path(); for a link of a chain, the first piece of its base's path.
   const Motion& motion(const std::string& id) const;
   // The body's insertion-order key: later adds get larger keys (a body removed and added again
-  // gets a new one). These are the keys WorldImpact and ImpactQueue use.
+  // gets a new one). These are the keys of Contact (a_key, b_key) and of the pair filters.
   uint64_t key(const std::string& id) const;
 
   // Every pair that touches within [t0, t0 + horizon], sorted by (time, a_key, b_key).
   // Throws when t0 or horizon is not finite, horizon < 0, or a body's motion leaves the finite
   // range within the window.
-  std::vector<WorldImpact> predict(double t0, double horizon);
+  std::vector<Contact> predict(double t0, double horizon);
   // The same, restricted to the pairs involving at least one of `only` (for example the bodies
   // whose velocity just changed, or a robot's links under a candidate command). Answered by the
   // broad phase's single-body queries (BroadPhase::query), without a full broad-phase pass: the
   // grid engines then cost about the neighbours of `only`, not n (see vadop_grid.h). Throws on
   // unknown ids (nothing changed).
-  std::vector<WorldImpact> predict(double t0, double horizon, const std::vector<std::string>& only);
+  std::vector<Contact> predict(double t0, double horizon, const std::vector<std::string>& only);
 
   // "What if": the earliest contact over [t0, t0 + horizon] if the bodies `movers` (a robot's
   // links) moved with `motions` (one each, the same order) instead of their own, against every
@@ -217,8 +256,9 @@ class World {
     size_t mover = 0;      // index into movers
     std::string other;     // the body touched
     uint64_t other_key = 0;
-    Impact impact;         // normal from the mover to the other
-    // The narrow phase could not decide this pair past impact.time (Impact::undecided): for a
+    uint64_t other_user = 0;  // its caller's key (add's `user`)
+    TimeOfImpact impact;         // normal from the mover to the other
+    // The narrow phase could not decide this pair past impact.time (TimeOfImpact::undecided): for a
     // gate, a contact there (it cannot certify the command beyond).
     bool undecided = false;
   };
@@ -230,7 +270,7 @@ class World {
   // (opaque: pass it back to firstContactIf). Throws as firstContactIf, and for a reach or
   // origin that is not finite or a reach < 0.
   struct Reachable {
-    std::vector<BodyId> ids;  // sorted
+    std::vector<uint32_t> ids;  // the bodies' internal ids, sorted
   };
   Reachable reachable(const std::vector<std::string>& movers, const std::vector<Eigen::Vector3d>& origins,
                       const std::vector<double>& reach, double t0, double horizon);
@@ -241,144 +281,47 @@ class World {
                                              const std::function<bool(uint64_t key)>& skip = {},
                                              const Reachable* among = nullptr);
 
-  const WorldConfig& config() const { return config_; }
-  const BroadPhase& broadPhase() const { return *broad_phase_; }
+  const WorldConfig& config() const;
   // Narrow-phase calls made by the last predict: its candidate pairs after any `only` filter
   // and after the pair filters (setFilter, setPairFilter); filtered pairs are not counted.
-  size_t lastCandidateCount() const { return last_candidates_; }
+  size_t lastCandidateCount() const;
   // Pairs of the last predict that the broad phase found and the time-slice cull
   // (WorldConfig::time_slices) dropped before the narrow phase (not counted above).
-  size_t lastSliceCulledCount() const { return last_slice_culled_; }
+  size_t lastSliceCulledCount() const;
   // Of those, the pairs answered by a certificate of WorldConfig::coherence (no narrow phase).
-  size_t lastReusedCount() const { return last_reused_; }
+  size_t lastReusedCount() const;
   // The pairs of the last predict that the narrow phase could not decide within its budget
-  // (Impact::undecided: clear up to impact.time, unknown after), in the order of predict's
+  // (TimeOfImpact::undecided: clear up to impact.time, unknown after), in the order of predict's
   // result. Not contacts: predict does not return them. The same for every broad phase.
-  const std::vector<WorldImpact>& lastUndecided() const { return last_undecided_; }
+  const std::vector<Contact>& lastUndecided() const;
 
  private:
-  // What a query reads of each body it meets (name, key, filter, chain) fills the first line
-  // of a line-aligned record: one memory load per body once the records outgrow the caches.
-  struct alignas(64) Record {
-    std::string name;
-    uint64_t key = 0;
-    uint32_t group = kDefaultGroup;  // setFilter
-    uint32_t mask = kDefaultMask;
-    // setPath / setChain (a path is a chain without joints); the broad phase holds the first
-    // piece of its base's path.
-    std::shared_ptr<const LinkChain> chain;
-    // The shape as given, prepared for the narrow phase (the broad phase holds it padded).
-    std::optional<PreparedShape> prepared;
-  };
-  // The pairs of the path bodies in [t0, t1] (the caller sorts and dedups): each piece's query
-  // against the other bodies, and the pairs of two path bodies whose boxes overlap: their
-  // pathBoxes, or with `unions` the unions of their part boxes in frame_boxes_ (fillAllPartBoxes
-  // ran: tighter, and computed on the threads); with `only`, those involving one of them.
-  void pathPairs(double t0, double t1, const std::vector<BodyId>* only, std::vector<Pair>& out, bool unions = false);
-  // What the broad phase tests for path body p over [t0, t1]: its shape (nullopt) or, for a
-  // link whose joints move, the ball within its reach of the base's origin.
-  std::optional<Shape> pathVolume(BodyId p, double t0, double t1) const;
-  // A box (lo x y z, hi x y z) holding that volume along every piece of p's base path over
-  // [t0, t1] (sweptAlongPath). `tight`, for a link whose joints move: its own box over the
-  // window instead (LinkChain::partBoxes, one part) clipped by the ball's (clipToReach), at the
-  // cost of two poses: once a predict, not for every query of a gate (pathBoxes).
-  // fillPartBoxes takes the link's own boxes over the time slices.
-  void pathBox(BodyId p, double t0, double t1, double* box, bool tight) const;
-  // The union of `shape`'s swept boxes (SweptBody) along each piece of p's base path.
-  void sweptAlongPath(BodyId p, const Shape& shape, double t0, double t1, double* box) const;
-  // Intersects a box holding link p over [t0, t1] with sweptAlongPath of `ball`, the ball of its
-  // reach (pathVolume), when the box is wider than the ball on some axis.
-  void clipToReach(BodyId p, const Shape& ball, double t0, double t1, double* box) const;
-  // pathBox of every path body (6 doubles each, in path_bodies_'s order), not tight.
-  std::vector<double> pathBoxes(double t0, double t1) const;
-  // A candidate pair for the narrow phase and the parts of the window it searches: bit k of
-  // `parts` set when the two boxes over part k of config_.time_slices overlap (every part
-  // without the cull). Over a part left out the padded shapes are apart (their boxes are), so
-  // the narrow phase's contract (time_of_impact.h) still holds over the whole window.
-  struct Candidate {
-    BodyId a, b;
-    uint64_t parts;  // kMaxTimeSlices <= 64
-  };
-  // Drops from `tests` the pairs whose boxes over the config_.time_slices parts of [t0, t1]
-  // (partBoxes) overlap in none of them (WorldConfig::time_slices), and keeps in `parts` those
-  // in which they do.
-  // `filled`: fillAllPartBoxes ran for this window (the boxes are there already).
-  void cullBySlices(std::vector<Candidate>& tests, double t0, double t1, bool filled);
-  // The part boxes of every body (slots in id order) and, in frame_boxes_, the union of each
-  // body's parts: the broad phase's boxes in a crowded world's full predict (the path bodies'
-  // boxes in pathPairs when there are some), so that no body's swept volume is bounded twice
-  // (the union is its swept box over [t0, t1], or tighter).
-  void fillAllPartBoxes(double t0, double t1);
-  // The part boxes of the bodies of `tests` only.
-  void fillPartBoxesOfPairs(const std::vector<Candidate>& tests, double t0, double t1);
-  // Both of the above: the part boxes of the bodies stamped with predict_count_ (slots in id
-  // order unless `slots_assigned`), and with `unions` each body's union in frame_boxes_.
-  void fillSlots(double t0, double t1, bool unions, bool slots_assigned = false);
-  // The boxes of body `id` over the config_.time_slices parts of [t0, t1] (6 doubles each) into
-  // `out`: its padded shape's swept boxes, or pathBox of each part for a body on a path. Bodies
-  // are independent: cullBySlices fills them on the threads when there are many.
-  void fillPartBoxes(BodyId id, double t0, double t1, double* out) const;
-  Impact narrow(BodyId a, BodyId b, double t0, double t1) const;
-  // narrow() over each run of consecutive parts of c.parts in turn, up to the first contact
-  // (or undecided pair); no contact in any: clear over [t0, t1] (time t1).
-  Impact narrowParts(const Candidate& c, double t0, double t1) const;
-  // narrowParts() on every pair of `tests` into `results` (same order), on threads_ threads when
-  // there are enough pairs; rethrows the exception of the first pair (by index) that threw.
-  void narrowAll(const std::vector<Candidate>& tests, double t0, double t1, std::vector<Impact>& results);
-  // f(k) for k in [0, n), on threads_ threads when n is large enough; rethrows the exception
-  // of the smallest k that threw.
-  void parallelFor(size_t n, const std::function<void(size_t)>& f) const;
-  bool onPath(BodyId id) const { return records_[id].chain != nullptr; }
-  // Some body is not on a path: only then can the broad phase find a pair or a partner that
-  // the path bodies' own boxes do not (it holds a path body on its base's first piece only).
-  bool othersThanPaths() const { return broad_phase_->size() > path_bodies_.size(); }
-  const Record& record(const std::string& id, const char* operation) const;
-  BodyId bodyId(const std::string& id, const char* operation) const;
-  static constexpr BodyId kUnknownBody = ~BodyId{0};
-  BodyId findBody(const std::string& id) const;  // or kUnknownBody
-  void setMotionOf(BodyId bid, const Motion& motion);
-  void setChainOf(BodyId bid, std::shared_ptr<const LinkChain> chain);
-  // The body a handle names; throws, naming `operation`, for a stale handle or another World's.
-  BodyId handleId(const Handle& body, const char* operation) const;
-  struct NameOf;  // the name of a BodyId (in its record), for by_name_
-  // Throws InvalidArgument when this World was moved from (no broad phase).
-  void requireEngine(const char* operation) const;
-  std::vector<WorldImpact> run(double t0, double horizon, const std::vector<BodyId>* only);
-
-  WorldConfig config_;
-  int threads_ = 1;  // config_.threads resolved
-  std::unique_ptr<BroadPhase> broad_phase_;
-  detail::LargeArray<Record> records_;  // by BodyId of the broad phase; read at random by queries
-  std::unique_ptr<detail::NameIndex> by_name_;  // names live in records_
-  std::vector<BodyId> path_bodies_;  // sorted
-  uint64_t next_key_ = 0;
-  uint64_t serial_ = 0;  // this World's, unique in the process: the Handle's `world`
-  size_t last_candidates_ = 0;
-  size_t last_reused_ = 0;
-  size_t last_slice_culled_ = 0;
-  // cullBySlices' boxes: time_slices boxes (lo x y z, hi x y z) per body, packed in the order
-  // the predict whose number is in the body's stamp first asked for them (computed for the
-  // bodies of candidate pairs only; slice_fill_ lists those bodies in slot order).
-  struct SliceSlot {
-    uint64_t stamp = 0;
-    size_t index = 0;  // into slice_boxes_, in units of time_slices boxes
-  };
-  std::vector<SliceSlot> slice_of_;  // by BodyId
-  std::vector<double> slice_boxes_;
-  size_t slice_used_ = 0;
-  std::vector<BodyId> slice_fill_;
-  uint64_t predict_count_ = 0;
-  std::vector<double> frame_boxes_;  // by BodyId, 6 each (removed bodies' entries unused)
-  // The last full predict had as many candidate pairs (after the group filters) as bodies:
-  // most bodies need their part boxes, so the next computes them for all, before the broad
-  // phase (a part box costs about three swept boxes: not worth it for a sparse world). Kept
-  // while there are half as many: the unions of the parts, tighter than the broad phase's own
-  // boxes, find fewer pairs (0.4-0.9 of them in the planar fleets), which must not send every
-  // other predict back to the looser boxes.
-  bool parts_for_all_ = false;
-  std::unique_ptr<detail::PairCertificates> certificates_;  // WorldConfig::coherence
-  std::vector<WorldImpact> last_undecided_;
-  PairPredicate pair_filter_;
+  // The engine, or null once moved from (engine() then stands in an empty one).
+  WorldEngine& engine();
+  const WorldEngine& engine() const;
+  std::unique_ptr<WorldEngine> engine_;
 };
+
+// The scale search of a velocity gate: given the first contact time of a body driven by a
+// command scaled by s (a function the caller builds, e.g. from World::firstContactIf), the
+// largest s in [0, 1] on a grid of step `step` (1, 1 - step, ..., 0) for which nothing is
+// touched; when every grid point leads to a contact, the one whose first contact comes latest
+// (driving away from a danger is then never blocked). It does not build motions or know the
+// world; it only decides which scales to try, largest first, and stops at the first clear one.
+struct GateScale {
+  double scale = 0.0;
+  bool clear = false;           // no contact at `scale` within the window
+  double contact_time = 0.0;    // first contact at `scale` (infinity when clear)
+  size_t evaluations = 0;       // calls of first_contact
+};
+
+// first_contact(s): the first contact time at scale s, +infinity for none. step in (0, 1].
+// Guarantees: when clear, `scale` is the largest grid point that is clear and every grid point
+// above it leads to a contact (so it is within `step` of the largest clear s unless the clear
+// scales above it form an interval shorter than `step`); otherwise `scale` is a grid point of
+// the latest first contact, the smallest such point on ties (every scale meeting the same
+// contact, e.g. pressed against something whatever the speed: stopping harms least). Throws vadop::InvalidArgument for
+// a bad step or a NaN time; what first_contact throws propagates.
+GateScale searchGateScale(const std::function<double(double s)>& first_contact, double step = 0.02);
 
 }  // namespace vadop

@@ -18,7 +18,7 @@
 // The message; this header must not pull in vadop/world.h (see predictor.h).
 #include <vadop/ImpactArray.h>
 
-#include <vadop/gate.h>
+#include <vadop/world.h>
 
 #include <ros/time.h>
 

@@ -3,10 +3,8 @@
 // none (skipped, e.g. a missing transform); the world is never rebuilt. predict() runs the
 // VADOP broad phase and the continuous narrow phase.
 //
-// Why a wrapper: the library's vadop::Impact (vadop/time_of_impact.h, included by world.h)
-// and the message vadop::Impact generated for this package (msg/Impact.msg, package vadop)
-// are two different types with the same name, so no translation unit may include both. Only
-// predictor.cpp includes world.h; this header exposes neither.
+// The wrapper keeps the node in element indices: each element enters the world with its index
+// as the caller's key (vadop::World::add's `user`), which every vadop::Contact carries back.
 #pragma once
 
 #include <vadop/motion.h>

@@ -30,7 +30,7 @@ namespace vadop {
 struct QueuedImpact {
   uint64_t a = 0;  // a < b
   uint64_t b = 0;
-  Impact impact;   // impact.time is the key; impact.normal points from a to b
+  TimeOfImpact impact;   // impact.time is the key; impact.normal points from a to b
 };
 
 class ImpactQueue {
@@ -39,7 +39,7 @@ class ImpactQueue {
   // When a > b the pair is stored as (b, a) with the normal negated, so the normal always
   // points from the smaller key to the larger. Throws when a == b or impact.time, point or
   // normal is not finite.
-  void push(uint64_t a, uint64_t b, const Impact& impact);
+  void push(uint64_t a, uint64_t b, const TimeOfImpact& impact);
 
   bool empty() const { return heap_.empty(); }
   size_t size() const { return heap_.size(); }

@@ -7,6 +7,7 @@
 #include "vadop/axis_pool.h"
 #include "vadop/motion.h"
 #include "vadop/shapes.h"
+#include "vadop/world.h"  // VadopConfig, SlowAxisRule: the public configuration
 
 #include <Eigen/Core>
 
@@ -21,32 +22,6 @@ namespace vadop {
 struct Interval {
   double lo = 0.0;
   double hi = 0.0;
-};
-
-// Rule for bodies that barely move, whose velocity direction is noise: aligning to it
-// would churn their axis sets every frame for no gain (their projections do not move).
-enum class SlowAxisRule {
-  kFixedZone,  // the zone orthogonal to VadopConfig::slow_direction: as cheap as a moving body
-  kAllAxes,    // every pool axis: the tightest volume, m slots per body
-};
-
-struct VadopConfig {
-  // Pool size m and zone half-width phi (0 selects the pool's covering radius rho, the
-  // paper's choice). phi = rho makes two bodies share only the few axes near v1 x v2, so
-  // pruning is nearly one-dimensional; a wider zone prunes far better for a little more
-  // sorting. 32 axes and 25 degrees balance the two on the paper's scene (README, figures).
-  int axes = 32;
-  double phi_deg = 25.0;
-  // A body is slow when |v| (t1 - t0) < slow_fraction * bounding radius.
-  double slow_fraction = 0.05;
-  SlowAxisRule slow_rule = SlowAxisRule::kFixedZone;
-  Eigen::Vector3d slow_direction = Eigen::Vector3d::UnitZ();
-  // A body's axes are chosen with phi + hysteresis / 2 and kept while they still hold the
-  // whole phi zone and lie within phi + hysteresis: a turning body changes lists only every
-  // hysteresis / 2 of turn (each change re-queries its pairs), at the price of a few more axes.
-  // Measured: 20 degrees takes the 1,000-body monitor cycle (turning robots) from 13.6 to
-  // 10.9 ms; bodies whose direction jumps (bounces) pay for the wider fresh zone instead.
-  double hysteresis_deg = 20.0;
 };
 
 // Validates the configuration against the pool. Throws vadop::InvalidArgument when a field is

@@ -57,7 +57,7 @@ class ResponseLoop {
   static constexpr BodyId kBoundary = ~BodyId{0};
   struct Contact {
     BodyId a = 0, b = 0;  // a < b (b == kBoundary: the boundary); impact.normal points from a to b
-    Impact impact;
+    TimeOfImpact impact;
   };
   // A body's first contact with the boundary over [from, t1] along `motion` (hit false for
   // none; the normal points from the body into the boundary). Asked for every body at each
@@ -65,7 +65,7 @@ class ResponseLoop {
   // non-finite point or normal throws InvalidArgument from advance. Empty: no boundary. The
   // boundary is one partner per body for the report-once rule: return a corner (two walls at
   // one instant) as one contact, with the normal the response needs.
-  using Boundary = std::function<Impact(BodyId id, const Motion& motion, double from, double t1)>;
+  using Boundary = std::function<TimeOfImpact(BodyId id, const Motion& motion, double from, double t1)>;
   void setBoundary(Boundary boundary) { boundary_ = std::move(boundary); }
   // What the callback may do: read and change motions (a change takes effect at once and
   // re-predicts that body from the impact's time). Valid only during the call.
