@@ -1,4 +1,4 @@
-// Checks of message fields against the library's range (vadop/error.h), shared by the
+// Checks of message fields against the library's range (vadop/limits.h), shared by the
 // registry's message handlers and the tracked-object sources: each returns false and sets
 // `why` (naming the field) on NaN/Inf, a value out of range or a zero quaternion.
 // Internal to vadop_ros (not installed).
@@ -21,7 +21,7 @@ namespace vadop_ros {
 // Field names are views: a literal costs no string per message (the odometry of thousands of
 // bodies goes through these every cycle); the text is built only on failure.
 
-// Checks one value against the library's range for its kind (vadop/error.h); returns false
+// Checks one value against the library's range for its kind (vadop/limits.h); returns false
 // (and sets `why`) on NaN/Inf or beyond `limit`.
 inline bool checkValue(double v, double limit, const char* unit, std::string_view field, std::string& why) {
   if (!std::isfinite(v)) {
