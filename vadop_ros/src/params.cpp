@@ -4,7 +4,6 @@
 #include "vadop_ros/source.h"
 
 #include <vadop/error.h>
-#include <vadop/vadop.h>
 #include <vadop/world.h>
 
 #include <ros/names.h>
@@ -111,7 +110,7 @@ std::string stripLeadingSlashes(std::string s) {
 // |value| <= limit (values here are already finite).
 void checkRange(double value, double limit, const std::string& path, const char* unit) {
   if (!(std::fabs(value) <= limit)) {
-    fail(path, "must be within " + num(limit) + " " + unit + " (vadop/error.h), got " + num(value));
+    fail(path, "must be within " + num(limit) + " " + unit + " (vadop/limits.h), got " + num(value));
   }
 }
 
