@@ -1,4 +1,5 @@
 #include "vadop/detail/parallel_for.h"
+#include "vadop/world.h"
 
 #include <algorithm>
 #include <atomic>
@@ -197,3 +198,13 @@ void parallelFor(int threads, size_t n, size_t min_per_thread, size_t chunk, con
 }
 
 }  // namespace vadop::detail
+
+namespace vadop {
+
+int threadCount(int configured) { return detail::threadCount(configured); }
+
+void parallelFor(int threads, size_t n, size_t min_per_thread, size_t chunk, const std::function<void(size_t)>& f) {
+  detail::parallelFor(threads, n, min_per_thread, chunk, f);
+}
+
+}  // namespace vadop

@@ -2,10 +2,10 @@
 
 #include "message_checks.h"
 
-#include <vadop/detail/parallel_for.h>
 #include <vadop/error.h>
 #include <vadop/joint_chain.h>
 #include <vadop/timed_path.h>
+#include <vadop/world.h>
 
 #include <ros/console.h>
 #include <ros/time.h>
@@ -751,7 +751,7 @@ void BodyRegistry::update(const ros::Time& now, TransformSource& tf) {
   // Below a few hundred bodies a thread costs more than it saves.
   constexpr size_t kBodiesPerThread = 256;
   constexpr size_t kChunk = 32;
-  vadop::detail::parallelFor(tf.concurrent() ? threads_ : 1, bodies_.size(), kBodiesPerThread, kChunk, updateOne);
+  vadop::parallelFor(tf.concurrent() ? threads_ : 1, bodies_.size(), kBodiesPerThread, kChunk, updateOne);
 }
 
 void BodyRegistry::updateStatic(Body& b, const ros::Time& now, double t_now, double t_check_end) {
@@ -765,7 +765,7 @@ void BodyRegistry::updateStatic(Body& b, const ros::Time& now, double t_now, dou
   }
 }
 
-void BodyRegistry::setThreads(int threads) { threads_ = vadop::detail::threadCount(threads); }
+void BodyRegistry::setThreads(int threads) { threads_ = vadop::threadCount(threads); }
 
 bool BodyRegistry::updateBody(size_t body, const ros::Time& now, TransformSource& tf) {
   if (!has_base_ || body >= bodies_.size() || bodies_[body].is_static) return false;

@@ -1,7 +1,7 @@
 #include "vadop_ros/monitor_core.h"
 
-#include <vadop/detail/parallel_for.h>
 #include <vadop/error.h>
+#include <vadop/world.h>
 
 #include <ros/console.h>
 
@@ -662,7 +662,7 @@ void MonitorCore::writeImpacts(const ros::Time& now) {
   std::vector<vadop::Impact>& out = impacts_.impacts;
   out.resize(kept.size());
   constexpr size_t kImpactsPerThread = 128, kImpactChunk = 32;
-  vadop::detail::parallelFor(vadop::detail::threadCount(params_.threads), kept.size(), kImpactsPerThread, kImpactChunk,
+  vadop::parallelFor(vadop::threadCount(params_.threads), kept.size(), kImpactsPerThread, kImpactChunk,
                              [&](size_t i) { writeImpact(raw[kept[i]], now, out[i]); });
   // The soonest time to impact of an element's body (a tracked object's own).
   const auto& elements = registry_.elements();

@@ -1,6 +1,5 @@
 #include "vadop_ros/predictor.h"
 
-#include <vadop/detail/parallel_for.h>
 #include <vadop/error.h>
 #include <vadop/joint_chain.h>
 #include <vadop/world.h>
@@ -38,7 +37,7 @@ bool sameMotion(const vadop::Motion& a, const vadop::Motion& b) {
 }
 
 struct Predictor::Impl {
-  explicit Impl(const PredictorConfig& c) : world(worldConfig(c)), threads(vadop::detail::threadCount(c.threads)) {}
+  explicit Impl(const PredictorConfig& c) : world(worldConfig(c)), threads(vadop::threadCount(c.threads)) {}
   struct Slot {
     bool in = false;
     std::string id;
@@ -214,7 +213,7 @@ std::vector<RawImpact> Predictor::predict(double t0, double horizon) {
   // Thousands of impacts a cycle in a large fleet (two point velocities each): on the threads.
   std::vector<RawImpact> out(hits.size());
   constexpr size_t kImpactsPerThread = 128, kImpactChunk = 32;
-  vadop::detail::parallelFor(impl_->threads, hits.size(), kImpactsPerThread, kImpactChunk, [&](size_t k) {
+  vadop::parallelFor(impl_->threads, hits.size(), kImpactsPerThread, kImpactChunk, [&](size_t k) {
     const vadop::Contact& w = hits[k];
     RawImpact& r = out[k];
     elementsOf(w, r);

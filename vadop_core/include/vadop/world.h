@@ -324,4 +324,14 @@ struct GateScale {
 // a bad step or a NaN time; what first_contact throws propagates.
 GateScale searchGateScale(const std::function<double(double s)>& first_contact, double step = 0.02);
 
+// The threads World runs on (WorldConfig::threads), offered for the caller's own loops beside
+// it (the monitor's bodies and impacts): one process-wide pool, kept between calls, so that a
+// second pool's workers never compete with the World's for the cores.
+// threadCount: a configured count resolved (0: one per hardware thread; at least 1).
+// parallelFor: f(k) for every k in [0, n) on up to `threads` threads (this one included),
+// `chunk` consecutive k at a time; on this thread alone when n < 2 * min_per_thread. Every k
+// runs even when some throw; then the exception of the smallest k that threw is rethrown.
+int threadCount(int configured);
+void parallelFor(int threads, size_t n, size_t min_per_thread, size_t chunk, const std::function<void(size_t)>& f);
+
 }  // namespace vadop
