@@ -164,7 +164,9 @@ const std::vector<SourceKind>& sourceKinds();
 // twist from `stamp` (zero for a static obstacle), named in the impacts by `name` and `link`.
 struct SourcedBody {
   bool alive = false;  // false: a free slot
-  std::string name;    // the impacts' body_a/body_b (tracked objects: "<prefix>/<id>")
+  // The impacts' body_a/body_b (tracked objects: "<prefix>/<id>"); also the element's id in
+  // the world (its errors name it), so unique among the bodies in the world.
+  std::string name;
   std::string link;    // the impacts' link_a/link_b (tracked objects: empty)
   vadop::Shape shape;  // unpadded
   // In the fixed frame: the pose at `stamp`, the velocity of the pose's origin and the angular
@@ -178,7 +180,9 @@ struct SourcedBody {
 // An input that brings a set of bodies (the kind's topics, their latest messages, the bodies
 // they hold). The bodies live in slots (bodies()) that keep their index while their body lives
 // and are reused after it left: MonitorCore gives each slot one world element, so a body joining
-// or leaving costs one world add or remove, never a rebuild.
+// or leaving costs one world add or remove, never a rebuild. A slot is freed only through
+// expire, drop or clear, which hand it back in `left`: its element leaves the world before the
+// slot may hold another body.
 // A body-set source does: subscribe to its topics (each message checked and kept under the
 // node's lock by its own handler), let bodies leave whose input timed out (expire), drop a body
 // the world refused (drop, counted and warned about), forget everything (clear) and fill its
