@@ -314,7 +314,7 @@ TEST(Tracks, DiagnosticsCountObjectsAndDrops) {
   bad.pose.position.x = std::numeric_limits<double>::quiet_NaN();
   t.onArray(0, array(100.0, {object("1", 0, 0), object("2", 1, 0), bad}), ros::Time(100.0), tf);
   diagnostic_updater::DiagnosticStatusWrapper stat;
-  vadop_ros::reportTracks(stat, t, ros::Time(100.1));
+  t.report(stat, ros::Time(100.1));
   EXPECT_EQ(stat.message, "2 tracked objects from 1 source(s); bad input recently (see last problem)");
   EXPECT_EQ(stat.level, diagnostic_msgs::DiagnosticStatus::WARN);
   std::map<std::string, std::string> kv;
@@ -324,7 +324,7 @@ TEST(Tracks, DiagnosticsCountObjectsAndDrops) {
   EXPECT_EQ(kv["people: arrays accepted"], "1");
   EXPECT_NE(kv["people: last problem"].find("objects[2] (id \"9\")"), std::string::npos);
   diagnostic_updater::DiagnosticStatusWrapper later;
-  vadop_ros::reportTracks(later, t, ros::Time(200.0));  // long after the bad input
+  t.report(later, ros::Time(200.0));  // long after the bad input
   EXPECT_EQ(later.level, diagnostic_msgs::DiagnosticStatus::OK);
 }
 

@@ -69,10 +69,13 @@ MonitorCore::MonitorCore(const MonitorParams& params, const ParamReader& read_pa
     : params_(params),
       registry_(params, read_param, load_mesh),
       filter_(params.ignore_pairs),
-      tracks_(params.tracks, params.fixed_frame, params.max_stamp_skew),
       predictor_(makePredictor(params)),
       gate_predictor_(makePredictor(params, true)) {
   soonest_.assign(registry_.bodies().size(), std::numeric_limits<double>::infinity());
+  for (const BodiesSourceKind& kind : bodiesSourceKinds()) {
+    body_sources_.push_back(kind.make(params));
+    if (auto* tracks = dynamic_cast<Tracks*>(body_sources_.back().get())) tracks_ = tracks;
+  }
   for (const BodyParams& b : params.bodies) gate_world_wanted_ = gate_world_wanted_ || b.has_gate;
   impacts_.header.frame_id = params_.fixed_frame;
   registry_.setMaxStampSkew(params.max_stamp_skew);
@@ -97,9 +100,10 @@ ElementKey MonitorCore::elementKey(size_t element) const {
 }
 
 void MonitorCore::elementNames(size_t element, std::string& body, std::string& link) const {
-  if (isTrack(element)) {
-    body = tracks_.slots().at(element - trackBase()).name;
-    link.clear();
+  if (isSourced(element)) {
+    const SourcedBody& sb = sourcedBody(element);
+    body = sb.name;
+    link = sb.link;
     return;
   }
   const Element& e = registry_.elements().at(element);
@@ -127,14 +131,14 @@ void MonitorCore::writeImpact(const RawImpact& hit, const ros::Time& now, vadop:
 void MonitorCore::syncGateWorld() {
   const auto& elements = registry_.elements();
   std::string error;
-  const size_t total = trackBase() + track_in_world_.size();
+  const size_t total = setBase() + sourced_in_world_.size();
   for (size_t i = 0; i < total; ++i) {
     if (!predictor_.contains(i)) {
       gate_predictor_.unset(i);
       continue;
     }
-    const bool is_static = !isTrack(i) && registry_.bodies()[elements[i].body].is_static;
-    const std::string& id = isTrack(i) ? track_in_world_[i - trackBase()] : elements[i].id;
+    const bool is_static = !isSourced(i) && registry_.bodies()[elements[i].body].is_static;
+    const std::string& id = isSourced(i) ? sourced_in_world_[i - setBase()] : elements[i].id;
     // The shape as in the cycle's world (padded): used when the element enters.
     if (!gate_predictor_.set(i, id, predictor_.shape(i), predictor_.motion(i), error,
                              is_static ? kStaticGroup : kMovingGroup, is_static ? ~kStaticGroup : ~0u,
@@ -401,37 +405,50 @@ void MonitorCore::reset() {
     }
   }
   std::vector<size_t> left;
-  tracks_.clear(left);
-  for (const size_t slot : left) unsetTrack(slot);
-  std::fill(soonest_.begin(), soonest_.end(), std::numeric_limits<double>::infinity());
-  std::fill(track_soonest_.begin(), track_soonest_.end(), std::numeric_limits<double>::infinity());
-}
-
-void MonitorCore::unsetTrack(size_t slot) {
-  predictor_.unset(trackBase() + slot);
-  gate_predictor_.unset(trackBase() + slot);
-  if (slot < track_in_world_.size()) track_in_world_[slot].clear();
-}
-
-void MonitorCore::syncTracks(const ros::Time& now) {
-  std::vector<size_t> left;
-  tracks_.expire(now, left);
-  for (const size_t slot : left) unsetTrack(slot);
-  const auto& slots = tracks_.slots();
-  if (track_in_world_.size() < slots.size()) {
-    track_in_world_.resize(slots.size());
-    track_matches_.resize(slots.size());
-    track_soonest_.resize(slots.size(), std::numeric_limits<double>::infinity());
+  for (size_t j = 0; j < body_sources_.size(); ++j) {
+    left.clear();
+    body_sources_[j]->clear(left);
+    for (const size_t slot : left) unsetSourced(setElement(j, slot));
   }
+  std::fill(soonest_.begin(), soonest_.end(), std::numeric_limits<double>::infinity());
+  std::fill(sourced_soonest_.begin(), sourced_soonest_.end(), std::numeric_limits<double>::infinity());
+}
+
+void MonitorCore::unsetSourced(size_t element) {
+  predictor_.unset(element);
+  gate_predictor_.unset(element);
+  const size_t k = element - setBase();
+  if (k < sourced_in_world_.size()) sourced_in_world_[k].clear();
+}
+
+void MonitorCore::syncSourcedBodies(const ros::Time& now) {
   const double t_now = registry_.seconds(now);
-  const size_t base = trackBase();
+  size_t in_world = 0;
+  for (size_t j = 0; j < body_sources_.size(); ++j) in_world += syncSourcedBodies(j, t_now, now);
+  stats_.tracked_objects = in_world;
+}
+
+size_t MonitorCore::syncSourcedBodies(size_t j, double t_now, const ros::Time& now) {
+  BodiesSource& source = *body_sources_[j];
+  std::vector<size_t> left;
+  source.expire(now, left);
+  for (const size_t slot : left) unsetSourced(setElement(j, slot));
+  const auto& slots = source.bodies();
+  // The per-element vectors reach this source's last slot.
+  const size_t needed = slots.empty() ? 0 : setElement(j, slots.size() - 1) - setBase() + 1;
+  if (sourced_in_world_.size() < needed) {
+    sourced_in_world_.resize(needed);
+    sourced_matches_.resize(needed);
+    sourced_soonest_.resize(needed, std::numeric_limits<double>::infinity());
+  }
   std::string error;
   size_t in_world = 0;
   for (size_t s = 0; s < slots.size(); ++s) {
-    const TrackedObject& t = slots[s];
+    const SourcedBody& t = slots[s];
     if (!t.alive) continue;
-    // A slot's new object: the old one (if any) leaves first.
-    if (!track_in_world_[s].empty() && track_in_world_[s] != t.name) unsetTrack(s);
+    const size_t element = setElement(j, s), k = element - setBase();
+    // A slot's new body: the old one (if any) leaves first.
+    if (!sourced_in_world_[k].empty() && sourced_in_world_[k] != t.name) unsetSourced(element);
     std::string why;
     vadop::Motion m;
     try {
@@ -441,22 +458,22 @@ void MonitorCore::syncTracks(const ros::Time& now) {
       why = e.what();
     }
     if (why.empty()) {
-      const bool fresh = !predictor_.contains(base + s);
+      const bool fresh = !predictor_.contains(element);
       const vadop::Shape shape = fresh && params_.padding > 0.0 ? vadop::inflate(t.shape, params_.padding) : t.shape;
-      if (!predictor_.set(base + s, t.name, shape, m, error, kMovingGroup, ~0u)) why = "refused by the world: " + error;
+      if (!predictor_.set(element, t.name, shape, m, error, kMovingGroup, ~0u)) why = "refused by the world: " + error;
     }
     if (!why.empty()) {
-      tracks_.drop(s, "motion out of range: " + why, now);
-      unsetTrack(s);
+      source.drop(s, "motion out of range: " + why, now);
+      unsetSourced(element);
       continue;
     }
-    if (track_in_world_[s] != t.name) {
-      track_in_world_[s] = t.name;
-      if (!filter_.empty()) track_matches_[s] = filter_.matches({t.name, ""});
+    if (sourced_in_world_[k] != t.name) {
+      sourced_in_world_[k] = t.name;
+      if (!filter_.empty()) sourced_matches_[k] = filter_.matches({t.name, t.link});
     }
     ++in_world;
   }
-  stats_.tracked_objects = in_world;
+  return in_world;
 }
 
 void MonitorCore::syncWorld(const ros::Time& now) {
@@ -489,7 +506,7 @@ void MonitorCore::syncWorld(const ros::Time& now) {
     }
   }
   stats_.moving_elements = moving;
-  syncTracks(now);
+  syncSourcedBodies(now);
   stats_.elements_in_world = predictor_.size();
   // pairIgnored can ignore a pair the groups let through only by ~ignore_pairs or between two
   // elements of one body.
@@ -500,11 +517,11 @@ void MonitorCore::syncWorld(const ros::Time& now) {
 }
 
 bool MonitorCore::pairIgnored(size_t ea, size_t eb) const {
-  if (isTrack(ea) || isTrack(eb)) {
-    // A tracked object is a body of its own, never static: only ~ignore_pairs applies.
+  if (isSourced(ea) || isSourced(eb)) {
+    // A source's body is a body of its own, never static: only ~ignore_pairs applies.
     if (filter_.empty()) return false;
-    const auto& ma = isTrack(ea) ? track_matches_[ea - trackBase()] : element_matches_[ea];
-    const auto& mb = isTrack(eb) ? track_matches_[eb - trackBase()] : element_matches_[eb];
+    const auto& ma = isSourced(ea) ? sourced_matches_[ea - setBase()] : element_matches_[ea];
+    const auto& mb = isSourced(eb) ? sourced_matches_[eb - setBase()] : element_matches_[eb];
     return PairFilter::ignored(ma, mb);
   }
   const auto& elements = registry_.elements();
@@ -542,15 +559,16 @@ bool MonitorCore::leaveOutOffenders(const std::string& error, const ros::Time& n
     registry_.markElementBad(i, why, now);
     names += (names.empty() ? "" : ", ") + e.id;
   }
-  for (size_t s = 0; s < track_in_world_.size(); ++s) {
-    const size_t i = trackBase() + s;
+  const size_t n = body_sources_.size();
+  for (size_t k = 0; k < sourced_in_world_.size(); ++k) {
+    const size_t i = setBase() + k;
     if (!predictor_.contains(i)) continue;
-    const std::string name = track_in_world_[s];
+    const std::string name = sourced_in_world_[k];
     std::string why = BodyRegistry::motionRangeError(predictor_.motion(i), t0_, t0_ + cycle_horizon_);
     if (why.empty() && error.find("\"" + name + "\"") == std::string::npos) continue;
     if (why.empty()) why = "the prediction failed on it: " + error;
-    tracks_.drop(s, why, now);
-    unsetTrack(s);
+    body_sources_[k % n]->drop(k / n, why, now);
+    unsetSourced(i);
     names += (names.empty() ? "" : ", ") + name;
   }
   if (names.empty()) return false;
@@ -585,7 +603,7 @@ void MonitorCore::startCycle(const ros::Time& now, TransformSource& tf) {
   impacts_.header.stamp = now;
   impacts_.header.frame_id = params_.fixed_frame;
   std::fill(soonest_.begin(), soonest_.end(), std::numeric_limits<double>::infinity());
-  std::fill(track_soonest_.begin(), track_soonest_.end(), std::numeric_limits<double>::infinity());
+  std::fill(sourced_soonest_.begin(), sourced_soonest_.end(), std::numeric_limits<double>::infinity());
   t0_ = registry_.seconds(now);
   cycle_horizon_ = params_.horizon;
   predict_attempts_ = 0;
@@ -664,10 +682,10 @@ void MonitorCore::writeImpacts(const ros::Time& now) {
   constexpr size_t kImpactsPerThread = 128, kImpactChunk = 32;
   vadop::parallelFor(vadop::threadCount(params_.threads), kept.size(), kImpactsPerThread, kImpactChunk,
                              [&](size_t i) { writeImpact(raw[kept[i]], now, out[i]); });
-  // The soonest time to impact of an element's body (a tracked object's own).
+  // The soonest time to impact of an element's body (a source body's own).
   const auto& elements = registry_.elements();
   auto soonest = [&](size_t element) -> double& {
-    return isTrack(element) ? track_soonest_[element - trackBase()] : soonest_[elements[element].body];
+    return isSourced(element) ? sourced_soonest_[element - setBase()] : soonest_[elements[element].body];
   };
   for (size_t i = 0; i < kept.size(); ++i) {
     const RawImpact& hit = raw[kept[i]];
@@ -726,14 +744,15 @@ visualization_msgs::MarkerArray MonitorCore::markers() const {
     m.soonest = soonest_[e.body];
     in.elements.push_back(std::move(m));
   }
-  for (size_t s = 0; s < track_in_world_.size(); ++s) {
-    const size_t i = trackBase() + s;
+  for (size_t k = 0; k < sourced_in_world_.size(); ++k) {
+    const size_t i = setBase() + k;
     if (!predictor_.contains(i)) continue;
     MarkerElement m;
-    m.body = track_in_world_[s];
+    m.body = sourced_in_world_[k];
+    m.link = sourcedBody(i).link;
     m.shape = predictor_.shape(i);
     m.motion = predictor_.motion(i);
-    m.soonest = track_soonest_[s];
+    m.soonest = sourced_soonest_[k];
     in.elements.push_back(std::move(m));
   }
   return buildMarkers(in);

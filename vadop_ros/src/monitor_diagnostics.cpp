@@ -148,28 +148,4 @@ void reportBodies(diagnostic_updater::DiagnosticStatusWrapper& stat, const BodyR
   stat.summary(worst, summary);
 }
 
-void reportTracks(diagnostic_updater::DiagnosticStatusWrapper& stat, const Tracks& tracks, const ros::Time& now) {
-  unsigned char level = DiagnosticStatus::OK;
-  for (size_t i = 0; i < tracks.sources(); ++i) {
-    const TrackParams& p = tracks.params(i);
-    const TrackSourceStatus& st = tracks.status(i);
-    const std::string k = p.prefix + ": ";
-    stat.add(k + "topic", p.topic);
-    stat.add(k + "objects", st.objects);
-    stat.add(k + "arrays accepted", st.arrays_accepted);
-    stat.add(k + "arrays dropped", st.arrays_dropped);
-    stat.add(k + "arrays out of order", st.arrays_out_of_order);
-    stat.add(k + "objects dropped", st.objects_dropped);
-    stat.add(k + "objects expired", st.objects_expired);
-    stat.add(k + "last problem", st.last_problem.empty() ? std::string("none") : st.last_problem);
-    if (!st.last_problem_receipt.isZero() &&
-        secondsBetween(now, st.last_problem_receipt) < BodyRegistry::kInvalidMarkSeconds) {
-      level = DiagnosticStatus::WARN;
-    }
-  }
-  char buf[128];
-  std::snprintf(buf, sizeof buf, "%zu tracked objects from %zu source(s)", tracks.alive(), tracks.sources());
-  stat.summary(level, std::string(buf) + (level == DiagnosticStatus::OK ? "" : "; bad input recently (see last problem)"));
-}
-
 }  // namespace vadop_ros

@@ -1,12 +1,13 @@
 // Reading ~ parameters (XmlRpc values) with errors that name the parameter: shared by the
 // parameter parser (params.cpp) and the input kinds that read their own keys of a ~bodies entry
-// (src/sources). Internal to vadop_ros (not installed).
+// or their own top-level parameter (src/sources). Internal to vadop_ros (not installed).
 #pragma once
 
 #include "vadop_ros/params.h"
 
 #include <xmlrpcpp/XmlRpcValue.h>
 
+#include <set>
 #include <string>
 
 namespace vadop_ros {
@@ -43,6 +44,19 @@ inline const XmlRpcValue* member(const XmlRpcValue& s, const std::string& key) {
   if (!s.hasMember(key)) return nullptr;
   return &s[key];
 }
+
+// A number as the errors print it.
+std::string num(double v);
+// A finite number (an integer is taken too).
+double toDouble(const XmlRpcValue& v, const std::string& path);
+void requireStruct(const XmlRpcValue& v, const std::string& path);
+void requireArray(const XmlRpcValue& v, const std::string& path);
+// Throws naming "<path>.<key>" for the first key of `s` not in `known`.
+void rejectUnknown(const XmlRpcValue& s, const std::set<std::string>& known, const std::string& path);
+// A topic or parameter name the node's NodeHandle takes; `what`: "topic", "parameter name".
+void checkRosName(const std::string& name, const std::string& path, const char* what);
+// `def` when v is null, else a number in (lo, hi] (lo_open) or [lo, hi].
+double ranged(const XmlRpcValue* v, double def, double lo, double hi, bool lo_open, const std::string& path);
 
 }  // namespace param_reading
 }  // namespace vadop_ros

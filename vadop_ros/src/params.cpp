@@ -15,10 +15,8 @@
 #include <sstream>
 
 namespace vadop_ros {
-namespace {
 
-using XmlRpc::XmlRpcValue;
-using namespace param_reading;
+namespace param_reading {
 
 std::string num(double v) {
   std::ostringstream os;
@@ -35,18 +33,6 @@ double toDouble(const XmlRpcValue& v, const std::string& path) {
   if (v.getType() == XmlRpcValue::TypeInt) return static_cast<int>(const_cast<XmlRpcValue&>(v));
   fail(path, std::string("must be a number, got ") + typeName(v));
 }
-
-
-bool toBool(const XmlRpcValue& v, const std::string& path) {
-  if (v.getType() != XmlRpcValue::TypeBoolean) fail(path, std::string("must be true or false, got ") + typeName(v));
-  return static_cast<bool>(const_cast<XmlRpcValue&>(v));
-}
-
-int toInt(const XmlRpcValue& v, const std::string& path) {
-  if (v.getType() != XmlRpcValue::TypeInt) fail(path, std::string("must be an integer, got ") + typeName(v));
-  return static_cast<int>(const_cast<XmlRpcValue&>(v));
-}
-
 
 void requireStruct(const XmlRpcValue& v, const std::string& path) {
   if (v.getType() != XmlRpcValue::TypeStruct) fail(path, std::string("must be a dictionary, got ") + typeName(v));
@@ -79,6 +65,32 @@ void checkRosName(const std::string& name, const std::string& path, const char* 
   if (name.front() == '~') {
     fail(path, std::string("must not be a private (~) ") + what + " name, got \"" + name + "\"");
   }
+}
+
+double ranged(const XmlRpcValue* v, double def, double lo, double hi, bool lo_open, const std::string& path) {
+  if (!v) return def;
+  const double d = toDouble(*v, path);
+  if ((lo_open ? !(d > lo) : !(d >= lo)) || !(d <= hi)) {
+    fail(path, std::string("must be in ") + (lo_open ? "(" : "[") + num(lo) + ", " + num(hi) + "], got " + num(d));
+  }
+  return d;
+}
+
+}  // namespace param_reading
+
+namespace {
+
+using XmlRpc::XmlRpcValue;
+using namespace param_reading;
+
+bool toBool(const XmlRpcValue& v, const std::string& path) {
+  if (v.getType() != XmlRpcValue::TypeBoolean) fail(path, std::string("must be true or false, got ") + typeName(v));
+  return static_cast<bool>(const_cast<XmlRpcValue&>(v));
+}
+
+int toInt(const XmlRpcValue& v, const std::string& path) {
+  if (v.getType() != XmlRpcValue::TypeInt) fail(path, std::string("must be an integer, got ") + typeName(v));
+  return static_cast<int>(const_cast<XmlRpcValue&>(v));
 }
 
 // A tf2 frame id, after its leading '/' (tf1 style) was removed: letters, digits, '_', '-', '.'
@@ -128,15 +140,6 @@ double dimension(const XmlRpcValue& v, const std::string& path, bool zero_ok = f
   const double d = toDouble(v, path);
   if (zero_ok ? !(d >= 0.0) : !(d > 0.0)) fail(path, std::string("must be a number ") + (zero_ok ? ">= 0" : "> 0") + ", got " + num(d));
   checkRange(d, vadop::kMaxSize, path, "m");
-  return d;
-}
-
-double ranged(const XmlRpcValue* v, double def, double lo, double hi, bool lo_open, const std::string& path) {
-  if (!v) return def;
-  const double d = toDouble(*v, path);
-  if ((lo_open ? !(d > lo) : !(d >= lo)) || !(d <= hi)) {
-    fail(path, std::string("must be in ") + (lo_open ? "(" : "[") + num(lo) + ", " + num(hi) + "], got " + num(d));
-  }
   return d;
 }
 
@@ -382,50 +385,21 @@ void parseObstacles(const XmlRpcValue& list, MonitorParams& out, std::set<std::s
   }
 }
 
-void parseTracks(const XmlRpcValue& list, MonitorParams& out) {
-  requireArray(list, "~tracks");
-  std::set<std::string> prefixes;
-  for (int i = 0; i < list.size(); ++i) {
-    const XmlRpcValue& e = list[i];
-    const std::string path = "~tracks[" + std::to_string(i) + "]";
-    requireStruct(e, path);
-    rejectUnknown(e, {"topic", "prefix", "default_shape", "timeout"}, path);
-    TrackParams t;
-    const XmlRpcValue* topic = member(e, "topic");
-    if (!topic) fail(path + ".topic", "is required (a vadop/TrackedObjectArray topic)");
-    t.topic = toString(*topic, path + ".topic");
-    checkRosName(t.topic, path + ".topic", "topic");
-    if (const XmlRpcValue* p = member(e, "prefix")) {
-      t.prefix = toString(*p, path + ".prefix");
-    } else {
-      std::string name = t.topic;
-      while (!name.empty() && name.back() == '/') name.pop_back();
-      t.prefix = name.substr(name.find_last_of('/') + 1);
-    }
-    if (t.prefix.empty()) fail(path + ".prefix", "must not be empty");
-    if (t.prefix.find_first_of(" \t\n") != std::string::npos) {
-      fail(path + ".prefix", "must not contain spaces, got \"" + t.prefix + "\"");
-    }
-    if (!prefixes.insert(t.prefix).second) {
-      fail(path + ".prefix", "\"" + t.prefix + "\" is the prefix of another source (objects would share names)");
-    }
-    if (const XmlRpcValue* d = member(e, "default_shape")) {
-      t.has_default_shape = true;
-      t.default_shape = parseShape(*d, path + ".default_shape");
-    }
-    t.timeout = ranged(member(e, "timeout"), t.timeout, 0.0, 3600.0, true, path + ".timeout");
-    out.tracks.push_back(std::move(t));
-  }
-}
-
-const std::set<std::string>& topLevelKeys() {
-  static const std::set<std::string> keys = {
+// The node's own keys and those of the body-set kinds (bodiesSourceKinds(): "tracks").
+std::set<std::string> makeTopLevelKeys() {
+  std::set<std::string> keys = {
       "fixed_frame", "rate", "horizon", "padding", "stale_timeout", "max_stamp_skew", "axes", "phi_deg", "threads", "broad_phase", "time_slices",
       "coherence_clearance", "coherence_lookahead",
-      "self_collision", "ignore_pairs", "bodies", "static_obstacles", "tracks", "log_impacts",
+      "self_collision", "ignore_pairs", "bodies", "static_obstacles", "log_impacts",
       "publish_markers",
       // set by diagnostic_updater and dynamic_reconfigure themselves
       "diagnostic_period"};
+  for (const BodiesSourceKind& kind : bodiesSourceKinds()) keys.insert(kind.name);
+  return keys;
+}
+
+const std::set<std::string>& topLevelKeys() {
+  static const std::set<std::string> keys = makeTopLevelKeys();
   return keys;
 }
 
@@ -548,7 +522,9 @@ MonitorParams parseParams(const XmlRpcValue& root) {
   std::set<std::string> names;
   if (const XmlRpcValue* v = member(root, "bodies")) parseBodies(*v, p, names);
   if (const XmlRpcValue* v = member(root, "static_obstacles")) parseObstacles(*v, p, names);
-  if (const XmlRpcValue* v = member(root, "tracks")) parseTracks(*v, p);
+  for (const BodiesSourceKind& kind : bodiesSourceKinds()) {
+    if (const XmlRpcValue* v = member(root, kind.name)) kind.parse(*v, p);
+  }
   return p;
 }
 

@@ -11,7 +11,6 @@
 #include <vadop/GateStateArray.h>
 #include <vadop/ImpactArray.h>
 #include <vadop/MonitorConfig.h>
-#include <vadop/TrackedObjectArray.h>
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
@@ -88,9 +87,9 @@ class MonitorNode {
     markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("markers", 2);
 
     const auto subscribe_start = std::chrono::steady_clock::now();
-    const size_t moving = subscribeInputs(params);
+    const size_t moving = subscribeInputs();
     setUpGates();
-    setUpDiagnostics(params);
+    setUpDiagnostics();
     setUpReconfigure(params);
 
     timer_ = nh_.createTimer(ros::Duration(1.0 / rate_), [this](const ros::TimerEvent&) { onTimer(); });
@@ -109,9 +108,9 @@ class MonitorNode {
   }
 
  private:
-  // Every input of every moving body (each source subscribes itself, source.h) and each
-  // tracked-object topic; returns the number of moving bodies.
-  size_t subscribeInputs(const MonitorParams& params) {
+  // Every input of every moving body (each source subscribes itself, source.h) and of every
+  // body-set source (tracked objects); returns the number of moving bodies.
+  size_t subscribeInputs() {
     const auto& bodies = core_->registry().bodies();
     // One subscription per moving body: a call to the master each, and both roscpp
     // (TopicManager::addSubCallback) and rosmaster (NodeRef.add) compare a new subscription
@@ -135,12 +134,9 @@ class MonitorNode {
         subs_.push_back(source->subscribe({nh_, core_mutex_, core_->registry(), i, tf_source_}));
       }
     }
-    // Tracked objects: one subscription per source.
-    for (size_t s = 0; s < params.tracks.size(); ++s) {
-      subs_.push_back(nh_.subscribe<vadop::TrackedObjectArray>(
-          params.tracks[s].topic, 5,
-          [this, s](const vadop::TrackedObjectArrayConstPtr& msg) { onTracks(s, *msg); }, ros::VoidConstPtr(),
-          ros::TransportHints().tcpNoDelay()));
+    // Body-set sources (tracked objects): each subscribes its own topics.
+    for (const auto& source : core_->bodiesSources()) {
+      for (ros::Subscriber& sub : source->subscribe({nh_, core_mutex_, tf_source_})) subs_.push_back(std::move(sub));
     }
     return moving;
   }
@@ -175,7 +171,7 @@ class MonitorNode {
     if (!gates_.empty()) gate_states_pub_ = pnh_.advertise<vadop::GateStateArray>("gate_states", 10);
   }
 
-  void setUpDiagnostics(const MonitorParams& params) {
+  void setUpDiagnostics() {
     updater_.setHardwareID("vadop_monitor");
     updater_.add("cycle", [this](diagnostic_updater::DiagnosticStatusWrapper& s) {
       window_.report(s, core_->params().rate);
@@ -183,9 +179,11 @@ class MonitorNode {
     updater_.add("bodies", [this](diagnostic_updater::DiagnosticStatusWrapper& s) {
       reportBodies(s, core_->registry(), ros::Time::now());
     });
-    if (!params.tracks.empty()) {
-      updater_.add("tracks", [this](diagnostic_updater::DiagnosticStatusWrapper& s) {
-        reportTracks(s, core_->tracks(), ros::Time::now());
+    for (const auto& source : core_->bodiesSources()) {
+      if (!source->configured()) continue;
+      const BodiesSource* kept = source.get();
+      updater_.add(kept->kind(), [kept](diagnostic_updater::DiagnosticStatusWrapper& s) {
+        kept->report(s, ros::Time::now());
       });
     }
   }
@@ -206,10 +204,6 @@ class MonitorNode {
 
   // Every use of core_ holds core_mutex_ (the gates' thread checks commands), but for the
   // cycle's prediction, which onTimer runs outside it (MonitorCore::predictCycle).
-  void onTracks(size_t source, const vadop::TrackedObjectArray& msg) {
-    std::lock_guard<std::mutex> lock(core_mutex_);
-    core_->tracks().onArray(source, msg, ros::Time::now(), tf_source_);
-  }
   // A command on a gate's cmd_vel_in: checked and forwarded at once. Whatever goes wrong, the
   // gate publishes a zero command rather than nothing or the unchecked one.
   void onCommand(size_t g, const geometry_msgs::Twist& msg, const ros::Time& receipt) {

@@ -1,5 +1,5 @@
 // One prediction cycle of vadop_monitor, without ROS transport: the body registry and the
-// tracked objects (~tracks) feed the
+// body-set sources (source.h's BodiesSource: tracked objects, ~tracks) feed the
 // vadop::World (through Predictor, kept incrementally: elements are added when they first have
 // a motion, setMotion'ed when their motion changes, removed while they are skipped; never
 // rebuilt), the World predicts with the VADOP broad phase and the continuous narrow phase, and
@@ -13,6 +13,7 @@
 #include "vadop_ros/pair_filter.h"
 #include "vadop_ros/params.h"
 #include "vadop_ros/predictor.h"
+#include "vadop_ros/source.h"
 #include "vadop_ros/tracks.h"
 
 // The message; this header must not pull in vadop/world.h (see predictor.h).
@@ -38,7 +39,7 @@ struct CycleStats {
   double predict_seconds = 0.0;  // of which World::predict (the rest: the ImpactArray)
   size_t elements_in_world = 0;
   size_t moving_elements = 0;    // of the bodies (registry)
-  size_t tracked_objects = 0;    // of ~tracks, in the world
+  size_t tracked_objects = 0;    // of the body-set sources (~tracks), in the world
   size_t candidates = 0;         // candidate pairs after the filters (World::lastCandidateCount)
   size_t reused = 0;             // of which answered by certificates (~coherence_clearance)
   size_t slice_culled = 0;       // broad-phase pairs dropped before them (World::lastSliceCulledCount)
@@ -104,12 +105,17 @@ class MonitorCore {
 
   BodyRegistry& registry() { return registry_; }
   const BodyRegistry& registry() const { return registry_; }
-  // The tracked objects (~tracks): the node feeds each source's arrays (Tracks::onArray).
-  Tracks& tracks() { return tracks_; }
-  const Tracks& tracks() const { return tracks_; }
-  // Elements: the registry's (0 .. registry().elements().size() - 1), then one per slot of
-  // tracks() (element registry().elements().size() + slot). What one is, as the filters and
-  // the impacts name it: a tracked object is the body "<prefix>/<id>" without a link.
+  // The body-set sources, one per kind of bodiesSourceKinds() (configured or not): the node
+  // subscribes them and adds their diagnostics.
+  const std::vector<std::unique_ptr<BodiesSource>>& bodiesSources() const { return body_sources_; }
+  // The tracked objects (~tracks), the body-set source of kind "tracks": tests, the bench and
+  // the fuzz target feed its arrays (Tracks::onArray).
+  Tracks& tracks() { return *tracks_; }
+  const Tracks& tracks() const { return *tracks_; }
+  // Elements: the registry's (0 .. registry().elements().size() - 1), then the body-set
+  // sources' slots interleaved: slot s of source j is element setElement(j, s). What one is, as
+  // the filters and the impacts name it: a source body's name and link (a tracked object: the
+  // body "<prefix>/<id>" without a link).
   ElementKey elementKey(size_t element) const;
   // The same, written into the given strings (the ImpactArray's, whose storage is kept).
   void elementNames(size_t element, std::string& body, std::string& link) const;
@@ -144,7 +150,7 @@ class MonitorCore {
   const CycleStats& lastStats() const { return stats_; }
 
   // Soonest time to impact of each body (index into registry().bodies()) in the last cycle;
-  // +inf when none (tracked objects: not here).
+  // +inf when none (body-set sources' bodies: not here).
   const std::vector<double>& soonest() const { return soonest_; }
 
   // Markers of the last cycle (swept volumes, impacts); see markers.h.
@@ -215,23 +221,36 @@ class MonitorCore {
   // World::predict threw `error`: leaves out of the world every element whose motion is out of
   // range over the window or that the message names; false when none could be found.
   bool leaveOutOffenders(const std::string& error, const ros::Time& now);
-  // The tracked objects into the world: the expired ones out, the others in with their motion.
-  void syncTracks(const ros::Time& now);
-  // A tracked object's slot leaves both worlds.
-  void unsetTrack(size_t slot);
-  size_t trackBase() const { return registry_.elements().size(); }
-  bool isTrack(size_t element) const { return element >= trackBase(); }
+  // The body-set sources' bodies into the world: those whose input timed out leave, the others
+  // enter or move with their motion.
+  void syncSourcedBodies(const ros::Time& now);
+  // Source j's bodies, one after the other (syncSourcedBodies); the number in the world.
+  size_t syncSourcedBodies(size_t j, double t_now, const ros::Time& now);
+  // The one mapping between a body-set source's slot and its world element: the sources'
+  // slots interleaved after the registry's elements (one source: base + slot), so that each
+  // source's slots grow without moving another's elements. k = element - setBase() indexes the
+  // per-element vectors below.
+  size_t setBase() const { return registry_.elements().size(); }
+  bool isSourced(size_t element) const { return element >= setBase(); }
+  size_t setElement(size_t source, size_t slot) const { return setBase() + slot * body_sources_.size() + source; }
+  const SourcedBody& sourcedBody(size_t element) const {
+    const size_t k = element - setBase(), n = body_sources_.size();
+    return body_sources_[k % n]->bodies().at(k / n);
+  }
+  // A source body's element leaves both worlds.
+  void unsetSourced(size_t element);
 
   MonitorParams params_;
   BodyRegistry registry_;
   PairFilter filter_;
   std::vector<PairFilter::Matches> element_matches_;  // ~ignore_pairs per element (elements())
-  Tracks tracks_;
-  // Per tracked slot: its object's name in the worlds ("" when out), its ~ignore_pairs matches,
-  // its soonest time to impact in the last cycle.
-  std::vector<std::string> track_in_world_;
-  std::vector<PairFilter::Matches> track_matches_;
-  std::vector<double> track_soonest_;
+  std::vector<std::unique_ptr<BodiesSource>> body_sources_;
+  Tracks* tracks_ = nullptr;  // the one of kind "tracks" in body_sources_
+  // Per source body's element (k = element - setBase()): its body's name in the worlds (""
+  // when out), its ~ignore_pairs matches, its soonest time to impact in the last cycle.
+  std::vector<std::string> sourced_in_world_;
+  std::vector<PairFilter::Matches> sourced_matches_;
+  std::vector<double> sourced_soonest_;
   Predictor predictor_;
   // The gates' world: every element of predictor_ with the same shape and motion as at the
   // end of the last cycle (syncGateWorld), and the gated commands adopted since.

@@ -9,7 +9,8 @@
 //    "transform missing: ...", "dropped 3 bad messages, last: NaN/Inf in ...", "geometry
 //    error: ..."), the level being the worst of them (stale, tf missing and bad messages: WARN;
 //    a geometry error: ERROR; waiting for the first message: OK);
-//  - "tracks" (with ~tracks): "N tracked objects from M source(s)", and per source (its prefix
+//  - "tracks" (with ~tracks; filled by the tracked objects' source, Tracks::report, as each
+//    body-set source fills its own entry): "N tracked objects from M source(s)", and per source (its prefix
 //    P) "P: objects" (in the world now), "P: arrays accepted", "P: arrays dropped", "P: arrays
 //    out of order", "P: objects dropped", "P: objects expired", "P: last problem"; WARN while a
 //    source dropped something within the last BodyRegistry::kInvalidMarkSeconds.
@@ -46,8 +47,5 @@ std::string describeBody(const Body& body, const ros::Time& now, double stale_ti
 // Fills the "bodies" status.
 void reportBodies(diagnostic_updater::DiagnosticStatusWrapper& stat, const BodyRegistry& registry,
                   const ros::Time& now);
-
-// Fills the "tracks" status.
-void reportTracks(diagnostic_updater::DiagnosticStatusWrapper& stat, const Tracks& tracks, const ros::Time& now);
 
 }  // namespace vadop_ros

@@ -92,7 +92,8 @@ struct StaticObstacleParams {
 };
 
 // A source of tracked objects (~tracks[i]): a vadop/TrackedObjectArray topic whose objects are
-// moving bodies named "<prefix>/<id>" while they keep appearing (tracks.h).
+// moving bodies named "<prefix>/<id>" while they keep appearing (tracks.h; parsed by its source,
+// src/sources/tracked_objects_source.cpp).
 struct TrackParams {
   std::string topic;
   std::string prefix;  // default: the topic's last name ("/people/tracks" -> "tracks"); no spaces

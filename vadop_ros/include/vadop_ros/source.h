@@ -12,9 +12,12 @@
 // It does not: build geometry (BodyRegistry), compose element motions from the contributions
 // (BodyRegistry::update), or warn by itself: a dropped message goes through
 // BodyRegistry::dropMessage, so every input of a body shares its status and warning throttle.
-// Sources that bring bodies of their own rather than one body's motion (tracked objects, and
-// the later sensor inputs: scans, clouds and grids as sets of obstacle points) contribute a
-// set of bodies each cycle the same way: see Tracks, the first of them.
+//
+// Inputs that bring bodies of their own rather than one body's motion (tracked objects, and
+// the later sensor inputs: scans, clouds and grids as sets of obstacle points or boxes) are
+// body-set sources (BodiesSource below): one per kind, made by one entry of
+// bodiesSourceKinds(), holding the set of bodies its latest messages brought in slots that
+// MonitorCore syncs into the world each cycle.
 #pragma once
 
 #include "vadop_ros/params.h"
@@ -24,12 +27,18 @@
 #include <xmlrpcpp/XmlRpcValue.h>
 #include <ros/time.h>
 
+#include <vadop/shapes.h>
+
 #include <cstdint>
 #include <memory>
 #include <mutex>
 #include <string>
 #include <utility>
 #include <vector>
+
+namespace diagnostic_updater {
+class DiagnosticStatusWrapper;
+}
 
 namespace vadop_ros {
 
@@ -150,5 +159,84 @@ struct SourceKind {
 // Every kind, in the order a body's sources are made and contribute (the velocity source
 // first: the others start from the body frame it gives).
 const std::vector<SourceKind>& sourceKinds();
+
+// One body of a body-set source: a collision element of its own that moves with a constant
+// twist from `stamp` (zero for a static obstacle), named in the impacts by `name` and `link`.
+struct SourcedBody {
+  bool alive = false;  // false: a free slot
+  // The impacts' body_a/body_b (tracked objects: "<prefix>/<id>"); also the element's id in
+  // the world (its errors name it), so unique among the bodies in the world.
+  std::string name;
+  std::string link;    // the impacts' link_a/link_b (tracked objects: empty)
+  vadop::Shape shape;  // unpadded
+  // In the fixed frame: the pose at `stamp`, the velocity of the pose's origin and the angular
+  // velocity.
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();
+  Eigen::Vector3d w = Eigen::Vector3d::Zero();
+  ros::Time stamp;
+};
+
+// An input that brings a set of bodies (the kind's topics, their latest messages, the bodies
+// they hold). The bodies live in slots (bodies()) that keep their index while their body lives
+// and are reused after it left: MonitorCore gives each slot one world element, so a body joining
+// or leaving costs one world add or remove, never a rebuild. A slot is freed only through
+// expire, drop or clear, which hand it back in `left`: its element leaves the world before the
+// slot may hold another body.
+// A body-set source does: subscribe to its topics (each message checked and kept under the
+// node's lock by its own handler), let bodies leave whose input timed out (expire), drop a body
+// the world refused (drop, counted and warned about), forget everything (clear) and fill its
+// diagnostics entry (report; its name: kind()). It does not: touch the world, pad shapes,
+// apply the pair rules or turn a body's state into a motion (MonitorCore does, the same way
+// for every kind).
+class BodiesSource {
+ public:
+  virtual ~BodiesSource() = default;
+  // Its top-level parameter and its diagnostics entry ("tracks").
+  virtual const char* kind() const = 0;
+  // Its parameters name at least one topic (else the node adds no diagnostics entry for it).
+  virtual bool configured() const = 0;
+
+  // What the node gives a body-set source to subscribe with: its NodeHandle, the lock every
+  // use of the core holds and tf (for a message in another frame).
+  struct Wiring {
+    ros::NodeHandle& nh;
+    std::mutex& lock;
+    TransformSource& tf;
+  };
+  virtual std::vector<ros::Subscriber> subscribe(const Wiring& w) = 0;
+
+  // Bodies whose input timed out at `now` leave; their slots are appended to `left`.
+  virtual void expire(const ros::Time& now, std::vector<size_t>& left) = 0;
+  // The body in `slot` cannot be predicted (its motion out of range, refused by the world): it
+  // leaves, counted as dropped and warned about with `why`.
+  virtual void drop(size_t slot, const std::string& why, const ros::Time& now) = 0;
+  // Every body leaves and every message is forgotten (time jumped back); their slots are
+  // appended to `left`.
+  virtual void clear(std::vector<size_t>& left) = 0;
+  // Fills its diagnostics entry (named kind()).
+  virtual void report(diagnostic_updater::DiagnosticStatusWrapper& stat, const ros::Time& now) const = 0;
+
+  // The slots, alive or free (no virtual call per body in MonitorCore's loops).
+  const std::vector<SourcedBody>& bodies() const { return bodies_; }
+
+ protected:
+  std::vector<SourcedBody> bodies_;
+};
+
+// One body-set kind: its top-level parameter, how to read it and how to make its source.
+struct BodiesSourceKind {
+  // Its top-level parameter (~tracks: "tracks"), a known key of the node.
+  const char* name;
+  // Reads ~<name> (`value`) into `out` after the bodies and static obstacles; throws
+  // ParamError naming the parameter.
+  void (*parse)(const XmlRpc::XmlRpcValue& value, MonitorParams& out);
+  // Its source from the node's parameters: always made (configured() says whether ~<name>
+  // named a topic), so that MonitorCore has one per kind.
+  std::unique_ptr<BodiesSource> (*make)(const MonitorParams& p);
+};
+// Every body-set kind, in the order MonitorCore syncs them into the world (each source's
+// elements follow the registry's: MonitorCore::setElement).
+const std::vector<BodiesSourceKind>& bodiesSourceKinds();
 
 }  // namespace vadop_ros

@@ -1,4 +1,5 @@
-// Tracked objects (~tracks): the people, carts and vehicles a tracker reports, one
+// Tracked objects (~tracks), the first body-set source (source.h's BodiesSource; its code in
+// src/sources/tracked_objects_source.cpp): the people, carts and vehicles a tracker reports, one
 // vadop/TrackedObjectArray topic per source, with ids that appear, vanish and come back. Each
 // object is a moving body "<prefix>/<id>" of one collision element (its primitive, or the
 // source's default_shape) that moves with its reported twist from the array's stamp; an object
@@ -18,6 +19,7 @@
 
 #include "vadop_ros/body_registry.h"  // TransformSource, InputResult
 #include "vadop_ros/params.h"
+#include "vadop_ros/source.h"
 
 #include <vadop/TrackedObjectArray.h>
 #include <vadop/shapes.h>
@@ -32,19 +34,9 @@
 
 namespace vadop_ros {
 
-struct TrackedObject {
-  bool alive = false;
-  std::string name;  // "<prefix>/<id>"
-  size_t source = 0;
-  vadop::Shape shape;  // unpadded
-  // The latest accepted state, in the fixed frame: the pose at `stamp`, and the velocity of the
-  // pose's origin and the angular velocity.
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  Eigen::Vector3d v = Eigen::Vector3d::Zero();
-  Eigen::Vector3d w = Eigen::Vector3d::Zero();
-  ros::Time stamp;      // the array's stamp (its receipt when zero)
-  ros::Time last_seen;  // receipt of the last array that had it
-};
+// A tracked object's slot: its latest accepted state (name "<prefix>/<id>", no link; stamp: the
+// array's, its receipt when zero).
+using TrackedObject = SourcedBody;
 
 struct TrackSourceStatus {
   size_t objects = 0;  // alive now
@@ -55,9 +47,17 @@ struct TrackSourceStatus {
   double last_warn = -1e300;  // wall seconds of the last warning (throttle)
 };
 
-class Tracks {
+class Tracks : public BodiesSource {
  public:
   Tracks(std::vector<TrackParams> params, std::string fixed_frame, double max_stamp_skew);
+
+  const char* kind() const override { return "tracks"; }
+  bool configured() const override { return !params_.empty(); }
+  // One subscription per source; each array runs onArray under the lock, stamped with the
+  // node's clock at its receipt.
+  std::vector<ros::Subscriber> subscribe(const Wiring& w) override;
+  // The "tracks" entry (monitor_diagnostics.h lists its keys).
+  void report(diagnostic_updater::DiagnosticStatusWrapper& stat, const ros::Time& now) const override;
 
   size_t sources() const { return params_.size(); }
   const TrackParams& params(size_t source) const { return params_.at(source); }
@@ -68,14 +68,14 @@ class Tracks {
                       TransformSource& tf);
   // Objects not seen for their source's timeout at `now` leave; their slots are appended to
   // `left` (free for reuse from now on).
-  void expire(const ros::Time& now, std::vector<size_t>& left);
+  void expire(const ros::Time& now, std::vector<size_t>& left) override;
   // An object the world cannot take (its motion out of range): it leaves, counted as dropped.
-  void drop(size_t slot, const std::string& why, const ros::Time& now);
+  void drop(size_t slot, const std::string& why, const ros::Time& now) override;
   // Every object leaves (time jumped back); their slots are appended to `left`.
-  void clear(std::vector<size_t>& left);
+  void clear(std::vector<size_t>& left) override;
 
   // Slots: alive or free; a slot keeps its index while its object lives.
-  const std::vector<TrackedObject>& slots() const { return slots_; }
+  const std::vector<TrackedObject>& slots() const { return bodies_; }
   size_t alive() const { return by_name_.size(); }
   void setMaxStampSkew(double seconds) { max_stamp_skew_ = seconds; }
 
@@ -101,7 +101,10 @@ class Tracks {
   double max_stamp_skew_;
   std::vector<TrackSourceStatus> status_;
   std::vector<ros::Time> last_stamp_;  // per source: of the last accepted array
-  std::vector<TrackedObject> slots_;
+  // Per slot (beside bodies_): the source its object came from, the receipt of the last array
+  // that had it.
+  std::vector<size_t> slot_source_;
+  std::vector<ros::Time> last_seen_;
   std::vector<size_t> free_;
   std::unordered_map<std::string, size_t> by_name_;
 };

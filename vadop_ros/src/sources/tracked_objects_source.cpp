@@ -1,14 +1,21 @@
 #include "vadop_ros/tracks.h"
 
-#include "message_checks.h"
+#include "../message_checks.h"
+#include "../param_reading.h"
 
 #include <vadop/error.h>
 
+#include <diagnostic_msgs/DiagnosticStatus.h>
+#include <diagnostic_updater/DiagnosticStatusWrapper.h>
 #include <ros/console.h>
+#include <ros/node_handle.h>
 
 #include <shape_msgs/SolidPrimitive.h>
 
 #include <cmath>
+#include <set>
+#include <cstdio>
+#include <memory>
 #include <unordered_set>
 #include <utility>
 
@@ -170,8 +177,10 @@ size_t Tracks::slotFor(size_t source, const std::string& name) {
     slot = free_.back();
     free_.pop_back();
   } else {
-    slot = slots_.size();
-    slots_.emplace_back();
+    slot = bodies_.size();
+    bodies_.emplace_back();
+    slot_source_.push_back(0);
+    last_seen_.emplace_back();
   }
   by_name_.emplace(name, slot);
   ++status_[source].objects;
@@ -211,53 +220,153 @@ InputResult Tracks::onArray(size_t source, const vadop::TrackedObjectArray& msg,
       continue;
     }
     const std::string name = params_[source].prefix + "/" + o.id;
-    TrackedObject& t = slots_[slotFor(source, name)];
+    const size_t slot = slotFor(source, name);
+    TrackedObject& t = bodies_[slot];
     t.alive = true;
     t.name = name;
-    t.source = source;
+    slot_source_[slot] = source;
     t.shape = std::move(shape);
     t.pose = pose;
     t.v = to_fixed.linear() * toEigen(o.twist.linear);
     t.w = to_fixed.linear() * toEigen(o.twist.angular);
     t.stamp = stamp;
-    t.last_seen = receipt;
+    last_seen_[slot] = receipt;
   }
   return InputResult::kAccepted;
 }
 
 void Tracks::release(size_t slot) {
-  TrackedObject& t = slots_[slot];
+  TrackedObject& t = bodies_[slot];
   by_name_.erase(t.name);
-  --status_[t.source].objects;
+  --status_[slot_source_[slot]].objects;
   t = TrackedObject();
+  slot_source_[slot] = 0;
+  last_seen_[slot] = ros::Time();
   free_.push_back(slot);
 }
 
 void Tracks::expire(const ros::Time& now, std::vector<size_t>& left) {
-  for (size_t s = 0; s < slots_.size(); ++s) {
-    const TrackedObject& t = slots_[s];
-    if (!t.alive || !(secondsBetween(now, t.last_seen) > params_[t.source].timeout)) continue;
-    ++status_[t.source].objects_expired;
+  for (size_t s = 0; s < bodies_.size(); ++s) {
+    if (!bodies_[s].alive || !(secondsBetween(now, last_seen_[s]) > params_[slot_source_[s]].timeout)) continue;
+    ++status_[slot_source_[s]].objects_expired;
     release(s);
     left.push_back(s);
   }
 }
 
 void Tracks::drop(size_t slot, const std::string& why, const ros::Time& now) {
-  if (slot >= slots_.size() || !slots_[slot].alive) return;
-  const size_t source = slots_[slot].source;
+  if (slot >= bodies_.size() || !bodies_[slot].alive) return;
+  const size_t source = slot_source_[slot];
   ++status_[source].objects_dropped;
-  problem(source, "\"" + slots_[slot].name + "\" left out: " + why, now);
+  problem(source, "\"" + bodies_[slot].name + "\" left out: " + why, now);
   release(slot);
 }
 
 void Tracks::clear(std::vector<size_t>& left) {
-  for (size_t s = 0; s < slots_.size(); ++s) {
-    if (!slots_[s].alive) continue;
+  for (size_t s = 0; s < bodies_.size(); ++s) {
+    if (!bodies_[s].alive) continue;
     release(s);
     left.push_back(s);
   }
   for (ros::Time& t : last_stamp_) t = ros::Time();
+}
+
+std::vector<ros::Subscriber> Tracks::subscribe(const Wiring& w) {
+  std::vector<ros::Subscriber> subs;
+  for (size_t s = 0; s < params_.size(); ++s) {
+    std::mutex* lock = &w.lock;
+    TransformSource* tf = &w.tf;
+    subs.push_back(w.nh.subscribe<vadop::TrackedObjectArray>(
+        params_[s].topic, 5,
+        [this, s, lock, tf](const vadop::TrackedObjectArrayConstPtr& msg) {
+          std::lock_guard<std::mutex> guard(*lock);
+          onArray(s, *msg, ros::Time::now(), *tf);
+        },
+        ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
+  }
+  return subs;
+}
+
+void Tracks::report(diagnostic_updater::DiagnosticStatusWrapper& stat, const ros::Time& now) const {
+  using diagnostic_msgs::DiagnosticStatus;
+  unsigned char level = DiagnosticStatus::OK;
+  for (size_t i = 0; i < sources(); ++i) {
+    const TrackParams& p = params_[i];
+    const TrackSourceStatus& st = status_[i];
+    const std::string k = p.prefix + ": ";
+    stat.add(k + "topic", p.topic);
+    stat.add(k + "objects", st.objects);
+    stat.add(k + "arrays accepted", st.arrays_accepted);
+    stat.add(k + "arrays dropped", st.arrays_dropped);
+    stat.add(k + "arrays out of order", st.arrays_out_of_order);
+    stat.add(k + "objects dropped", st.objects_dropped);
+    stat.add(k + "objects expired", st.objects_expired);
+    stat.add(k + "last problem", st.last_problem.empty() ? std::string("none") : st.last_problem);
+    if (!st.last_problem_receipt.isZero() &&
+        secondsBetween(now, st.last_problem_receipt) < BodyRegistry::kInvalidMarkSeconds) {
+      level = DiagnosticStatus::WARN;
+    }
+  }
+  char buf[128];
+  std::snprintf(buf, sizeof buf, "%zu tracked objects from %zu source(s)", alive(), sources());
+  stat.summary(level, std::string(buf) + (level == DiagnosticStatus::OK ? "" : "; bad input recently (see last problem)"));
+}
+
+namespace {
+
+// The prefix a source's objects are named with: ~tracks[i].prefix, else the topic's last name.
+std::string parsePrefix(const XmlRpc::XmlRpcValue& e, const std::string& path, const std::string& topic,
+                        std::set<std::string>& prefixes) {
+  using namespace param_reading;
+  std::string prefix;
+  if (const XmlRpcValue* p = member(e, "prefix")) {
+    prefix = toString(*p, path + ".prefix");
+  } else {
+    std::string name = topic;
+    while (!name.empty() && name.back() == '/') name.pop_back();
+    prefix = name.substr(name.find_last_of('/') + 1);
+  }
+  if (prefix.empty()) fail(path + ".prefix", "must not be empty");
+  if (prefix.find_first_of(" \t\n") != std::string::npos) {
+    fail(path + ".prefix", "must not contain spaces, got \"" + prefix + "\"");
+  }
+  if (!prefixes.insert(prefix).second) {
+    fail(path + ".prefix", "\"" + prefix + "\" is the prefix of another source (objects would share names)");
+  }
+  return prefix;
+}
+
+// ~tracks: a list of sources {topic, prefix, default_shape, timeout}.
+void parseTracks(const XmlRpc::XmlRpcValue& list, MonitorParams& out) {
+  using namespace param_reading;
+  requireArray(list, "~tracks");
+  std::set<std::string> prefixes;
+  for (int i = 0; i < list.size(); ++i) {
+    const XmlRpcValue& e = list[i];
+    const std::string path = "~tracks[" + std::to_string(i) + "]";
+    requireStruct(e, path);
+    rejectUnknown(e, {"topic", "prefix", "default_shape", "timeout"}, path);
+    TrackParams t;
+    const XmlRpcValue* topic = member(e, "topic");
+    if (!topic) fail(path + ".topic", "is required (a vadop/TrackedObjectArray topic)");
+    t.topic = toString(*topic, path + ".topic");
+    checkRosName(t.topic, path + ".topic", "topic");
+    t.prefix = parsePrefix(e, path, t.topic, prefixes);
+    if (const XmlRpcValue* d = member(e, "default_shape")) {
+      t.has_default_shape = true;
+      t.default_shape = parseShape(*d, path + ".default_shape");
+    }
+    t.timeout = ranged(member(e, "timeout"), t.timeout, 0.0, 3600.0, true, path + ".timeout");
+    out.tracks.push_back(std::move(t));
+  }
+}
+
+}  // namespace
+
+BodiesSourceKind trackedObjectsSourceKind() {
+  return {"tracks", parseTracks, [](const MonitorParams& p) -> std::unique_ptr<BodiesSource> {
+            return std::make_unique<Tracks>(p.tracks, p.fixed_frame, p.max_stamp_skew);
+          }};
 }
 
 }  // namespace vadop_ros
