@@ -304,10 +304,10 @@ bodies:
   EXPECT_EQ(p.bodies[2].tf_prefix, "c");
 }
 
-// Issue 13, item 6: one numerical range (vadop/limits.h) and no NaN/Inf anywhere.
+// Issue 13, item 6: one numerical range (vadop/error.h) and no NaN/Inf anywhere.
 TEST(Params, StaticPosesWithinMaxCoordinate) {
   EXPECT_EQ(errorOf("static_obstacles: [{name: w, shape: {type: sphere, radius: 1}, pose: {position: [1e200, 0, 0]}}]"),
-            "~static_obstacles[0] (\"w\").pose.position[0]: must be within 1e+07 m (vadop/limits.h), got 1e+200");
+            "~static_obstacles[0] (\"w\").pose.position[0]: must be within 1e+07 m (vadop/error.h), got 1e+200");
   EXPECT_NE(errorOf("static_obstacles: [{name: w, shape: {type: sphere, radius: 1}, pose: {position: [0, 0, -1.1e7]}}]")
                 .find("~static_obstacles[0] (\"w\").pose.position[2]: must be within 1e+07 m"),
             std::string::npos);
@@ -324,7 +324,7 @@ TEST(Params, StaticPosesWithinMaxCoordinate) {
 TEST(Params, ShapeDimensionsWithinMaxSize) {
   const std::string body = "bodies: [{name: a, odom_topic: /a, shape: ";
   EXPECT_EQ(errorOf(body + "{type: sphere, radius: 1e6}}]"),
-            "~bodies[0] (\"a\").shape.radius: must be within 100000 m (vadop/limits.h), got 1e+06");
+            "~bodies[0] (\"a\").shape.radius: must be within 100000 m (vadop/error.h), got 1e+06");
   EXPECT_NE(errorOf(body + "{type: box, size: [1, 1, 2e5]}}]").find("~bodies[0] (\"a\").shape.size[2]: must be within 100000 m"),
             std::string::npos);
   EXPECT_NE(errorOf(body + "{type: cylinder, radius: 1, length: 1e300}}]").find("~bodies[0] (\"a\").shape.length: must be within"),

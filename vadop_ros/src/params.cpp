@@ -122,7 +122,7 @@ std::string stripLeadingSlashes(std::string s) {
 // |value| <= limit (values here are already finite).
 void checkRange(double value, double limit, const std::string& path, const char* unit) {
   if (!(std::fabs(value) <= limit)) {
-    fail(path, "must be within " + num(limit) + " " + unit + " (vadop/limits.h), got " + num(value));
+    fail(path, "must be within " + num(limit) + " " + unit + " (vadop/error.h), got " + num(value));
   }
 }
 

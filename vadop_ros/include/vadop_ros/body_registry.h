@@ -41,7 +41,7 @@
 //
 // Bad input never throws and never affects another body:
 //  - NaN/Inf anywhere in a message, a zero-norm quaternion or a value beyond the library's
-//    range (vadop/limits.h: |position component| <= kMaxCoordinate, |linear velocity
+//    range (vadop/error.h: |position component| <= kMaxCoordinate, |linear velocity
 //    component| <= kMaxLinearSpeed, |angular velocity component| <= kMaxAngularSpeed): dropped,
 //    counted, a warning (throttled per body), the body marked in its status for a while;
 //  - stamps (odometry and TwistStamped alike; a zero stamp means the receipt time):
@@ -334,7 +334,7 @@ class BodyRegistry {
 
   // Window over which an element's motion is range-checked each cycle (s): the largest horizon.
   static constexpr double kMotionCheckWindow = 60.0;
-  // "" when `m` stays inside the library's range (vadop/limits.h) over [t0, t1], else why not.
+  // "" when `m` stays inside the library's range (vadop/error.h) over [t0, t1], else why not.
   static std::string motionRangeError(const vadop::Motion& m, double t0, double t1);
   // Element `element` was left out of the prediction (the world refused it): marks its body
   // bad input (status and a throttled warning), at ROS time `now`.

@@ -8,7 +8,7 @@
 // (ros::names::validate; '~' names are refused), frames (fixed_frame, frame, tf_prefix) are
 // tf2 frame ids (letters, digits, '_', '-', '.', '/' between segments; a leading '/' is removed).
 // Numbers: NaN and Inf are refused everywhere; static obstacle positions are within
-// vadop::kMaxCoordinate and shape dimensions within vadop::kMaxSize (vadop/limits.h).
+// vadop::kMaxCoordinate and shape dimensions within vadop::kMaxSize (vadop/error.h).
 // Unknown keys inside a body, an obstacle or a shape are errors (a typo would otherwise
 // silently mean a default); unknown top-level keys are reported by unknownTopLevelKeys() so
 // that the node can warn (other tools may keep their own parameters there).
