@@ -2,8 +2,8 @@
 // responses between spheres (equal masses: the normal velocity components are exchanged) and
 // with the walls (reflection), impacts processed in time order inside each frame.
 //
-// ContinuousWorld is a thin user of vadop::ResponseLoop, so every method runs the library's
-// own pipeline around its broad phase:
+// ContinuousWorld is a thin user of vadop::ResponseLoop (response_loop.h, the bench's event
+// loop beside the library), so every method runs the same pipeline around its broad phase:
 //   1. broad phase:  bp.update(t0, t1) over the swept spheres of the frame       (c_u + c_s)
 //   2. narrow phase: vadop::timeOfImpact on every candidate pair                  (c_t)
 //   3. responses in time order: the loop's callback exchanges the normal velocity components
@@ -17,10 +17,9 @@
 // checks this and exits non-zero on a miss).
 #pragma once
 
+#include "response_loop.h"
 #include "vadop/broad_phase.h"
 #include "vadop/distance.h"
-#include "vadop/impact_queue.h"
-#include "vadop/response_loop.h"
 #include "vadop/motion.h"
 #include "vadop/shapes.h"
 #include "vadop/time_of_impact.h"

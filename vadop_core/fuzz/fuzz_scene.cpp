@@ -24,8 +24,8 @@
 // or not depending on how tight they are. Inputs beyond the caps are skipped, not errors (the
 // reader's error paths run on them all the same). VADOP_FUZZ_UNCAPPED=1 lifts the magnitude cap
 // for exploration (the differential checks can then fail on ill-conditioned scenes).
+#include "impact_queue.h"  // the bench's queue (vadop_core/bench, library vadop_response_loop)
 #include "vadop/error.h"
-#include "vadop/impact_queue.h"
 #include "vadop/scene_io.h"
 #include "vadop/world.h"
 

@@ -1,8 +1,8 @@
 // ImpactQueue: time order with deterministic ties, replacement of a pair's impact, eager
 // invalidation by body, and a randomized comparison with a brute-force reference (a map of
 // pending impacts re-sorted after every operation). Memory follows the pending impacts.
+#include "impact_queue.h"  // the bench's queue (vadop_core/bench, library vadop_response_loop)
 #include "vadop/error.h"
-#include "vadop/impact_queue.h"
 
 #include <gtest/gtest.h>
 

@@ -5,9 +5,9 @@
 //    same times, and the same final motions;
 //  - the same with walls (ResponseLoop::setBoundary) interleaving with the pairs;
 //  - callbacks that change bodies not in the contact, a throwing callback, bad input.
+#include "response_loop.h"  // the bench's loop (vadop_core/bench, library vadop_response_loop)
 #include "vadop/distance.h"  // PreparedShape (internal: src/)
 #include "vadop/error.h"
-#include "vadop/response_loop.h"
 #include "vadop/sweep_prune.h"
 #include "vadop/vadop_grid.h"
 

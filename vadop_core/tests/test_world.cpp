@@ -5,7 +5,6 @@
 //  - the incremental broad phase, fed many predicts with setMotion/add/remove in between,
 //    agrees with a world built from scratch each time;
 #include "vadop/error.h"
-#include "vadop/impact_queue.h"
 #include "vadop/scene_io.h"
 #include "vadop/world.h"
 

@@ -1,7 +1,7 @@
 // An open-addressing hash map from a trivially copyable key to a trivially copyable value, for
-// the library's hot paths (ImpactQueue): one contiguous array, linear probing, deletion by
-// backward shift (no tombstones), so lookups stay short whatever the history of inserts and
-// erases. Not a general container: no iterators that survive a change, no exception safety
+// hot paths (World's NameIndex; the bench's ImpactQueue): one contiguous array, linear
+// probing, deletion by backward shift (no tombstones), so lookups stay short whatever the
+// history of inserts and erases. Not a general container: no iterators that survive a change, no exception safety
 // beyond "reserve() first, then insert() cannot throw". Not thread-safe.
 #pragma once
 

@@ -13,12 +13,17 @@
 // boundary that is not a body (the walls of a box, a floor) come from a user function
 // (setBoundary) and go through the same queue and callback.
 // Not thread-safe. Bad input throws vadop::InvalidArgument and changes nothing.
+//
+// It is the event loop of the paper's benchmark (vadop_bench's ContinuousWorld), not a front
+// door of vadop_core: it has none of World's features (paths, chains, filters, time slices,
+// threads), and it lives beside the library, in the bench's library vadop_response_loop, which
+// needs vadop_core only.
 #pragma once
 
+#include "impact_queue.h"
 #include "vadop/broad_phase.h"
 #include "vadop/detail/flat_map.h"
 #include "vadop/distance.h"
-#include "vadop/impact_queue.h"
 #include "vadop/motion.h"
 #include "vadop/shapes.h"
 #include "vadop/time_of_impact.h"

@@ -1,11 +1,12 @@
 // The pending impacts of a frame or horizon in time order: the response loop of the VADOP
 // paper. Pop the earliest impact, respond to it (change the velocities of its bodies),
 // invalidate every pending impact of those bodies, predict their new impacts from that time
-// on and push them; repeat.
+// on and push them; repeat. The queue of the bench's ResponseLoop (response_loop.h), built
+// with it into the bench's library vadop_response_loop, not into libvadop_core.
 //
 // Bodies are named by 64-bit keys chosen by the caller; the keys also break ties, so the
-// order is total and deterministic: by time, then by the pair (a, b) with a < b (World uses
-// its insertion-order keys: a is then the body added first). A pair has at most one pending
+// order is total and deterministic: by time, then by the pair (a, b) with a < b (given World's
+// insertion-order keys, as fuzz_scene does, a is then the body added first). A pair has at most one pending
 // impact (its first contact): pushing it again replaces the old one.
 //
 // Eager invalidation over an indexed binary heap: invalidate(body) removes that body's
@@ -13,8 +14,8 @@
 // of pushes, pops and invalidations so far. push, pop, erase: O(log n); invalidate: O(k log n)
 // for k pending impacts of the body. Each impact sits in the pending lists of its two bodies
 // (intrusive, doubly linked), and pairs and bodies are found through open-addressing hash
-// maps: no allocation per impact or per body once the arrays have grown. It does not compute impacts (World and the
-// narrow phase do) and is not thread-safe. Bad input throws vadop::InvalidArgument and leaves
+// maps: no allocation per impact or per body once the arrays have grown. It does not compute impacts (the narrow
+// phase does) and is not thread-safe. Bad input throws vadop::InvalidArgument and leaves
 // the queue unchanged.
 #pragma once
 

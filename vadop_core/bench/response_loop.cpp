@@ -1,4 +1,4 @@
-#include "vadop/response_loop.h"
+#include "response_loop.h"
 
 #include "vadop/error.h"
 #include "grid_cells.h"

@@ -1,4 +1,4 @@
-#include "vadop/impact_queue.h"
+#include "impact_queue.h"
 
 #include "vadop/error.h"
 
