@@ -57,6 +57,10 @@ void rejectUnknown(const XmlRpcValue& s, const std::set<std::string>& known, con
 void checkRosName(const std::string& name, const std::string& path, const char* what);
 // `def` when v is null, else a number in (lo, hi] (lo_open) or [lo, hi].
 double ranged(const XmlRpcValue* v, double def, double lo, double hi, bool lo_open, const std::string& path);
+// A ~bodies entry's topic `key` (into b.*topic) whose joints move a robot_description body's
+// links, not with tf_prefix: joint_states_topic, joint_trajectory_topic. Nothing when absent.
+void readJointTopic(const XmlRpcValue& entry, const std::string& path, const char* key,
+                    std::string BodyParams::*topic, BodyParams& b);
 
 }  // namespace param_reading
 }  // namespace vadop_ros

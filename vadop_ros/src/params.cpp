@@ -76,6 +76,20 @@ double ranged(const XmlRpcValue* v, double def, double lo, double hi, bool lo_op
   return d;
 }
 
+void readJointTopic(const XmlRpcValue& entry, const std::string& path, const char* key,
+                    std::string BodyParams::*topic, BodyParams& b) {
+  const XmlRpcValue* j = member(entry, key);
+  if (!j) return;
+  const std::string field = path + "." + key;
+  const std::string& t = b.*topic = toString(*j, field);
+  if (t.empty()) fail(field, "must not be empty");
+  if (b.has_shape) fail(field, "applies to robot_description bodies only");
+  if (b.links_from_tf) fail(field, "give one source of link poses: joints or tf_prefix, not both");
+  if (t == b.topic || b.joint_states_topic == b.joint_trajectory_topic) {
+    fail(field, "must differ from the body's other topics");
+  }
+}
+
 }  // namespace param_reading
 
 namespace {

@@ -88,6 +88,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -372,6 +373,10 @@ class BodyRegistry {
 
  private:
   class UrdfCache;
+  // The source of type S of body `body` (the message entry points above, defined beside each
+  // source); throws std::invalid_argument naming `key` when the body has none.
+  template <class S>
+  S& sourceOf(size_t body, const char* key);
   // The body's elements: its primitive shape, or every collision element of its URDF. False
   // (and the body flagged "no geometry") when the URDF cannot be had.
   bool addGeometry(size_t body_index, bool has_shape, const vadop::Shape& shape, const std::string& description,
@@ -435,5 +440,14 @@ class BodyRegistry {
   uint64_t rebases_ = 0;
   double max_stamp_skew_ = 5.0;  // MonitorParams' default until setMaxStampSkew
 };
+
+template <class S>
+S& BodyRegistry::sourceOf(size_t body, const char* key) {
+  Body& b = bodies_.at(body);
+  for (const std::unique_ptr<Source>& source : b.sources) {
+    if (auto* s = dynamic_cast<S*>(source.get())) return *s;
+  }
+  throw std::invalid_argument("body \"" + b.name + "\" has no " + key);
+}
 
 }  // namespace vadop_ros

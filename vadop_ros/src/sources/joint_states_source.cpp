@@ -118,17 +118,7 @@ class JointStatesSource : public Source {
 
 // A topic whose joints move a robot_description body's links (not with tf_prefix).
 void parseJointStates(const XmlRpc::XmlRpcValue& e, const std::string& path, BodyParams& b) {
-  using namespace param_reading;
-  const XmlRpcValue* j = member(e, "joint_states_topic");
-  if (!j) return;
-  const std::string field = path + ".joint_states_topic";
-  b.joint_states_topic = toString(*j, field);
-  if (b.joint_states_topic.empty()) fail(field, "must not be empty");
-  if (b.has_shape) fail(field, "applies to robot_description bodies only");
-  if (b.links_from_tf) fail(field, "give one source of link poses: joints or tf_prefix, not both");
-  if (b.joint_states_topic == b.topic || b.joint_states_topic == b.joint_trajectory_topic) {
-    fail(field, "must differ from the body's other topics");
-  }
+  param_reading::readJointTopic(e, path, "joint_states_topic", &BodyParams::joint_states_topic, b);
 }
 
 }  // namespace
@@ -143,13 +133,7 @@ SourceKind jointStatesSourceKind() {
 }
 
 InputResult BodyRegistry::onJointState(size_t bi, const sensor_msgs::JointState& msg, const ros::Time& receipt) {
-  Body& b = bodies_.at(bi);
-  JointStatesSource* s = nullptr;
-  for (auto& source : b.sources) {
-    if (!s) s = dynamic_cast<JointStatesSource*>(source.get());
-  }
-  if (!s) throw std::invalid_argument("body \"" + b.name + "\" has no joint_states_topic");
-  return s->onMessage(*this, b, msg, receipt);
+  return sourceOf<JointStatesSource>(bi, "joint_states_topic").onMessage(*this, bodies_[bi], msg, receipt);
 }
 
 }  // namespace vadop_ros

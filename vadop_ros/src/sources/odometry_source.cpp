@@ -142,10 +142,7 @@ SourceKind odometrySourceKind() {
 }
 
 InputResult BodyRegistry::onOdometry(size_t bi, const nav_msgs::Odometry& msg, const ros::Time& receipt) {
-  Body& b = bodies_.at(bi);
-  auto* s = b.sources.empty() ? nullptr : dynamic_cast<OdometrySource*>(b.sources.front().get());
-  if (!s) throw std::invalid_argument("body \"" + b.name + "\" has no odom_topic");
-  return s->onMessage(*this, b, msg, receipt);
+  return sourceOf<OdometrySource>(bi, "odom_topic").onMessage(*this, bodies_[bi], msg, receipt);
 }
 
 }  // namespace vadop_ros

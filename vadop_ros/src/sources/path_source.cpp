@@ -177,13 +177,7 @@ SourceKind pathSourceKind() {
 }
 
 InputResult BodyRegistry::onPath(size_t bi, const nav_msgs::Path& msg, const ros::Time& receipt, TransformSource& tf) {
-  Body& b = bodies_.at(bi);
-  PathSource* s = nullptr;
-  for (auto& source : b.sources) {
-    if (!s) s = dynamic_cast<PathSource*>(source.get());
-  }
-  if (!s) throw std::invalid_argument("body \"" + b.name + "\" has no path_topic");
-  return s->onMessage(*this, b, msg, receipt, tf);
+  return sourceOf<PathSource>(bi, "path_topic").onMessage(*this, bodies_[bi], msg, receipt, tf);
 }
 
 }  // namespace vadop_ros

@@ -111,10 +111,7 @@ SourceKind twistSourceKind() {
 }
 
 InputResult BodyRegistry::onTwist(size_t bi, const geometry_msgs::TwistStamped& msg, const ros::Time& receipt) {
-  Body& b = bodies_.at(bi);
-  auto* s = b.sources.empty() ? nullptr : dynamic_cast<TwistSource*>(b.sources.front().get());
-  if (!s) throw std::invalid_argument("body \"" + b.name + "\" has no twist_topic");
-  return s->onMessage(*this, b, msg, receipt);
+  return sourceOf<TwistSource>(bi, "twist_topic").onMessage(*this, bodies_[bi], msg, receipt);
 }
 
 }  // namespace vadop_ros
