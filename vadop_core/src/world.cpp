@@ -179,6 +179,22 @@ WorldEngine::Handle WorldEngine::handle(const std::string& id) const {
 
 void WorldEngine::setMotion(const Handle& body, const Motion& motion) { setMotionOf(handleId(body, "setMotion"), motion); }
 
+void WorldEngine::setStopDuration(const std::string& id, double seconds) {
+  setStopDurationOf(bodyId(id, "setStopDuration"), seconds);
+}
+
+void WorldEngine::setStopDuration(const Handle& body, double seconds) {
+  setStopDurationOf(handleId(body, "setStopDuration"), seconds);
+}
+
+void WorldEngine::setStopDurationOf(BodyId bid, double seconds) {
+  if (std::isnan(seconds) || seconds < 0.0) {
+    throw InvalidArgument("setStopDuration body " + quoted(records_[bid].name) +
+                          ": the duration must be >= 0 (+infinity: never), got " + formatNumber(seconds));
+  }
+  records_[bid].stop_duration = seconds;
+}
+
 BodyId WorldEngine::handleId(const Handle& body, const char* operation) const {
   if (body.world != serial_ || body.index >= records_.size() || !records_[body.index].prepared ||
       records_[body.index].key != body.key) {

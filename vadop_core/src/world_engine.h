@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -68,6 +69,11 @@ class WorldEngine {
                                              const std::vector<Motion>& motions, double t0, double horizon,
                                              const std::function<bool(uint64_t key)>& skip,
                                              const Reachable* among);
+  void setStopDuration(const std::string& id, double seconds);
+  void setStopDuration(const Handle& body, double seconds);
+  std::optional<MoverContact> firstContactAlong(const std::vector<std::string>& movers,
+                                                const std::vector<TimedPath>& paths, double t0, double horizon,
+                                                const World::PathQuery& query);
 
   const WorldConfig& config() const { return config_; }
   const BroadPhase& broadPhase() const { return *broad_phase_; }
@@ -90,6 +96,7 @@ class WorldEngine {
     // The shape as given, prepared for the narrow phase (the broad phase holds it padded).
     std::optional<PreparedShape> prepared;
     uint64_t user = 0;  // add's: only copied into the contacts (past the first line)
+    double stop_duration = std::numeric_limits<double>::infinity();  // setStopDuration
   };
   // The pairs of the path bodies in [t0, t1] (the caller sorts and dedups): each piece's query
   // against the other bodies, and the pairs of two path bodies whose boxes overlap: their
@@ -158,6 +165,7 @@ class WorldEngine {
   static constexpr BodyId kUnknownBody = ~BodyId{0};
   BodyId findBody(const std::string& id) const;  // or kUnknownBody
   void setMotionOf(BodyId bid, const Motion& motion);
+  void setStopDurationOf(BodyId bid, double seconds);
   void setChainOf(BodyId bid, std::shared_ptr<const LinkChain> chain);
   // The body a handle names; throws, naming `operation`, for a stale handle or another World's.
   BodyId handleId(const Handle& body, const char* operation) const;
@@ -201,6 +209,15 @@ class WorldEngine {
   // touching at t0 that the motions do not press together is no contact (TimeOfImpact{}).
   TimeOfImpact moverImpact(const Record& rm, const Motion& motion, BodyId other, std::optional<LinkChain>& mover_chain,
                      double t0, double t1) const;
+
+  // firstContactAlong's pair: mover rm along `path` against `other`, in its own motion's future
+  // and, with query.others_stop, in its braking one; the earlier contact.
+  std::optional<MoverContact> pathImpact(const Record& rm, size_t mover, const TimedPath& path, BodyId other,
+                                         const World::PathQuery& query, double t0, double t1) const;
+  // firstContactAlong's partners when the query gives none: reachable() from each path's origin
+  // at t0 and how far it travels over the window.
+  Reachable pathPartners(const std::vector<std::string>& movers, const std::vector<TimedPath>& paths, double t0,
+                         double t1, double deviation);
 
   WorldConfig config_;
   int threads_ = 1;  // config_.threads resolved

@@ -64,6 +64,21 @@ std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::
   return engine().firstContactIf(movers, motions, t0, horizon, skip, among);
 }
 
+void World::setStopDuration(const std::string& id, double seconds) { engine().setStopDuration(id, seconds); }
+void World::setStopDuration(const Handle& body, double seconds) { engine().setStopDuration(body, seconds); }
+
+std::optional<World::MoverContact> World::firstContactAlong(const std::vector<std::string>& movers,
+                                                            const std::vector<TimedPath>& paths, double t0,
+                                                            double horizon, const PathQuery& query) {
+  return engine().firstContactAlong(movers, paths, t0, horizon, query);
+}
+
+std::optional<World::MoverContact> World::firstContactAlong(const std::vector<std::string>& movers,
+                                                            const std::vector<TimedPath>& paths, double t0,
+                                                            double horizon) {
+  return engine().firstContactAlong(movers, paths, t0, horizon, PathQuery{});
+}
+
 const WorldConfig& World::config() const { return engine().config(); }
 size_t World::lastCandidateCount() const { return engine().lastCandidateCount(); }
 size_t World::lastSliceCulledCount() const { return engine().lastSliceCulledCount(); }

@@ -69,6 +69,32 @@ class TimedPath {
 Motion screwBetween(double t0, const Eigen::Vector3d& p0, const Eigen::Quaterniond& q0, double t1,
                     const Eigen::Vector3d& p1, const Eigen::Quaterniond& q1);
 
+// Keyframes of a body following `motion` exactly over [t0, t1] (t0 <= t1), appended to `out`:
+// its pose at t0 (left out when out's last keyframe is at t0 already), then poses at most a
+// quarter turn apart up to t1, so that each piece of a TimedPath through them is `motion` itself
+// (screwBetween recovers the screw). Nothing is appended after t0 when t1 - t0 < 1e-9 s. Not
+// validated (validateMotion first).
+void appendKeyframes(const Motion& motion, double t0, double t1, std::vector<Keyframe>& out);
+
+// Braking along a motion: from t0 the body keeps to the path `motion` takes (the same screw),
+// its speed falling at a constant rate from motion's to zero at t0 + duration, where it stands:
+// at t0 + u (0 <= u <= duration) it is where `motion` puts it at t0 + u - u^2 / (2 duration),
+// half the way motion would cover. The keyframes of that braking (as appendKeyframes: the pose at
+// t0 first, the last at t0 + duration) are appended to `out`. Between two keyframes a TimedPath
+// moves along the same screw at the stretch's mean speed, never farther than the returned bound
+// (m) from the exact braking, for every material point within `radius` of the body origin: the
+// secant of a parabola of n equal stretches is off by at most duration / (8 n^2) in motion's
+// time, at the speed S = |origin velocity| + |w| radius. n is the smallest that keeps the bound
+// within `max_deviation` (and each stretch within a quarter turn), at most 512 (the bound is
+// then larger: it is what is returned). duration 0: the body stops at t0 (one keyframe).
+// Throws vadop::InvalidArgument for a duration or radius < 0 or not finite, or a max_deviation
+// <= 0 or not finite.
+double appendBrakingKeyframes(const Motion& motion, double t0, double duration, double radius, double max_deviation,
+                              std::vector<Keyframe>& out);
+
+// How fast the origin of a body moving with `motion` goes (constant along a screw).
+double originSpeed(const Motion& motion);
+
 // The first t in [t0, t1] at which a (along pa) and b (along pb) touch: timeOfImpact on each
 // stretch of the window where both stay on one piece, in time order, with its contract; an
 // undecided stretch ends the search (undecided from there). Throws as timeOfImpact.

@@ -261,6 +261,9 @@ class World {
     // The narrow phase could not decide this pair past impact.time (TimeOfImpact::undecided): for a
     // gate, a contact there (it cannot certify the command beyond).
     bool undecided = false;
+    // Found in the future in which the other body brakes (firstContactAlong's others_stop), not
+    // in its own motion's.
+    bool others_stopping = false;
   };
   // The bodies a family of candidate motions may reach (a gate's scales of one command), found
   // with one query per mover instead of one per motion: every body whose swept volume over
@@ -280,6 +283,40 @@ class World {
                                              const std::vector<Motion>& motions, double t0, double horizon,
                                              const std::function<bool(uint64_t key)>& skip = {},
                                              const Reachable* among = nullptr);
+
+  // How long the body takes to brake to standstill from its motion (s, >= 0; 0: it stops at
+  // once), for the future of firstContactAlong's others_stop. +infinity (what add gives): it is
+  // not known to stop; that future moves it as set. Throws when the id or handle is unknown or
+  // the duration is NaN or < 0 (nothing changed).
+  void setStopDuration(const std::string& id, double seconds);
+  void setStopDuration(const Handle& body, double seconds);
+
+  // firstContactIf for movers on paths (a velocity gate's manoeuvre: the last command held, the
+  // candidate, then braking: appendKeyframes, appendBrakingKeyframes): the earliest contact over
+  // [t0, t0 + horizon] if the bodies `movers` followed `paths` (one each) instead of their own
+  // motions. The same rules as firstContactIf, with a pair that touches at the start of any
+  // stretch of the window where both keep one piece (not only at t0) a contact only when the
+  // pieces press it together there: a body standing against a wall during its reaction time and
+  // then commanded away from it is not blocked, one commanded into it is.
+  struct PathQuery {
+    std::function<bool(uint64_t key)> skip;  // as firstContactIf's
+    const Reachable* among = nullptr;        // as firstContactIf's; null: found from the paths
+    // How far (m) the movers' paths may lie from the motions they stand for (the bound that
+    // appendBrakingKeyframes returns): the pairs are tested with a tolerance of twice that plus
+    // the others' own bound (and at least WorldConfig::toi's), so that a clear verdict holds for
+    // the exact motions; a contact may then be reported up to that gap early.
+    double deviation = 0.0;
+    // Also the future in which every other body with a stop duration (setStopDuration) brakes to
+    // standstill along its motion from t0 (appendBrakingKeyframes, within 0.5 mm); a contact in
+    // either future counts (MoverContact::others_stopping says which). Bodies on paths or
+    // chains follow them in both futures.
+    bool others_stop = false;
+  };
+  std::optional<MoverContact> firstContactAlong(const std::vector<std::string>& movers,
+                                                const std::vector<TimedPath>& paths, double t0, double horizon,
+                                                const PathQuery& query);
+  std::optional<MoverContact> firstContactAlong(const std::vector<std::string>& movers,
+                                                const std::vector<TimedPath>& paths, double t0, double horizon);
 
   const WorldConfig& config() const;
   // Narrow-phase calls made by the last predict: its candidate pairs after any `only` filter

@@ -1,0 +1,161 @@
+// World::firstContactAlong and World::setStopDuration (world.h): movers on paths, a velocity
+// gate's manoeuvre (the last command held, the candidate, braking to standstill), against the
+// other bodies in their own future and, when asked, in the one where each brakes.
+#include "world_engine.h"
+
+#include "vadop/error.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <utility>
+
+namespace vadop {
+namespace {
+
+// m: how far the others' braking paths (PathQuery::others_stop) may lie from the exact braking.
+constexpr double kOthersDeviation = 5e-4;
+
+// The first contact of a along pa and b along pb over [t0, t1], stretch by stretch (each a pair of
+// constant twists, timeOfImpact's contract on each): a pair touching at the start of a stretch is
+// a contact only when the two pieces press it together at the touching point; else that stretch
+// is passed over (moving apart, sliding) and the search goes on with the next.
+TimeOfImpact pressingImpact(const PreparedShape& a, const TimedPath& pa, const PreparedShape& b, const TimedPath& pb,
+                            double t0, double t1, const ToiOptions& options) {
+  size_t ka = pa.pieceAt(t0), kb = pb.pieceAt(t0);
+  double s = t0;
+  int iterations = 0;
+  for (;;) {
+    const double e = std::min({t1, pa.start(ka + 1), pb.start(kb + 1)});
+    TimeOfImpact out = timeOfImpact(a, pa.motion(ka), b, pb.motion(kb), s, e, options);
+    iterations += out.iterations;
+    bool pressing = true;
+    if (out.hit && out.initially_touching) {
+      const Eigen::Vector3d closing =
+          pa.motion(ka).velocityOfPoint(out.point, s) - pb.motion(kb).velocityOfPoint(out.point, s);
+      pressing = closing.dot(out.normal) > 0.0;
+    }
+    if (pressing && (out.hit || out.undecided)) {
+      out.iterations = iterations;
+      return out;
+    }
+    if (e >= t1) {
+      TimeOfImpact clear;
+      clear.time = t1;
+      clear.iterations = iterations;
+      return clear;
+    }
+    if (pa.start(ka + 1) <= e) ++ka;
+    if (pb.start(kb + 1) <= e) ++kb;
+    s = e;
+  }
+}
+
+// A bound on how far the origin of a body on `path` travels over [t0, t1].
+double pathTravel(const TimedPath& path, double t0, double t1) {
+  double d = 0.0;
+  path.forEachPiece(t0, t1, [&](size_t k, double s, double e) { d += originSpeed(path.motion(k)) * (e - s); });
+  return d;
+}
+
+}  // namespace
+
+WorldEngine::Reachable WorldEngine::pathPartners(const std::vector<std::string>& movers,
+                                                 const std::vector<TimedPath>& paths, double t0, double t1,
+                                                 double deviation) {
+  std::vector<Eigen::Vector3d> origins;
+  std::vector<double> reach;
+  for (const TimedPath& p : paths) {
+    origins.push_back(p.poseAt(t0).translation());
+    reach.push_back(pathTravel(p, t0, t1) + deviation);
+  }
+  return reachable(movers, origins, reach, t0, t1 - t0);
+}
+
+std::optional<WorldEngine::MoverContact> WorldEngine::firstContactAlong(const std::vector<std::string>& movers,
+                                                                        const std::vector<TimedPath>& paths,
+                                                                        double t0, double horizon,
+                                                                        const World::PathQuery& query) {
+  const char* op = "firstContactAlong";
+  if (movers.size() != paths.size()) {
+    throw InvalidArgument(std::string(op) + ": " + std::to_string(movers.size()) + " movers but " +
+                          std::to_string(paths.size()) + " paths");
+  }
+  if (!(std::isfinite(query.deviation) && query.deviation >= 0.0)) {
+    throw InvalidArgument(std::string(op) + ": deviation must be finite and >= 0, got " + formatNumber(query.deviation));
+  }
+  double t1 = checkedWindow(op, t0, horizon);
+  std::vector<BodyId> ids;
+  for (size_t i = 0; i < movers.size(); ++i) {
+    ids.push_back(bodyId(movers[i], op));
+    paths[i].forEachPiece(t0, t1, [&](size_t k, double s, double e) { checkMotionReach(ids[i], paths[i].motion(k), s, e); });
+  }
+  std::vector<BodyId> sorted = ids;
+  std::sort(sorted.begin(), sorted.end());
+  if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end()) {
+    throw InvalidArgument(std::string(op) + ": a mover is listed twice");
+  }
+  Reachable own;
+  const Reachable& among = query.among ? *query.among : (own = pathPartners(movers, paths, t0, t1, query.deviation));
+  std::optional<MoverContact> best;
+  for (size_t i = 0; i < ids.size(); ++i) {
+    const Record& rm = records_[ids[i]];
+    for (BodyId other : among.ids) {
+      if (!broad_phase_->contains(other) || std::binary_search(sorted.begin(), sorted.end(), other)) continue;
+      const Record& ro = records_[other];
+      if (!shouldTest(rm, ro) || (query.skip && query.skip(ro.key))) continue;
+      // Only the first contact matters: later pairs search up to the best time so far.
+      std::optional<MoverContact> c = pathImpact(rm, i, paths[i], other, query, t0, t1);
+      if (c && (!best || c->impact.time < best->impact.time)) {
+        best = std::move(c);
+        t1 = best->impact.time;
+      }
+    }
+  }
+  return best;
+}
+
+std::optional<WorldEngine::MoverContact> WorldEngine::pathImpact(const Record& rm, size_t mover, const TimedPath& path,
+                                                                 BodyId other, const World::PathQuery& query,
+                                                                 double t0, double t1) const {
+  const Record& ro = records_[other];
+  ToiOptions options = config_.toi;
+  options.tolerance = std::max(options.tolerance, 2.0 * query.deviation);
+  std::optional<MoverContact> out;
+  const auto consider = [&](const TimeOfImpact& hit, bool stopping) {
+    if ((hit.hit || hit.undecided) && (!out || hit.time < out->impact.time)) {
+      out = MoverContact{mover, ro.name, ro.key, ro.user, hit, hit.undecided, stopping};
+    }
+  };
+  if (ro.chain) {
+    const LinkChain& oc = *ro.chain;
+    if (oc.joints().empty()) {
+      consider(pressingImpact(*rm.prepared, path, *ro.prepared, oc.base(), t0, t1, options), false);
+      return out;
+    }
+    TimeOfImpact hit = timeOfImpact(*rm.prepared, LinkChain(path), *ro.prepared, oc, t0, t1, options);
+    if (hit.hit && hit.initially_touching) {
+      const Eigen::Vector3d closing =
+          path.motion(path.pieceAt(t0)).velocityOfPoint(hit.point, t0) - oc.velocityOfPoint(hit.point, t0);
+      if (closing.dot(hit.normal) <= 0.0) return out;  // separating or sliding: not blocked
+    }
+    consider(hit, false);
+    return out;
+  }
+  const Motion& om = broad_phase_->motion(other);
+  consider(pressingImpact(*rm.prepared, path, *ro.prepared, TimedPath(om), t0, t1, options), false);
+  if (query.others_stop && std::isfinite(ro.stop_duration)) {
+    std::vector<Keyframe> keyframes;
+    const double radius = broad_phase_->shape(other).bounding_radius;
+    const double deviation = appendBrakingKeyframes(om, t0, ro.stop_duration, radius, kOthersDeviation, keyframes);
+    ToiOptions braking_options = config_.toi;
+    braking_options.tolerance = std::max(braking_options.tolerance, 2.0 * (query.deviation + deviation));
+    const double t_end = out ? out->impact.time : t1;
+    consider(pressingImpact(*rm.prepared, path, *ro.prepared, TimedPath(std::move(keyframes), AfterPath::kHold), t0,
+                            t_end, braking_options),
+             true);
+  }
+  return out;
+}
+
+}  // namespace vadop
