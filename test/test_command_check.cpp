@@ -330,3 +330,92 @@ TEST(CommandCheck, MarkersDrawTheGatedSweep) {
   core.appendCommandMarkers(unchecked, "gate/a", none);
   EXPECT_TRUE(none.markers.empty());
 }
+
+// The braking rule (issue 48), analytic: a at x = -2 facing b, a gap `gap` ahead; a brakes at
+// 1 m/s^2 and 2 rad/s^2, holds a command for 0.5 s (cmd_timeout) after a reaction time.
+namespace {
+
+vadop_ros::CommandQuestion brakingQuestion(double reaction_time, double last_v) {
+  vadop_ros::CommandQuestion q;
+  q.v = Eigen::Vector3d(1, 0, 0);
+  q.last_v = Eigen::Vector3d(last_v, 0, 0);
+  q.reaction_time = reaction_time;
+  q.hold = 0.5;
+  q.linear_decel = 1.0;
+  q.angular_decel = 2.0;
+  q.others_may_stop = false;
+  q.state_timeout = 0.5;
+  return q;
+}
+
+// b at -2 + 1 + gap (its surface `gap` ahead of a's), moving along +x at b_speed.
+void twoInLine(MonitorCore& core, FakeTf& tf, double gap, double b_speed) {
+  core.registry().onOdometry(0, odom(100.0, -2, 0, 0, 0), ros::Time(100.0));
+  core.registry().onOdometry(1, odom(100.0, -1 + gap, 0, 0, b_speed), ros::Time(100.0));
+  core.cycle(ros::Time(100.0), tf);
+}
+
+}  // namespace
+
+TEST(CommandCheck, BrakingRuleStopsWithinTheGapAfterHoldingTheCommand) {
+  FakeTf tf;
+  MonitorCore core = makeCore(kTwo);
+  twoInLine(core, tf, 0.5, 0.0);
+  // No reaction time: 0.5 s + s^2 / 2 <= 0.5 m, s <= 0.618: the grid's 0.60.
+  CommandCheck c = core.checkCommand(0, brakingQuestion(0.0, 0.0), ros::Time(100.0), tf);
+  ASSERT_EQ(c.status, CommandCheck::Status::kChecked);
+  EXPECT_TRUE(c.scale.clear);
+  EXPECT_NEAR(c.scale.scale, 0.60, 1e-9);
+  EXPECT_TRUE(c.braking);
+  EXPECT_TRUE(c.limited);
+  EXPECT_EQ(c.other, 1u);
+  EXPECT_NEAR(c.stop_duration, 0.60, 1e-9);
+  // The manoeuvre ends when a stands: 0.5 s held, 0.6 s braking.
+  EXPECT_NEAR(c.window, 1.1, 1e-9);
+  ASSERT_EQ(c.paths.size(), 1u);
+  EXPECT_NEAR(c.paths[0].poseAt(c.t0 + c.window).translation().x(), -2 + 0.3 + 0.18, 1e-6);
+  // The last forwarded command (1 m/s) goes on for 0.1 s: 0.1 + 0.5 s + s^2 / 2 <= 0.5,
+  // s <= 0.5247: 0.52.
+  c = core.checkCommand(0, brakingQuestion(0.1, 1.0), ros::Time(100.0), tf);
+  ASSERT_EQ(c.status, CommandCheck::Status::kChecked);
+  EXPECT_NEAR(c.scale.scale, 0.52, 1e-9);
+  // Without braking (0.4 s held, nothing after): s = 1 passes.
+  vadop_ros::CommandQuestion held = brakingQuestion(0.0, 0.0);
+  held.linear_decel = held.angular_decel = 0.0;
+  held.hold = 0.4;
+  c = core.checkCommand(0, held, ros::Time(100.0), tf);
+  EXPECT_NEAR(c.scale.scale, 1.0, 1e-9);
+  EXPECT_FALSE(c.braking);
+}
+
+TEST(CommandCheck, OthersThatMayStopAreCheckedStoppingToo) {
+  FakeTf tf;
+  // b 0.5 m ahead, driving away at 1 m/s: as predicted it makes room (a at full speed brakes
+  // 1 m behind where b is then); stopped at once (no decelerations) it does not.
+  MonitorCore core = makeCore(kTwo);
+  twoInLine(core, tf, 0.5, 1.0);
+  vadop_ros::CommandQuestion q = brakingQuestion(0.0, 0.0);
+  CommandCheck c = core.checkCommand(0, q, ros::Time(100.0), tf);
+  ASSERT_EQ(c.status, CommandCheck::Status::kChecked);
+  EXPECT_NEAR(c.scale.scale, 1.0, 1e-9);
+  q.others_may_stop = true;
+  c = core.checkCommand(0, q, ros::Time(100.0), tf);
+  EXPECT_NEAR(c.scale.scale, 0.60, 1e-9);
+  EXPECT_TRUE(c.limited);
+  EXPECT_TRUE(c.others_stopping);
+}
+
+TEST(CommandCheck, BackingAwayFromContactIsNeverBlockedDrivingIntoItIs) {
+  FakeTf tf;
+  // a touches b (gap 0) and stands; the last command was zero.
+  MonitorCore core = makeCore(kTwo);
+  twoInLine(core, tf, 0.0, 0.0);
+  vadop_ros::CommandQuestion q = brakingQuestion(0.1, 0.0);
+  q.v = Eigen::Vector3d(-1, 0, 0);
+  CommandCheck c = core.checkCommand(0, q, ros::Time(100.0), tf);
+  ASSERT_EQ(c.status, CommandCheck::Status::kChecked);
+  EXPECT_NEAR(c.scale.scale, 1.0, 1e-9);
+  q.v = Eigen::Vector3d(1, 0, 0);
+  c = core.checkCommand(0, q, ros::Time(100.0), tf);
+  EXPECT_EQ(c.scale.scale, 0.0);
+}

@@ -105,6 +105,12 @@ double TimedPath::start(size_t k) const {
   return start_[k - 1];
 }
 
+double TimedPath::travel(double t0, double t1) const {
+  double d = 0.0;
+  forEachPiece(t0, t1, [&](size_t k, double s, double e) { d += originSpeed(motion_[k]) * (e - s); });
+  return d;
+}
+
 size_t TimedPath::pieceAt(double t) const {
   return static_cast<size_t>(std::upper_bound(start_.begin(), start_.end(), t) - start_.begin());
 }

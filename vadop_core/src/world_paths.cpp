@@ -51,13 +51,6 @@ TimeOfImpact pressingImpact(const PreparedShape& a, const TimedPath& pa, const P
   }
 }
 
-// A bound on how far the origin of a body on `path` travels over [t0, t1].
-double pathTravel(const TimedPath& path, double t0, double t1) {
-  double d = 0.0;
-  path.forEachPiece(t0, t1, [&](size_t k, double s, double e) { d += originSpeed(path.motion(k)) * (e - s); });
-  return d;
-}
-
 }  // namespace
 
 WorldEngine::Reachable WorldEngine::pathPartners(const std::vector<std::string>& movers,
@@ -67,7 +60,7 @@ WorldEngine::Reachable WorldEngine::pathPartners(const std::vector<std::string>&
   std::vector<double> reach;
   for (const TimedPath& p : paths) {
     origins.push_back(p.poseAt(t0).translation());
-    reach.push_back(pathTravel(p, t0, t1) + deviation);
+    reach.push_back(p.travel(t0, t1) + deviation);
   }
   return reachable(movers, origins, reach, t0, t1 - t0);
 }

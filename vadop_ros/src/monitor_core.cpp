@@ -1,5 +1,7 @@
 #include "vadop_ros/monitor_core.h"
 
+#include "gate_manoeuvre.h"
+
 #include <vadop/error.h>
 #include <vadop/world.h>
 
@@ -144,10 +146,20 @@ void MonitorCore::syncGateWorld() {
                              is_static ? kStaticGroup : kMovingGroup, is_static ? ~kStaticGroup : ~0u,
                              predictor_.chain(i))) {
       gate_predictor_.unset(i);  // the cycle's world took it: cannot happen but for memory
+      continue;
     }
+    gate_predictor_.setStopDuration(i, stopDuration(i));
   }
   gate_predictor_.enableIgnored(pair_rules_needed_);
   gate_world_current_ = true;
+}
+
+double MonitorCore::stopDuration(size_t element) const {
+  if (isSourced(element)) return 0.0;  // tracked objects: at once
+  const Body& b = registry_.bodies()[registry_.elements()[element].body];
+  if (b.is_static || !b.params.hasBraking()) return 0.0;
+  const FrameMotion& fm = b.frame_motion;
+  return std::max(fm.v.norm() / b.params.max_linear_decel, fm.w.norm() / b.params.max_angular_decel);
 }
 
 RuntimeSettings MonitorCore::settings() const {
@@ -207,6 +219,7 @@ namespace {
 // One element of a gated body at the check's start: where it is, what it does on its own and
 // what the command adds.
 struct CommandedElement {
+  size_t element = 0;
   Eigen::Isometry3d pose;
   Eigen::Vector3d own_v, own_w;  // relative to the body frame (links moving on tf), fixed frame
   Eigen::Vector3d cmd_v, cmd_w;  // the element origin's velocity and its turn under the command
@@ -220,8 +233,8 @@ class CommandedSweep {
   CommandedSweep(Predictor& world, double t_now, double window, const std::function<bool(size_t element)>& skip)
       : world_(world), t_now_(t_now), window_(window), skip_(skip) {}
 
-  void add(size_t element, const CommandedElement& part) {
-    movers_.push_back(element);
+  void add(const CommandedElement& part) {
+    movers_.push_back(part.element);
     parts_.push_back(part);
   }
 
@@ -290,14 +303,15 @@ class CommandedSweep {
   std::vector<Seen> seen_;
 };
 
-// The gated body's elements into `sweep`, from its latest state at t_now under the body-frame
-// command (v, w); false (out says why) when one is not in the gates' world.
-bool addCommandedElements(const BodyRegistry& registry, const Predictor& gate_world, const Body& b,
-                          const Eigen::Vector3d& v, const Eigen::Vector3d& w, double t_now, CommandedSweep& sweep,
-                          CommandCheck& out) {
+// The gated body's elements at t_now under the body-frame command (v, w) (the command's
+// share zero when not wanted), and the body frame's pose; false (out says why) when one is not
+// in the gates' world.
+bool commandedElements(const BodyRegistry& registry, const Predictor& gate_world, const Body& b,
+                       const Eigen::Vector3d& v, const Eigen::Vector3d& w, double t_now,
+                       std::vector<CommandedElement>& parts, Eigen::Isometry3d& pose, CommandCheck& out) {
   const FrameMotion& fm = b.frame_motion;
   const vadop::Motion& frame = fm.motion;
-  const Eigen::Isometry3d pose = frame.poseAt(t_now);
+  pose = frame.poseAt(t_now);
   const Eigen::Vector3d frame_v = frame.velocityOfPoint(pose.translation(), t_now);
   // The command in the fixed frame.
   const Eigen::Vector3d cv = pose.linear() * v, cw = pose.linear() * w;
@@ -309,6 +323,7 @@ bool addCommandedElements(const BodyRegistry& registry, const Predictor& gate_wo
       return false;
     }
     CommandedElement m;
+    m.element = ei;
     m.pose = e.motion.poseAt(t_now);
     const Eigen::Vector3d r = m.pose.translation() - pose.translation();
     // The element's own velocity, less the body frame's rigid share, is what tf says its joints
@@ -317,7 +332,7 @@ bool addCommandedElements(const BodyRegistry& registry, const Predictor& gate_wo
     m.own_w = e.motion.angular_velocity - fm.w;
     m.cmd_v = cv + cw.cross(r);
     m.cmd_w = cw;
-    sweep.add(ei, m);
+    parts.push_back(m);
   }
   return true;
 }
@@ -353,45 +368,96 @@ bool MonitorCore::commandCheckable(size_t body, const ros::Time& now, double sta
   return true;
 }
 
-CommandCheck MonitorCore::checkCommand(size_t body, const Eigen::Vector3d& v, const Eigen::Vector3d& w,
-                                       const ros::Time& now, TransformSource& tf, double window, double state_timeout,
-                                       const std::function<bool(size_t element)>& skip) {
+bool MonitorCore::prepareCheck(size_t body, const ros::Time& now, TransformSource& tf, double state_timeout,
+                               CommandCheck& out) {
   using Status = CommandCheck::Status;
-  CommandCheck out;
   gate_world_wanted_ = true;
   // Mid-prediction the cycle's world is not to be read: the gates keep the world they have.
   if (!gate_world_current_ && !predicting_) syncGateWorld();
-  if (!commandCheckable(body, now, state_timeout, out)) return out;
+  if (!commandCheckable(body, now, state_timeout, out)) return false;
   const Body& b = registry_.bodies()[body];
   if (!registry_.updateBody(body, now, tf)) {
     out.status = b.status.state == BodyState::kTfMissing ? Status::kTfMissing : Status::kNoState;
     out.why = b.status.tf_error.empty() ? toString(b.status.state) : b.status.tf_error;
-    return out;
+    return false;
   }
+  return true;
+}
+
+CommandCheck MonitorCore::checkCommand(size_t body, const Eigen::Vector3d& v, const Eigen::Vector3d& w,
+                                       const ros::Time& now, TransformSource& tf, double window, double state_timeout,
+                                       const std::function<bool(size_t element)>& skip) {
+  CommandCheck out;
+  if (!prepareCheck(body, now, tf, state_timeout, out)) return out;
   const double t_now = registry_.seconds(now);
   CommandedSweep sweep(gate_predictor_, t_now, window, skip);
-  if (!addCommandedElements(registry_, gate_predictor_, b, v, w, t_now, sweep, out)) return out;
+  std::vector<CommandedElement> parts;
+  Eigen::Isometry3d pose;
+  if (!commandedElements(registry_, gate_predictor_, registry_.bodies()[body], v, w, t_now, parts, pose, out)) return out;
+  for (const CommandedElement& part : parts) sweep.add(part);
   try {
     out.scale = sweep.search();
   } catch (const vadop::InvalidArgument& e) {
     // A commanded motion out of the library's range (a twist far beyond any robot's).
-    out.status = Status::kNotInWorld;
+    out.status = CommandCheck::Status::kNotInWorld;
     out.why = std::string("the commanded motion was refused: ") + e.what();
     return out;
   }
-  out.status = Status::kChecked;
+  out.status = CommandCheck::Status::kChecked;
   out.motions = sweep.motionsAt(out.scale.scale);  // the motions at the chosen scale, for the markers
   out.elements = sweep.movers();
   out.t0 = t_now;
   out.window = window;
-  if (const Predictor::MoverContact* limit = sweep.limit(out.scale)) {
-    out.limited = true;
-    out.element = limit->mover;
-    out.other = limit->other;
-    out.time_to_contact = limit->time - t_now;
-    out.undecided = limit->undecided;
-  }
+  noteLimit(sweep.limit(out.scale), t_now, out);
   return out;
+}
+
+CommandCheck MonitorCore::checkCommand(size_t body, const CommandQuestion& question, const ros::Time& now,
+                                       TransformSource& tf, const std::function<bool(size_t element)>& skip) {
+  if (question.reaction_time == 0.0 && !question.braking() && !question.others_may_stop) {
+    return checkCommand(body, question.v, question.w, now, tf, question.hold, question.state_timeout, skip);
+  }
+  CommandCheck out;
+  if (!prepareCheck(body, now, tf, question.state_timeout, out)) return out;
+  const double t_now = registry_.seconds(now);
+  std::vector<CommandedElement> parts;
+  Eigen::Isometry3d pose;
+  // The command's share is the manoeuvre's own (it changes along the stages).
+  if (!commandedElements(registry_, gate_predictor_, registry_.bodies()[body], Eigen::Vector3d::Zero(),
+                         Eigen::Vector3d::Zero(), t_now, parts, pose, out)) {
+    return out;
+  }
+  GateManoeuvre manoeuvre(gate_predictor_, pose, question, t_now, skip);
+  for (const CommandedElement& part : parts) {
+    manoeuvre.add(part.element, part.pose, part.own_v, part.own_w, gate_predictor_.shape(part.element).bounding_radius);
+  }
+  try {
+    out.scale = manoeuvre.search();
+    out.paths = manoeuvre.pathsAt(out.scale.scale);
+    out.motions = manoeuvre.motionsAt(out.scale.scale);
+  } catch (const vadop::InvalidArgument& e) {
+    out.status = CommandCheck::Status::kNotInWorld;
+    out.why = std::string("the commanded motion was refused: ") + e.what();
+    return out;
+  }
+  out.status = CommandCheck::Status::kChecked;
+  out.elements = manoeuvre.movers();
+  out.t0 = t_now;
+  out.window = manoeuvre.endAt(out.scale.scale) - t_now;
+  out.braking = question.braking();
+  out.stop_duration = manoeuvre.brakingDuration(out.scale.scale);
+  noteLimit(manoeuvre.limit(out.scale), t_now, out);
+  return out;
+}
+
+void MonitorCore::noteLimit(const Predictor::MoverContact* limit, double t_now, CommandCheck& out) {
+  if (!limit) return;
+  out.limited = true;
+  out.element = limit->mover;
+  out.other = limit->other;
+  out.time_to_contact = limit->time - t_now;
+  out.undecided = limit->undecided;
+  out.others_stopping = limit->others_stopping;
 }
 
 void MonitorCore::reset() {
@@ -769,6 +835,7 @@ void MonitorCore::adoptCommand(const CommandCheck& check) {
       ROS_WARN("vadop_monitor: the gated motion of \"%s\" was refused by the world: %s",
                registry_.elements()[i].id.c_str(), error.c_str());
     }
+    gate_predictor_.setStopDuration(i, check.stop_duration);
   }
 }
 
@@ -789,6 +856,14 @@ void MonitorCore::appendCommandMarkers(const CommandCheck& check, const std::str
     m.link = e.link;
     m.shape = predictor_.shape(i);
     m.motion = check.motions[k];
+    if (k < check.paths.size()) {
+      // The manoeuvre to standstill: its keyframes within the window.
+      const vadop::TimedPath& path = check.paths[k];
+      m.path_pose = [&path](double t) { return path.poseAt(t); };
+      for (const vadop::Keyframe& key : path.keyframes()) {
+        if (key.time > check.t0 && key.time < check.t0 + check.window) m.path_times.push_back(key.time);
+      }
+    }
     m.mesh_uri = e.mesh_uri;
     m.mesh_scale = e.mesh_scale;
     m.soonest = check.limited ? check.time_to_contact : std::numeric_limits<double>::infinity();

@@ -179,6 +179,41 @@ bool Predictor::firstContact(const std::vector<size_t>& movers, const std::vecto
   return true;
 }
 
+bool Predictor::firstContactAlong(const std::vector<size_t>& movers, const std::vector<vadop::TimedPath>& paths,
+                                  double t0, double horizon, const std::function<bool(size_t element)>& skip,
+                                  double deviation, bool others_stop, MoverContact& contact) {
+  std::vector<std::string> ids;
+  ids.reserve(movers.size());
+  for (size_t i : movers) {
+    if (!contains(i)) {
+      throw vadop::InvalidArgument("firstContactAlong: element " + std::to_string(i) + " is not in the world");
+    }
+    ids.push_back(impl_->slots[i].id);
+  }
+  vadop::World::PathQuery query;
+  if (skip) {
+    query.skip = [this, &skip](uint64_t key) {
+      const auto it = impl_->by_key.find(key);
+      return it == impl_->by_key.end() || skip(it->second);
+    };
+  }
+  query.among = impl_->reach ? &*impl_->reach : nullptr;
+  query.deviation = deviation;
+  query.others_stop = others_stop;
+  const std::optional<vadop::World::MoverContact> hit = impl_->world.firstContactAlong(ids, paths, t0, horizon, query);
+  if (!hit) return false;
+  contact.mover = movers[hit->mover];
+  contact.other = hit->other_user;
+  contact.time = hit->impact.time;
+  contact.undecided = hit->undecided;
+  contact.others_stopping = hit->others_stopping;
+  return true;
+}
+
+void Predictor::setStopDuration(size_t i, double seconds) {
+  if (contains(i)) impl_->world.setStopDuration(impl_->slots[i].handle, seconds);
+}
+
 void Predictor::beginReach(const std::vector<size_t>& movers, const std::vector<Eigen::Vector3d>& origins,
                            const std::vector<double>& reach, double t0, double horizon) {
   std::vector<std::string> ids;

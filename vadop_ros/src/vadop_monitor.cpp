@@ -247,15 +247,20 @@ class MonitorNode {
     const bool unchecked = st.reason == vadop::GateState::REASON_STALE ||
                            st.reason == vadop::GateState::REASON_BAD_COMMAND;
     std::string summary = st.reason + ", scale " + std::to_string(st.scale);
+    if (!st.rule.empty()) summary += ", rule " + st.rule;
     if (!st.limiting_body.empty()) {
       summary += ", limited by " + st.limiting_body + (st.limiting_link.empty() ? "" : "/" + st.limiting_link) +
-                 " in " + std::to_string(st.time_to_contact) + " s";
+                 " in " + std::to_string(st.time_to_contact) + " s (" + st.future + ")";
     }
     if (!st.detail.empty()) summary += ": " + st.detail;
     s.summary(unchecked ? DiagnosticStatus::WARN : DiagnosticStatus::OK, summary);
     const VelocityGate::Counts& c = g.counts();
     s.add("cmd_vel_in", g.params().cmd_vel_in);
     s.add("cmd_vel_out", g.params().cmd_vel_out);
+    s.add("rule", st.rule);
+    s.add("reaction_time", g.params().reaction_time);
+    s.add("others_may_stop", g.params().others_may_stop ? "true" : "false");
+    s.add("limiting future", st.future);
     s.add("commands", c.commands);
     s.add("clear", c.clear);
     s.add("slowed", c.slowed);

@@ -31,6 +31,10 @@ geometry_msgs::Twist scaled(const geometry_msgs::Twist& t, double s) {
 VelocityGate::VelocityGate(size_t body, const BodyRegistry& registry)
     : body_(body), params_(registry.bodies().at(body).params.gate) {
   const auto& bodies = registry.bodies();
+  const BodyParams& bp = bodies[body].params;
+  braking_ = bp.hasBraking();
+  linear_decel_ = bp.max_linear_decel;
+  angular_decel_ = bp.max_angular_decel;
   for (const Element& e : registry.elements()) {
     const ElementKey key{bodies[e.body].name, e.link};
     bool ignored = false;
@@ -50,8 +54,10 @@ void VelocityGate::publishZero(const std::string& reason, const std::string& det
   state_.limiting_body.clear();
   state_.limiting_link.clear();
   state_.time_to_contact = std::numeric_limits<double>::infinity();
+  state_.future.clear();
   state_.command_in = in;
   state_.command_out = geometry_msgs::Twist();
+  forwarded_ = state_.command_out;
 }
 
 geometry_msgs::Twist VelocityGate::onCommand(MonitorCore& core, const geometry_msgs::Twist& command,
@@ -71,11 +77,20 @@ geometry_msgs::Twist VelocityGate::onCommand(MonitorCore& core, const geometry_m
     }
     return state_.command_out;
   }
-  const Eigen::Vector3d v(command.linear.x, command.linear.y, command.linear.z);
-  const Eigen::Vector3d w(command.angular.x, command.angular.y, command.angular.z);
+  CommandQuestion q;
+  q.v = Eigen::Vector3d(command.linear.x, command.linear.y, command.linear.z);
+  q.w = Eigen::Vector3d(command.angular.x, command.angular.y, command.angular.z);
+  q.last_v = Eigen::Vector3d(forwarded_.linear.x, forwarded_.linear.y, forwarded_.linear.z);
+  q.last_w = Eigen::Vector3d(forwarded_.angular.x, forwarded_.angular.y, forwarded_.angular.z);
+  q.reaction_time = params_.reaction_time;
+  q.hold = braking_ ? params_.cmd_timeout : params_.time_before_collision;
+  q.linear_decel = linear_decel_;
+  q.angular_decel = angular_decel_;
+  q.others_may_stop = params_.others_may_stop;
+  q.state_timeout = params_.state_timeout;
   // The registry's elements matched once (construction); tracked objects come and go: matched
   // by name when met.
-  check_ = core.checkCommand(body_, v, w, now, tf, params_.time_before_collision, params_.state_timeout,
+  check_ = core.checkCommand(body_, q, now, tf,
                              [this, &core](size_t e) {
                                if (e < ignored_.size()) return ignored_[e] != 0;
                                if (params_.ignore.empty()) return false;
@@ -103,18 +118,22 @@ geometry_msgs::Twist VelocityGate::onCommand(MonitorCore& core, const geometry_m
     ++counts_.stopped;
     state_.reason = vadop::GateState::REASON_STOP;
   }
+  state_.rule = check_.braking ? vadop::GateState::RULE_BRAKING : vadop::GateState::RULE_HELD_COMMAND;
   if (check_.limited) {
     const ElementKey other = core.elementKey(check_.other);
     state_.limiting_body = other.body;
     state_.limiting_link = other.link;
     state_.time_to_contact = check_.time_to_contact;
+    state_.future = check_.others_stopping ? vadop::GateState::FUTURE_OTHERS_STOP : vadop::GateState::FUTURE_PREDICTED;
   } else {
     state_.limiting_body.clear();
     state_.limiting_link.clear();
     state_.time_to_contact = std::numeric_limits<double>::infinity();
+    state_.future.clear();
   }
   state_.command_in = command;
   state_.command_out = scaled(command, s);
+  forwarded_ = state_.command_out;
   core.adoptCommand(check_);
   return state_.command_out;
 }

@@ -56,6 +56,9 @@ class TimedPath {
     }
   }
   Eigen::Isometry3d poseAt(double t) const { return motion_[pieceAt(t)].poseAt(t); }
+  // How far the body origin travels along the path over [t0, t1] (t0 <= t1): the length of its
+  // trajectory, each piece's origin speed (originSpeed) times its stretch.
+  double travel(double t0, double t1) const;
 
  private:
   std::vector<Keyframe> keyframes_;

@@ -19,6 +19,7 @@
 // The message; this header must not pull in vadop/world.h (see predictor.h).
 #include <vadop/ImpactArray.h>
 
+#include <vadop/timed_path.h>
 #include <vadop/world.h>
 
 #include <ros/time.h>
@@ -69,6 +70,22 @@ struct RuntimeSettings {
 constexpr double kMaxHorizon = 60.0;
 constexpr double kMaxPadding = 10.0;
 
+// A velocity gate's question (MonitorCore::checkCommand), twists in the body frame (REP 105's
+// cmd_vel): the body goes on with the last forwarded command for reaction_time, then follows
+// the command scaled by s for `hold`, then, with its decelerations given, brakes to standstill
+// along the same arc; a scale is clear when that touches nothing until the body stands (with
+// braking) or until the hold's end (without).
+struct CommandQuestion {
+  Eigen::Vector3d v = Eigen::Vector3d::Zero(), w = Eigen::Vector3d::Zero();  // the command
+  Eigen::Vector3d last_v = Eigen::Vector3d::Zero(), last_w = Eigen::Vector3d::Zero();  // the last forwarded
+  double reaction_time = 0.0;  // s: from the check until the body executes the command
+  double hold = 1.0;           // s: cmd_timeout with braking, time_before_collision without
+  double linear_decel = 0.0, angular_decel = 0.0;  // m/s^2, rad/s^2: both > 0 for the braking model
+  bool others_may_stop = false;  // also the future in which every other body brakes to standstill
+  double state_timeout = 0.5;    // s
+  bool braking() const { return linear_decel > 0.0 && angular_decel > 0.0; }
+};
+
 // What a moving body would touch if it followed a velocity command (MonitorCore::checkCommand):
 // the scale of the command that a velocity gate may forward.
 struct CommandCheck {
@@ -89,6 +106,12 @@ struct CommandCheck {
   size_t element = 0, other = 0;
   double time_to_contact = std::numeric_limits<double>::infinity();
   bool undecided = false;  // that contact is a pair the narrow phase could not decide
+  bool braking = false;          // the rule: braking to standstill (else the command held)
+  bool others_stopping = false;  // that contact is in the future where the others brake
+  double stop_duration = 0.0;    // s: the body's braking from the chosen command (0 without the model)
+  // With a reaction time or braking: each element's manoeuvre at the chosen scale, to
+  // standstill (markers); `window` then ends when the body stands. Empty: `motions` over it.
+  std::vector<vadop::TimedPath> paths;
   // kChecked: the body's elements and their motions at the chosen scale over
   // [t0, t0 + window] (the registry's seconds), for the markers of the commanded sweep.
   std::vector<size_t> elements;
@@ -194,6 +217,11 @@ class MonitorCore {
   CommandCheck checkCommand(size_t body, const Eigen::Vector3d& v, const Eigen::Vector3d& w, const ros::Time& now,
                             TransformSource& tf, double window, double state_timeout,
                             const std::function<bool(size_t element)>& skip = {});
+  // The question with a reaction time, the last forwarded command, a braking model and the
+  // others' braking (CommandQuestion): the same contract. With no reaction time, no braking and
+  // others as predicted it is the call above with window = question.hold.
+  CommandCheck checkCommand(size_t body, const CommandQuestion& question, const ros::Time& now, TransformSource& tf,
+                            const std::function<bool(size_t element)>& skip = {});
 
   // Time jumped backwards: forget every state (and the world's moving elements).
   void reset();
@@ -256,6 +284,9 @@ class MonitorCore {
   // end of the last cycle (syncGateWorld), and the gated commands adopted since.
   Predictor gate_predictor_;
   void syncGateWorld();
+  // How long the element's body takes to brake to standstill from its state (its decelerations;
+  // 0, at once, without them and for tracked objects): the gates' others_may_stop future.
+  double stopDuration(size_t element) const;
   // Synced at the end of every cycle once a body has a gate configured or a command was
   // checked; before that, by the first checkCommand after a cycle (on the caller's thread:
   // a checking thread needs a configured gate, as the node's has).
@@ -272,6 +303,11 @@ class MonitorCore {
   // The body can be checked: a moving body with a fresh state and its elements in the gates'
   // world; false, with out's status and why, when not.
   bool commandCheckable(size_t body, const ros::Time& now, double state_timeout, CommandCheck& out) const;
+  // A check's start: the gates' world synced, the body checkable and its state carried to now;
+  // false, with out's status and why, when not.
+  bool prepareCheck(size_t body, const ros::Time& now, TransformSource& tf, double state_timeout, CommandCheck& out);
+  // The limiting contact (none: null) into out.
+  static void noteLimit(const Predictor::MoverContact* limit, double t_now, CommandCheck& out);
   void logPredictionOutcome();  // the recovered / failed lines (throttled)
   // The kept impacts (pair rules) into impacts_, and each body's soonest time to impact.
   void writeImpacts(const ros::Time& now);

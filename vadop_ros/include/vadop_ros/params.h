@@ -49,6 +49,8 @@ struct GateParams {
   double cmd_timeout = 0.5;             // s, (0, 3600]: no command for this long -> one zero Twist
   double state_timeout = 0.0;           // s, (0, 1e6]; the node's ~stale_timeout when not given
   std::vector<std::string> ignore;      // "body/link" globs (as ~ignore_pairs) the gate leaves out
+  double reaction_time = 0.1;
+  bool others_may_stop = true;
 };
 
 struct BodyParams {
@@ -68,6 +70,8 @@ struct BodyParams {
   std::string tf_prefix;
   bool has_gate = false;
   GateParams gate;
+  double max_linear_decel = 0.0, max_angular_decel = 0.0;
+  bool hasBraking() const { return max_linear_decel > 0.0; }
   // Optional planned path (nav_msgs/Path, poses of the body frame with their stamps): while
   // one covers the present, the body is predicted along it instead of its twist (body_registry.h).
   std::string path_topic;  // empty: none

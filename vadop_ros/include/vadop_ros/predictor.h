@@ -22,6 +22,7 @@
 
 namespace vadop {
 class LinkChain;  // vadop/joint_chain.h
+class TimedPath;  // vadop/timed_path.h
 }
 
 namespace vadop_ros {
@@ -113,9 +114,19 @@ class Predictor {
     size_t other = 0;  // element index
     double time = 0.0;
     bool undecided = false;
+    bool others_stopping = false;  // found in the future where the other brakes (firstContactAlong)
   };
   bool firstContact(const std::vector<size_t>& movers, const std::vector<vadop::Motion>& motions, double t0,
                     double horizon, const std::function<bool(size_t element)>& skip, MoverContact& contact);
+  // The same for movers on paths (vadop::World::firstContactAlong): `deviation` (m) how far the
+  // paths may lie from the motions they stand for; with `others_stop`, also the future in which
+  // every other element brakes to standstill (setStopDuration). Uses beginReach's candidates.
+  bool firstContactAlong(const std::vector<size_t>& movers, const std::vector<vadop::TimedPath>& paths, double t0,
+                         double horizon, const std::function<bool(size_t element)>& skip, double deviation,
+                         bool others_stop, MoverContact& contact);
+  // How long element i takes to brake to standstill from its motion (vadop::World::
+  // setStopDuration; +inf: never). Ignored for an element not in the world.
+  void setStopDuration(size_t i, double seconds);
   // For a family of firstContact calls on the same movers (a gate's scales): the candidates
   // found once, from a ball about each mover's origin at t0 of its bounding radius plus
   // `reach` (how far its origin may travel under any of the motions; vadop::World::reachable);

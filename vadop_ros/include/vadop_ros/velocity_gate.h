@@ -2,9 +2,13 @@
 // each command on its cmd_vel_in, and when the commands stop. Every finite command is checked
 // by MonitorCore::checkCommand and forwarded scaled to what is clear; a command it cannot check
 // (NaN/Inf, stale state, missing transform, body not monitored yet) becomes a zero Twist; when
-// commands stop for cmd_timeout, one zero Twist. It does not hold, repeat or smooth commands,
-// limit accelerations, or act between commands. No ROS transport: the node subscribes and
-// publishes, tests drive it directly.
+// commands stop for cmd_timeout, one zero Twist. The check assumes the base executes a command
+// reaction_time after it is published (the last one forwarded goes on meanwhile) and, with the
+// body's max_linear_decel / max_angular_decel, that it can brake to standstill along the
+// command's arc: a scale is clear when that manoeuvre touches nothing, against the others as
+// predicted and, with others_may_stop, braking too (GateState's rule and future). It does not
+// hold, repeat or smooth commands, limit accelerations, or act between commands. No ROS
+// transport: the node subscribes and publishes, tests drive it directly.
 #pragma once
 
 #include "vadop_ros/monitor_core.h"
@@ -53,6 +57,11 @@ class VelocityGate {
   CommandCheck check_;
   Counts counts_;
   bool has_command_ = false, timed_out_ = false;
+  // The body's braking model (BodyParams) and the last command published: it goes on during the
+  // reaction time of the next check.
+  bool braking_ = false;
+  double linear_decel_ = 0.0, angular_decel_ = 0.0;
+  geometry_msgs::Twist forwarded_;
   ros::Time last_command_;
   double last_warn_ = -1e300;  // wall seconds
 };

@@ -1,0 +1,114 @@
+#include "gate_manoeuvre.h"
+
+#include "vadop_ros/body_registry.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+namespace vadop_ros {
+
+GateManoeuvre::GateManoeuvre(Predictor& world, const Eigen::Isometry3d& body_pose, const CommandQuestion& question,
+                             double t_now, const std::function<bool(size_t element)>& skip)
+    : world_(world), body_pose_(body_pose), question_(question), t_now_(t_now), skip_(skip) {}
+
+void GateManoeuvre::add(size_t element, const Eigen::Isometry3d& pose, const Eigen::Vector3d& own_v,
+                        const Eigen::Vector3d& own_w, double radius) {
+  movers_.push_back(element);
+  parts_.push_back({pose, own_v, own_w, radius});
+}
+
+double GateManoeuvre::brakingDuration(double s) const {
+  if (!question_.braking()) return 0.0;
+  return std::max(s * question_.v.norm() / question_.linear_decel, s * question_.w.norm() / question_.angular_decel);
+}
+
+double GateManoeuvre::endAt(double s) const {
+  return t_now_ + question_.reaction_time + question_.hold + brakingDuration(s);
+}
+
+vadop::Motion GateManoeuvre::stageMotion(const Part& part, const Eigen::Isometry3d& pose, const Eigen::Isometry3d& body,
+                                         const Eigen::Vector3d& v, const Eigen::Vector3d& w, double t) const {
+  // The body-frame twist in the fixed frame at the stage's start, carried to the element's origin.
+  const Eigen::Vector3d cv = body.linear() * v, cw = body.linear() * w;
+  const Eigen::Vector3d r = pose.translation() - body.translation();
+  return twistMotion(pose, part.own_v + cv + cw.cross(r), part.own_w + cw, t);
+}
+
+const std::vector<vadop::TimedPath>& GateManoeuvre::pathsAt(double s) {
+  const CommandQuestion& q = question_;
+  const double t_react = t_now_ + q.reaction_time, t_hold = t_react + q.hold;
+  const double braking = brakingDuration(s);
+  // The body frame through the stages (its own motion: the element of no offset and no own velocity).
+  const Part frame{body_pose_, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 0.0};
+  const vadop::Motion frame_last = stageMotion(frame, body_pose_, body_pose_, q.last_v, q.last_w, t_now_);
+  const Eigen::Isometry3d body_at_react = frame_last.poseAt(t_react);
+  paths_.clear();
+  deviation_ = 0.0;
+  std::vector<vadop::Keyframe> keyframes;
+  for (const Part& part : parts_) {
+    keyframes.clear();
+    const vadop::Motion last = stageMotion(part, part.pose, body_pose_, q.last_v, q.last_w, t_now_);
+    vadop::appendKeyframes(last, t_now_, t_react, keyframes);
+    const vadop::Motion held = stageMotion(part, last.poseAt(t_react), body_at_react, s * q.v, s * q.w, t_react);
+    vadop::appendKeyframes(held, t_react, t_hold, keyframes);
+    if (q.braking()) {
+      deviation_ = std::max(deviation_, vadop::appendBrakingKeyframes(held, t_hold, braking, part.radius, kDeviation,
+                                                                      keyframes));
+    }
+    // Without braking the command goes on after the window (kContinue); with, the body stands.
+    paths_.emplace_back(keyframes, q.braking() ? vadop::AfterPath::kHold : vadop::AfterPath::kContinue);
+  }
+  return paths_;
+}
+
+std::vector<vadop::Motion> GateManoeuvre::motionsAt(double s) const {
+  std::vector<vadop::Motion> out;
+  for (const Part& part : parts_) out.push_back(stageMotion(part, part.pose, body_pose_, s * question_.v, s * question_.w, t_now_));
+  return out;
+}
+
+double GateManoeuvre::firstContactAt(double s) {
+  pathsAt(s);
+  Predictor::MoverContact c;
+  if (!world_.firstContactAlong(movers_, paths_, t_now_, endAt(s) - t_now_, skip_, deviation_,
+                                question_.others_may_stop, c)) {
+    return std::numeric_limits<double>::infinity();
+  }
+  seen_.push_back({s, c});
+  return c.time;
+}
+
+vadop::GateScale GateManoeuvre::search() {
+  // One candidate query for all the scales: each element's origin travels its reaction stretch,
+  // then at most the faster of the extreme scales' speeds (|own + s cmd| is convex in s) over
+  // the hold and the longest braking (s = 1).
+  std::vector<Eigen::Vector3d> origins;
+  std::vector<double> reach;
+  const double t_react = t_now_ + question_.reaction_time, hold = question_.hold;
+  const std::vector<vadop::TimedPath> at_zero = pathsAt(0.0);
+  const std::vector<vadop::TimedPath>& at_one = pathsAt(1.0);
+  const double t_end = endAt(1.0);
+  for (size_t k = 0; k < parts_.size(); ++k) {
+    const double speed = std::max(at_zero[k].travel(t_react, t_react + hold), at_one[k].travel(t_react, t_react + hold)) / hold;
+    origins.push_back(parts_[k].pose.translation());
+    reach.push_back(at_one[k].travel(t_now_, t_react) + speed * (hold + brakingDuration(1.0)) + 2.0 * kDeviation);
+  }
+  struct EndReach {
+    Predictor& p;
+    ~EndReach() { p.endReach(); }
+  } end_reach{world_};
+  world_.beginReach(movers_, origins, reach, t_now_, t_end - t_now_);
+  return vadop::searchGateScale([this](double s) { return firstContactAt(s); });
+}
+
+const Predictor::MoverContact* GateManoeuvre::limit(const vadop::GateScale& scale) const {
+  const Seen* found = nullptr;
+  for (const Seen& x : seen_) {
+    if (scale.clear ? (!found || x.s < found->s) : x.s == scale.scale) found = &x;
+  }
+  return found ? &found->contact : nullptr;
+}
+
+}  // namespace vadop_ros
