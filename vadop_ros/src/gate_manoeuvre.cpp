@@ -93,7 +93,8 @@ vadop::GateScale GateManoeuvre::search() {
   for (size_t k = 0; k < parts_.size(); ++k) {
     const double speed = std::max(at_zero[k].travel(t_react, t_react + hold), at_one[k].travel(t_react, t_react + hold)) / hold;
     origins.push_back(parts_[k].pose.translation());
-    reach.push_back(at_one[k].travel(t_now_, t_react) + speed * (hold + brakingDuration(1.0)) + 2.0 * kDeviation);
+    // The queries count contacts within a tolerance of 2 (kDeviation + the others' 0.5 mm).
+    reach.push_back(at_one[k].travel(t_now_, t_react) + speed * (hold + brakingDuration(1.0)) + 4.0 * kDeviation);
   }
   struct EndReach {
     Predictor& p;
