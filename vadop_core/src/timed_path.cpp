@@ -81,6 +81,8 @@ TimedPath::TimedPath(std::vector<Keyframe> keyframes, AfterPath after) : keyfram
     motion_.push_back(restAt(keyframes_.back()));
   }
   for (size_t k = 0; k < motion_.size(); ++k) {
+    // The message is built only for a piece the quick test refuses (a gate builds paths per scale).
+    if (isValidMotion(motion_[k])) continue;
     validateMotion(motion_[k], k == 0 || k >= keyframes_.size()
                                    ? "TimedPath: keyframe " + std::to_string(k == 0 ? 0 : keyframes_.size() - 1)
                                    : "TimedPath: piece from keyframe " + std::to_string(k - 1) + " to " +

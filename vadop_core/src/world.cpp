@@ -129,6 +129,7 @@ void WorldEngine::requireEngine(const char* operation) const {
 }
 
 void WorldEngine::add(const std::string& id, const Shape& shape, const Motion& motion, uint64_t user) {
+  ++epoch_;  // the others' braking paths (brakingOf) are made again
   requireEngine("add");
   const std::string what = "add body " + quoted(id);
   if (id.empty()) throw InvalidArgument("add: the body id must not be empty");
@@ -163,6 +164,7 @@ void WorldEngine::add(const std::string& id, const Shape& shape, const Motion& m
 }
 
 void WorldEngine::remove(const std::string& id) {
+  ++epoch_;  // the others' braking paths (brakingOf) are made again
   const BodyId bid = bodyId(id, "remove");
   broad_phase_->remove(bid);  // strong guarantee; nothing below throws
   by_name_->erase(id, NameOf{records_});
@@ -188,6 +190,7 @@ void WorldEngine::setStopDuration(const Handle& body, double seconds) {
 }
 
 void WorldEngine::setStopDurationOf(BodyId bid, double seconds) {
+  ++epoch_;  // the others' braking paths (brakingOf) are made again
   if (std::isnan(seconds) || seconds < 0.0) {
     throw InvalidArgument("setStopDuration body " + quoted(records_[bid].name) +
                           ": the duration must be >= 0 (+infinity: never), got " + formatNumber(seconds));
@@ -205,6 +208,7 @@ BodyId WorldEngine::handleId(const Handle& body, const char* operation) const {
 }
 
 void WorldEngine::setMotionOf(BodyId bid, const Motion& motion) {
+  ++epoch_;  // the others' braking paths (brakingOf) are made again
   // The message is built only for a motion the quick test refuses (setMotion runs per body per cycle).
   if (!isValidMotion(motion)) validateMotion(motion, "setMotion body " + quoted(records_[bid].name) + ": motion");
   broad_phase_->setMotion(bid, motion);  // strong guarantee; nothing below throws
@@ -230,6 +234,7 @@ void WorldEngine::setChain(const Handle& body, std::shared_ptr<const LinkChain> 
 }
 
 void WorldEngine::setChainOf(BodyId bid, std::shared_ptr<const LinkChain> chain) {
+  ++epoch_;  // the others' braking paths (brakingOf) are made again
   path_bodies_.reserve(path_bodies_.size() + 1);
   broad_phase_->setMotion(bid, chain->base().motion(0));  // strong guarantee; nothing below throws
   if (!records_[bid].chain) path_bodies_.insert(std::lower_bound(path_bodies_.begin(), path_bodies_.end(), bid), bid);

@@ -18,6 +18,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 namespace vadop {
@@ -212,8 +213,20 @@ class WorldEngine {
 
   // firstContactAlong's pair: mover rm along `path` against `other`, in its own motion's future
   // and, with query.others_stop, in its braking one; the earlier contact.
-  std::optional<MoverContact> pathImpact(const Record& rm, size_t mover, const TimedPath& path, BodyId other,
-                                         const World::PathQuery& query, double t0, double t1) const;
+  std::optional<MoverContact> pathImpact(const Record& rm, BodyId rm_id, size_t mover, const TimedPath& path,
+                                         BodyId other, const World::PathQuery& query, double t0, double t1) const;
+  // Body `other` braking to standstill from t0 along its motion (its stop duration), and how far
+  // the keyframed path lies from the exact braking: made once per body while t0 and the world
+  // stay (a gate's scales ask the same others again).
+  struct BrakingPath {
+    TimedPath path;
+    double deviation;
+  };
+  const BrakingPath& brakingOf(BodyId other, double t0) const;
+  mutable std::unordered_map<BodyId, BrakingPath> braking_paths_;
+  mutable double braking_t0_ = std::numeric_limits<double>::quiet_NaN();
+  mutable uint64_t braking_epoch_ = 0;
+  uint64_t epoch_ = 0;  // counts the changes of bodies' motions, paths and stop durations
   // firstContactAlong's partners when the query gives none: reachable() from each path's origin
   // at t0 and how far it travels over the window.
   Reachable pathPartners(const std::vector<std::string>& movers, const std::vector<TimedPath>& paths, double t0,

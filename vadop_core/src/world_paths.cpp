@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <utility>
 
@@ -20,19 +21,34 @@ constexpr double kOthersDeviation = 5e-4;
 // constant twists, timeOfImpact's contract on each): a pair touching at the start of a stretch is
 // a contact only when the two pieces press it together at the touching point; else that stretch
 // is passed over (moving apart, sliding) and the search goes on with the next.
+// `radius`: the sum of the two shapes' bounding radii: a stretch whose bounding balls stay
+// apart by more than the tolerance is clear without the narrow phase.
 TimeOfImpact pressingImpact(const PreparedShape& a, const TimedPath& pa, const PreparedShape& b, const TimedPath& pb,
-                            double t0, double t1, const ToiOptions& options) {
+                            double t0, double t1, double radius, const ToiOptions& options) {
   size_t ka = pa.pieceAt(t0), kb = pb.pieceAt(t0);
   double s = t0;
   int iterations = 0;
+  // A lower bound on the origins' distance at s: measured where needed, else the last measure
+  // less how far both origins travelled since (no pose evaluated while the pair is far apart).
+  double apart = -std::numeric_limits<double>::infinity();
   for (;;) {
     const double e = std::min({t1, pa.start(ka + 1), pb.start(kb + 1)});
-    TimeOfImpact out = timeOfImpact(a, pa.motion(ka), b, pb.motion(kb), s, e, options);
+    const Motion& ma = pa.motion(ka);
+    const Motion& mb = pb.motion(kb);
+    const double step = (originSpeed(ma) + originSpeed(mb)) * (e - s);
+    if (apart - radius - step <= options.tolerance) apart = (ma.positionAt(s) - mb.positionAt(s)).norm();
+    TimeOfImpact out;
+    if (apart - radius - step > options.tolerance) {
+      out.time = e;  // the bounding balls stay apart over the stretch
+      apart -= step;
+    } else {
+      out = timeOfImpact(a, ma, b, mb, s, e, options);
+      apart = -std::numeric_limits<double>::infinity();
+    }
     iterations += out.iterations;
     bool pressing = true;
     if (out.hit && out.initially_touching) {
-      const Eigen::Vector3d closing =
-          pa.motion(ka).velocityOfPoint(out.point, s) - pb.motion(kb).velocityOfPoint(out.point, s);
+      const Eigen::Vector3d closing = ma.velocityOfPoint(out.point, s) - mb.velocityOfPoint(out.point, s);
       pressing = closing.dot(out.normal) > 0.0;
     }
     if (pressing && (out.hit || out.undecided)) {
@@ -98,7 +114,7 @@ std::optional<WorldEngine::MoverContact> WorldEngine::firstContactAlong(const st
       const Record& ro = records_[other];
       if (!shouldTest(rm, ro) || (query.skip && query.skip(ro.key))) continue;
       // Only the first contact matters: later pairs search up to the best time so far.
-      std::optional<MoverContact> c = pathImpact(rm, i, paths[i], other, query, t0, t1);
+      std::optional<MoverContact> c = pathImpact(rm, ids[i], i, paths[i], other, query, t0, t1);
       if (c && (!best || c->impact.time < best->impact.time)) {
         best = std::move(c);
         t1 = best->impact.time;
@@ -108,10 +124,29 @@ std::optional<WorldEngine::MoverContact> WorldEngine::firstContactAlong(const st
   return best;
 }
 
-std::optional<WorldEngine::MoverContact> WorldEngine::pathImpact(const Record& rm, size_t mover, const TimedPath& path,
-                                                                 BodyId other, const World::PathQuery& query,
-                                                                 double t0, double t1) const {
+const WorldEngine::BrakingPath& WorldEngine::brakingOf(BodyId other, double t0) const {
+  if (braking_t0_ != t0 || braking_epoch_ != epoch_) {
+    braking_paths_.clear();
+    braking_t0_ = t0;
+    braking_epoch_ = epoch_;
+  }
+  const auto found = braking_paths_.find(other);
+  if (found != braking_paths_.end()) return found->second;
+  std::vector<Keyframe> keyframes;
+  const double deviation = appendBrakingKeyframes(broad_phase_->motion(other), t0, records_[other].stop_duration,
+                                                  broad_phase_->shape(other).bounding_radius, kOthersDeviation,
+                                                  keyframes);
+  return braking_paths_.emplace(other, BrakingPath{TimedPath(std::move(keyframes), AfterPath::kHold), deviation})
+      .first->second;
+}
+
+std::optional<WorldEngine::MoverContact> WorldEngine::pathImpact(const Record& rm, BodyId rm_id, size_t mover,
+                                                                 const TimedPath& path, BodyId other,
+                                                                 const World::PathQuery& query, double t0,
+                                                                 double t1) const {
   const Record& ro = records_[other];
+  // The broad phase's shapes are padded by the tolerance: their radii bound the shapes'.
+  const double radius = broad_phase_->shape(rm_id).bounding_radius + broad_phase_->shape(other).bounding_radius;
   ToiOptions options = config_.toi;
   options.tolerance = std::max(options.tolerance, 2.0 * query.deviation);
   std::optional<MoverContact> out;
@@ -123,7 +158,7 @@ std::optional<WorldEngine::MoverContact> WorldEngine::pathImpact(const Record& r
   if (ro.chain) {
     const LinkChain& oc = *ro.chain;
     if (oc.joints().empty()) {
-      consider(pressingImpact(*rm.prepared, path, *ro.prepared, oc.base(), t0, t1, options), false);
+      consider(pressingImpact(*rm.prepared, path, *ro.prepared, oc.base(), t0, t1, radius, options), false);
       return out;
     }
     TimeOfImpact hit = timeOfImpact(*rm.prepared, LinkChain(path), *ro.prepared, oc, t0, t1, options);
@@ -136,17 +171,13 @@ std::optional<WorldEngine::MoverContact> WorldEngine::pathImpact(const Record& r
     return out;
   }
   const Motion& om = broad_phase_->motion(other);
-  consider(pressingImpact(*rm.prepared, path, *ro.prepared, TimedPath(om), t0, t1, options), false);
+  consider(pressingImpact(*rm.prepared, path, *ro.prepared, TimedPath(om), t0, t1, radius, options), false);
   if (query.others_stop && std::isfinite(ro.stop_duration)) {
-    std::vector<Keyframe> keyframes;
-    const double radius = broad_phase_->shape(other).bounding_radius;
-    const double deviation = appendBrakingKeyframes(om, t0, ro.stop_duration, radius, kOthersDeviation, keyframes);
+    const BrakingPath& braking = brakingOf(other, t0);
     ToiOptions braking_options = config_.toi;
-    braking_options.tolerance = std::max(braking_options.tolerance, 2.0 * (query.deviation + deviation));
+    braking_options.tolerance = std::max(braking_options.tolerance, 2.0 * (query.deviation + braking.deviation));
     const double t_end = out ? out->impact.time : t1;
-    consider(pressingImpact(*rm.prepared, path, *ro.prepared, TimedPath(std::move(keyframes), AfterPath::kHold), t0,
-                            t_end, braking_options),
-             true);
+    consider(pressingImpact(*rm.prepared, path, *ro.prepared, braking.path, t0, t_end, radius, braking_options), true);
   }
   return out;
 }

@@ -29,7 +29,7 @@
 // half a period later, and the time of VelocityGate::onCommand (the node's work between the
 // receipt of a command and the publication of the gated one, without transport) is measured:
 // median, p99 and max, with the scales tried per command and the share of commands slowed or
-// stopped.
+// stopped. --gate-rule: the gates' rule (Options::gate_rule).
 //
 // --tracks: the N moving things are tracked objects instead, all in one vadop/TrackedObjectArray
 // per cycle (source "people", timeout 0.5 s; spheres, boxes and cylinders by index), fed to
@@ -195,6 +195,10 @@ struct Options {
   int links = 1;
   bool joints = false;  // --joints: the links on revolute joints, driven by joint states
   size_t gates = 0;
+  // --gate-rule held|braking|instant: the gates' rule. held (the default gate keys: reaction
+  // 0.1 s, others may stop, no decelerations), braking (every body brakes at 1 m/s^2, 2 rad/s^2),
+  // instant (no reaction time, others as predicted, no decelerations: the rule before issue 48).
+  std::string gate_rule = "held";
   bool tracks = false;
   double churn = 0.2;
   int threads = 1;
@@ -243,6 +247,14 @@ vadop_ros::MonitorParams fleetParams(size_t n, const Options& o) {
       b.gate.cmd_vel_in = "/" + b.name + "/nav_vel";
       b.gate.cmd_vel_out = "/" + b.name + "/cmd_vel";
       b.gate.state_timeout = p.stale_timeout;
+      if (o.gate_rule == "instant") {
+        b.gate.reaction_time = 0.0;
+        b.gate.others_may_stop = false;
+      }
+    }
+    if (o.gate_rule == "braking") {
+      b.max_linear_decel = 1.0;
+      b.max_angular_decel = 2.0;
     }
     if (o.links >= 2) {
       b.robot_description = "/robot_description";
@@ -579,6 +591,7 @@ bool parseOption(int argc, char** argv, int& i, CommandLine& cl) {
   else if (a == "--links") o.links = std::stoi(next());
   else if (a == "--joints") o.joints = true;
   else if (a == "--gates") o.gates = std::stoul(next());
+  else if (a == "--gate-rule") o.gate_rule = next();
   else if (a == "--startup") cl.startup_sizes = parseList(next());
   else if (a == "--tracks") o.tracks = true;
   else if (a == "--threads") o.threads = std::stoi(next());
@@ -607,7 +620,7 @@ int parseCommandLine(int argc, char** argv, CommandLine& cl) {
       if (parseOption(argc, argv, i, cl)) continue;
       std::fprintf(stderr,
                    "usage: %s [--bodies 100,1000,5000] [--cycles 150] [--warmup 15] [--rate 30] [--horizon 2] "
-                   "[--area 6] [--turn 0.5] [--markers] [--seed 1] [--links K [--joints]] [--gates G] [--tracks [--churn C]] "
+                   "[--area 6] [--turn 0.5] [--markers] [--seed 1] [--links K [--joints]] [--gates G [--gate-rule held|braking|instant]] [--tracks [--churn C]] "
                    "[--threads T] [--fast F] [--3d H] [--broadphase vadop|grid|sap|vadop_sap|brute] [--time-slices K] [--noise S] "
                    "[--coherence C[,L] [--paired]] | "
                    "--startup 5000,50000\n",
