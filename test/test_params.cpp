@@ -62,6 +62,11 @@ TEST(Params, ExampleConfigParses) {
   EXPECT_EQ(p.bodies[0].source, vadop_ros::VelocitySource::kOdometry);
   EXPECT_EQ(p.bodies[0].shape.type, vadop::ShapeType::kCylinder);
   EXPECT_DOUBLE_EQ(p.bodies[0].shape.half_length, 0.25);
+  EXPECT_EQ(p.bodies[0].max_linear_decel, 1.0);  // the gated robot brakes (issue 48)
+  EXPECT_EQ(p.bodies[0].max_angular_decel, 2.0);
+  EXPECT_EQ(p.bodies[0].gate.reaction_time, 0.1);
+  EXPECT_TRUE(p.bodies[0].gate.others_may_stop);
+  EXPECT_FALSE(p.bodies[1].hasBraking());  // stops at once in the others_may_stop future
   EXPECT_EQ(p.bodies[1].source, vadop_ros::VelocitySource::kTwist);
   EXPECT_EQ(p.bodies[1].frame, "robot_2/base_link");
   EXPECT_EQ(p.bodies[4].name, "agent_2");
@@ -510,6 +515,8 @@ TEST(Params, BrakingAndReactionAcceptedValues) {
   EXPECT_EQ(p.bodies[0].max_angular_decel, 1000.0);
   p = parseParams(yaml(bodyWith("max_linear_decel: 1e-3, max_angular_decel: 1e-3")));
   EXPECT_EQ(p.bodies[0].max_linear_decel, 1e-3);
+  EXPECT_EQ(p.bodies[0].max_angular_decel, 1e-3);
+  EXPECT_TRUE(p.bodies[0].hasBraking());  // any deceleration > 0 is a braking model, however gentle
   p = parseParams(yaml(gateWith("reaction_time: 0, others_may_stop: false")));
   EXPECT_EQ(p.bodies[0].gate.reaction_time, 0.0);  // a closed interval: 0 is a base that reacts at once
   EXPECT_FALSE(p.bodies[0].gate.others_may_stop);
