@@ -37,6 +37,13 @@ CASES = [
                             "pose": {"position": [1e200, 0.0, 0.0]}}]},
      '~static_obstacles[0] ("w").pose.position[0]: must be within 1e+07 m'),
     ({"padding": float("nan")}, "~padding"),
+    # Issue 48: one deceleration without the other (braking along an arc needs both).
+    ({"bodies": [{"name": "a", "odom_topic": "/a/odom", "shape": {"type": "sphere", "radius": 1.0},
+                  "max_linear_decel": 1.0}]},
+     '~bodies[0] ("a").max_angular_decel: is required with max_linear_decel'),
+    ({"bodies": [{"name": "a", "odom_topic": "/a/odom", "shape": {"type": "sphere", "radius": 1.0},
+                  "gate": {"cmd_vel_in": "/a/nav_vel", "cmd_vel_out": "/a/cmd_vel", "reaction_time": 5.0}}]},
+     '~bodies[0] ("a").gate.reaction_time: must be in [0, 2], got 5'),
 ]
 
 

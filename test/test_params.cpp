@@ -8,6 +8,7 @@
 #include <functional>
 #include <limits>
 #include <string>
+#include <vector>
 
 using vadop_ros::MonitorParams;
 using vadop_ros::ParamError;
@@ -61,6 +62,11 @@ TEST(Params, ExampleConfigParses) {
   EXPECT_EQ(p.bodies[0].source, vadop_ros::VelocitySource::kOdometry);
   EXPECT_EQ(p.bodies[0].shape.type, vadop::ShapeType::kCylinder);
   EXPECT_DOUBLE_EQ(p.bodies[0].shape.half_length, 0.25);
+  EXPECT_EQ(p.bodies[0].max_linear_decel, 1.0);  // the gated robot brakes (issue 48)
+  EXPECT_EQ(p.bodies[0].max_angular_decel, 2.0);
+  EXPECT_EQ(p.bodies[0].gate.reaction_time, 0.1);
+  EXPECT_TRUE(p.bodies[0].gate.others_may_stop);
+  EXPECT_FALSE(p.bodies[1].hasBraking());  // stops at once in the others_may_stop future
   EXPECT_EQ(p.bodies[1].source, vadop_ros::VelocitySource::kTwist);
   EXPECT_EQ(p.bodies[1].frame, "robot_2/base_link");
   EXPECT_EQ(p.bodies[4].name, "agent_2");
@@ -472,4 +478,149 @@ TEST(Params, GateErrorsNameTheField) {
   EXPECT_NE(errorOf("bodies: [{name: a, odom_topic: /a, shape: {type: sphere, radius: 1}, gate: 3}]")
                 .find(p + ": must be a dictionary"),
             std::string::npos);
+}
+
+// Issue 48: the braking model of a body (max_linear_decel, max_angular_decel) and the gate's
+// reaction_time and others_may_stop.
+namespace {
+
+std::string bodyWith(const std::string& keys) {
+  return "bodies: [{name: a, odom_topic: /a, shape: {type: sphere, radius: 1}" + (keys.empty() ? "" : ", " + keys) + "}]";
+}
+
+std::string gateWith(const std::string& keys) {
+  return bodyWith("gate: {cmd_vel_in: /i, cmd_vel_out: /o" + (keys.empty() ? "" : ", " + keys) + "}");
+}
+
+}  // namespace
+
+TEST(Params, BrakingAndReactionDefaults) {
+  const MonitorParams p = parseParams(yaml(gateWith("")));
+  ASSERT_EQ(p.bodies.size(), 1u);
+  EXPECT_EQ(p.bodies[0].max_linear_decel, 0.0);
+  EXPECT_EQ(p.bodies[0].max_angular_decel, 0.0);
+  EXPECT_FALSE(p.bodies[0].hasBraking());
+  EXPECT_EQ(p.bodies[0].gate.reaction_time, 0.1);
+  EXPECT_TRUE(p.bodies[0].gate.others_may_stop);
+}
+
+TEST(Params, BrakingAndReactionAcceptedValues) {
+  MonitorParams p = parseParams(yaml(bodyWith("max_linear_decel: 1.5, max_angular_decel: 2")));  // an integer too
+  EXPECT_EQ(p.bodies[0].max_linear_decel, 1.5);
+  EXPECT_EQ(p.bodies[0].max_angular_decel, 2.0);
+  EXPECT_TRUE(p.bodies[0].hasBraking());
+  EXPECT_FALSE(p.bodies[0].has_gate);  // a body without a gate may brake too (the others_may_stop future)
+  p = parseParams(yaml(bodyWith("max_linear_decel: 100, max_angular_decel: 1000")));  // the upper bounds
+  EXPECT_EQ(p.bodies[0].max_linear_decel, 100.0);
+  EXPECT_EQ(p.bodies[0].max_angular_decel, 1000.0);
+  p = parseParams(yaml(bodyWith("max_linear_decel: 1e-3, max_angular_decel: 1e-3")));
+  EXPECT_EQ(p.bodies[0].max_linear_decel, 1e-3);
+  EXPECT_EQ(p.bodies[0].max_angular_decel, 1e-3);
+  EXPECT_TRUE(p.bodies[0].hasBraking());  // any deceleration > 0 is a braking model, however gentle
+  p = parseParams(yaml(gateWith("reaction_time: 0, others_may_stop: false")));
+  EXPECT_EQ(p.bodies[0].gate.reaction_time, 0.0);  // a closed interval: 0 is a base that reacts at once
+  EXPECT_FALSE(p.bodies[0].gate.others_may_stop);
+  p = parseParams(yaml(gateWith("reaction_time: 2, others_may_stop: true")));
+  EXPECT_EQ(p.bodies[0].gate.reaction_time, 2.0);
+  EXPECT_TRUE(p.bodies[0].gate.others_may_stop);
+  p = parseParams(yaml(gateWith("reaction_time: 0.06")));
+  EXPECT_EQ(p.bodies[0].gate.reaction_time, 0.06);
+}
+
+TEST(Params, DecelerationErrorsNameTheKey) {
+  const std::string lin = "~bodies[0] (\"a\").max_linear_decel: ";
+  const std::string ang = "~bodies[0] (\"a\").max_angular_decel: ";
+  EXPECT_EQ(errorOf(bodyWith("max_linear_decel: 0, max_angular_decel: 1")), lin + "must be in (0, 100], got 0");
+  EXPECT_EQ(errorOf(bodyWith("max_linear_decel: -1, max_angular_decel: 1")), lin + "must be in (0, 100], got -1");
+  EXPECT_EQ(errorOf(bodyWith("max_linear_decel: 100.5, max_angular_decel: 1")), lin + "must be in (0, 100], got 100.5");
+  EXPECT_EQ(errorOf(bodyWith("max_linear_decel: .nan, max_angular_decel: 1")), lin + "must be a finite number, got nan");
+  EXPECT_EQ(errorOf(bodyWith("max_linear_decel: fast, max_angular_decel: 1")), lin + "must be a number, got a string");
+  EXPECT_EQ(errorOf(bodyWith("max_linear_decel: 1, max_angular_decel: 0")), ang + "must be in (0, 1000], got 0");
+  EXPECT_EQ(errorOf(bodyWith("max_linear_decel: 1, max_angular_decel: -2")), ang + "must be in (0, 1000], got -2");
+  EXPECT_EQ(errorOf(bodyWith("max_linear_decel: 1, max_angular_decel: 1000.5")),
+            ang + "must be in (0, 1000], got 1000.5");
+  EXPECT_EQ(errorOf(bodyWith("max_linear_decel: 1, max_angular_decel: .nan")), ang + "must be a finite number, got nan");
+  EXPECT_EQ(errorOf(bodyWith("max_linear_decel: 1, max_angular_decel: [2]")), ang + "must be a number, got a list");
+  // +-Inf as rosparam gives it (the test's YAML reader keeps ".inf" a string).
+  XmlRpc::XmlRpcValue root = yaml(bodyWith("max_linear_decel: 1, max_angular_decel: 1"));
+  root["bodies"][0]["max_linear_decel"] = std::numeric_limits<double>::infinity();
+  try {
+    parseParams(root);
+    ADD_FAILURE() << "an infinite max_linear_decel was accepted";
+  } catch (const ParamError& e) {
+    EXPECT_EQ(std::string(e.what()), lin + "must be a finite number, got inf");
+  }
+}
+
+TEST(Params, DecelerationsBothOrNeither) {
+  EXPECT_EQ(errorOf(bodyWith("max_linear_decel: 1")),
+            "~bodies[0] (\"a\").max_angular_decel: is required with max_linear_decel (give both decelerations or "
+            "neither)");
+  EXPECT_EQ(errorOf(bodyWith("max_angular_decel: 2")),
+            "~bodies[0] (\"a\").max_linear_decel: is required with max_angular_decel (give both decelerations or "
+            "neither)");
+  // The body named in a list, and a template's entry by its own name.
+  EXPECT_NE(errorOf(std::string(kTwoBodies) +
+                    "  - {name: 'c{i}', count: 2, odom_topic: '/c{i}', shape: {type: sphere, radius: 1}, "
+                    "max_linear_decel: 1}\n")
+                .find("~bodies[2] (\"c{i}\").max_angular_decel: is required"),
+            std::string::npos);
+}
+
+TEST(Params, ReactionTimeAndOthersMayStopErrorsNameTheKey) {
+  const std::string p = "~bodies[0] (\"a\").gate.";
+  EXPECT_EQ(errorOf(gateWith("reaction_time: -0.01")), p + "reaction_time: must be in [0, 2], got -0.01");
+  EXPECT_EQ(errorOf(gateWith("reaction_time: 2.01")), p + "reaction_time: must be in [0, 2], got 2.01");
+  EXPECT_EQ(errorOf(gateWith("reaction_time: .nan")), p + "reaction_time: must be a finite number, got nan");
+  EXPECT_EQ(errorOf(gateWith("reaction_time: soon")), p + "reaction_time: must be a number, got a string");
+  EXPECT_EQ(errorOf(gateWith("others_may_stop: 1")), p + "others_may_stop: must be true or false, got an integer");
+  EXPECT_EQ(errorOf(gateWith("others_may_stop: maybe")), p + "others_may_stop: must be true or false, got a string");
+  // Body keys, not gate keys (and the other way round): a misplaced key is named, not ignored.
+  EXPECT_NE(errorOf(gateWith("max_linear_decel: 1")).find(p + "max_linear_decel: unknown key"), std::string::npos);
+  EXPECT_NE(errorOf(bodyWith("reaction_time: 0.1")).find("~bodies[0] (\"a\").reaction_time: unknown key"),
+            std::string::npos);
+}
+
+TEST(Params, TemplatesCarryBrakingAndReaction) {
+  const MonitorParams p = parseParams(yaml(R"(
+bodies:
+  - name: "r_{i}"
+    count: 3
+    odom_topic: "/r_{i}/odom"
+    shape: {type: sphere, radius: 0.3}
+    max_linear_decel: 1.0
+    max_angular_decel: 2.0
+    gate: {cmd_vel_in: "/r_{i}/nav_vel", cmd_vel_out: "/r_{i}/cmd_vel", reaction_time: 0.25, others_may_stop: false}
+  - {name: "w_{i}", count: 2, odom_topic: "/w_{i}/odom", shape: {type: sphere, radius: 0.3}}
+)"));
+  ASSERT_EQ(p.bodies.size(), 5u);
+  for (int k = 0; k < 3; ++k) {
+    SCOPED_TRACE(p.bodies[k].name);
+    EXPECT_EQ(p.bodies[k].max_linear_decel, 1.0);
+    EXPECT_EQ(p.bodies[k].max_angular_decel, 2.0);
+    EXPECT_TRUE(p.bodies[k].hasBraking());
+    EXPECT_EQ(p.bodies[k].gate.reaction_time, 0.25);
+    EXPECT_FALSE(p.bodies[k].gate.others_may_stop);
+  }
+  for (int k = 3; k < 5; ++k) EXPECT_FALSE(p.bodies[k].hasBraking());
+}
+
+TEST(Params, GatedBodyWithoutBrakingIsWarnedAbout) {
+  const MonitorParams p = parseParams(yaml(R"(
+bodies:
+  - {name: held, odom_topic: /a, shape: {type: sphere, radius: 1}, gate: {cmd_vel_in: /a/i, cmd_vel_out: /a/o}}
+  - {name: braked, odom_topic: /b, shape: {type: sphere, radius: 1}, max_linear_decel: 1, max_angular_decel: 2,
+     gate: {cmd_vel_in: /b/i, cmd_vel_out: /b/o}}
+  - {name: walker, odom_topic: /c, shape: {type: sphere, radius: 1}}
+  - {name: "g_{i}", count: 2, odom_topic: "/g{i}", shape: {type: sphere, radius: 1},
+     gate: {cmd_vel_in: "/g{i}/i", cmd_vel_out: "/g{i}/o"}}
+)"));
+  const std::vector<std::string> warnings = vadop_ros::paramWarnings(p);
+  ASSERT_EQ(warnings.size(), 3u);  // held, g_0, g_1: not the braked gate, not the ungated walker
+  EXPECT_EQ(warnings[0],
+            "gate of \"held\": no braking model (max_linear_decel / max_angular_decel not given): commands are "
+            "checked as held over time_before_collision, starting after reaction_time");
+  EXPECT_EQ(warnings[1].rfind("gate of \"g_0\": no braking model", 0), 0u);
+  EXPECT_EQ(warnings[2].rfind("gate of \"g_1\": no braking model", 0), 0u);
+  EXPECT_TRUE(vadop_ros::paramWarnings(parseParams(yaml(kTwoBodies))).empty());
 }

@@ -10,17 +10,22 @@ Agents bounce off the walls, the pillar and each other (so a predicted impact is
 followed by a bounce rather than an overlap).
 
 Private parameters: agents (20), rate (30 Hz), duration (0 = forever; else the node exits
-after that many seconds, which ends demo.launch), seed (1), gates (false).
+after that many seconds, which ends demo.launch), seed (1), gates (false), and with gates the
+bases' base_delay (0.06 s), base_linear_accel (1.0 m/s^2) and base_angular_accel (2.0 rad/s^2).
 
 With gates (demo.launch gates:=true) each agent's planner publishes its wandering command on
 /agent_<i>/nav_vel (geometry_msgs/Twist, body frame) and the agent moves with what
 vadop_monitor's gate publishes on /agent_<i>/cmd_vel (nothing received yet: standing still); a
 planner whose agent has been held (scale < 5%) for a second turns in place for a while to find
-another way. Without gates the agents follow their planners directly.
+another way. Each agent's base behaves as real ones do: it executes a command base_delay after
+it arrives and ramps its velocity towards it at base_linear_accel / base_angular_accel instead
+of jumping (the odometry reports the base's velocity). Without gates the agents follow their
+planners directly, at once.
 
 Contacts (an agent touching another agent, a wall or the pillar) are counted as they begin and
 reported at the end (and every 10 s), per minute of simulated time.
 """
+import collections
 import math
 import random
 
@@ -33,6 +38,39 @@ ROOM_HALF = 6.0        # inner faces of the walls at +-6 m (config/demo.yaml)
 RADIUS = 0.3           # base radius (urdf/agent.urdf)
 PILLAR = (2.5, -2.5, 0.4)
 MAST_ORIGIN = (0.1, 0.0, 0.3)
+
+
+class Base:
+    """A differential base as real ones behave: it executes each command `delay` s after its
+    arrival (transport, controller cycle) and ramps its velocity towards it at `lin_acc` (m/s^2)
+    and `ang_acc` (rad/s^2) instead of jumping. Nothing received yet: standing still."""
+
+    def __init__(self, delay, lin_acc, ang_acc):
+        self.delay, self.lin_acc, self.ang_acc = delay, lin_acc, ang_acc
+        self.pending = collections.deque()  # (arrival s, v, w); appended by the subscriber's thread
+        self.target_v = self.target_w = 0.0
+        self.v = self.w = 0.0
+
+    def command(self, arrival, v, w):
+        self.pending.append((arrival, v, w))
+
+    def advance(self, now, dt):
+        """The base's velocity over the step ending at `now` (the mean of its start and end,
+        so that the distance covered while ramping is right)."""
+        while self.pending and self.pending[0][0] + self.delay <= now:
+            _, self.target_v, self.target_w = self.pending.popleft()
+        v0, w0 = self.v, self.w
+        self.v = ramp(self.v, self.target_v, self.lin_acc * dt)
+        self.w = ramp(self.w, self.target_w, self.ang_acc * dt)
+        return 0.5 * (v0 + self.v), 0.5 * (w0 + self.w)
+
+    def forget_pending(self):
+        """Time jumped back: arrival stamps are of the old timeline."""
+        self.pending.clear()
+
+
+def ramp(value, target, max_change):
+    return value + max(-max_change, min(max_change, target - value))
 
 
 class Agent:
@@ -50,6 +88,8 @@ class Agent:
         self.escape_w = 0.0
         self.touching = set()    # what it touches now (agent indices, "wall", "pillar")
         self.travelled = 0.0     # m
+        self.speed = 0.0         # m/s: the speed it moved at over the last step
+        self.base = None         # with gates: its Base
 
     def vel(self):
         return self.v * math.cos(self.yaw), self.v * math.sin(self.yaw)
@@ -102,7 +142,8 @@ def plan(a, t):
     return a.v, a.wz
 
 
-def step(agents, t, dt, gated):
+def step(agents, t, dt, gated, now=0.0):
+    """Moves every agent over dt; `now` (s, ROS time) is when the step ends (the bases' clock)."""
     for a in agents:
         if t >= a.next_turn:
             a.wz = random.uniform(-0.6, 0.6)
@@ -119,10 +160,11 @@ def step(agents, t, dt, gated):
                 a.escape_until = t + random.uniform(1.0, 2.5)
                 a.escape_w = random.choice((-1.0, 1.0)) * 0.8
                 a.held_since = None
-            v, w = a.out_v, a.out_w
+            v, w = a.base.advance(now, dt)
         else:
             v, w = a.v, a.wz
         a.yaw += w * dt
+        a.speed = v
         a.travelled += abs(v) * dt
         vx, vy = v * math.cos(a.yaw), v * math.sin(a.yaw)
         a.x += vx * dt
@@ -179,12 +221,12 @@ def count_contacts(agents, counts):
         for what in now - a.touching:
             if what in ("wall", "pillar"):
                 counts["obstacle"] += 1
-                rospy.loginfo("demo_sim: contact agent_%d - %s (agent at %.2f m/s)", i, what, a.out_v)
+                rospy.loginfo("demo_sim: contact agent_%d - %s (agent at %.2f m/s)", i, what, a.speed)
             elif what > i:  # each pair once
                 counts["agent"] += 1
                 b = agents[what]
                 rospy.loginfo("demo_sim: contact agent_%d - agent_%d (at %.2f and %.2f m/s)", i, what,
-                              a.out_v, b.out_v)
+                              a.speed, b.speed)
         a.touching = now
 
 
@@ -206,8 +248,20 @@ def main():
     if gated:
         plan_pubs = [rospy.Publisher("/agent_%d/nav_vel" % i, Twist, queue_size=5) for i in range(len(agents))]
 
+        delay = float(rospy.get_param("~base_delay", 0.06))
+        lin_acc = float(rospy.get_param("~base_linear_accel", 1.0))
+        ang_acc = float(rospy.get_param("~base_angular_accel", 2.0))
+        if not (delay >= 0.0 and lin_acc > 0.0 and ang_acc > 0.0):
+            rospy.logfatal("demo_sim: ~base_delay must be >= 0 and ~base_linear_accel, ~base_angular_accel > 0")
+            return
+        for a in agents:
+            a.base = Base(delay, lin_acc, ang_acc)
+        rospy.loginfo("demo_sim: bases execute commands %.3f s late, ramping at %.2f m/s^2 and %.2f rad/s^2",
+                      delay, lin_acc, ang_acc)
+
         def on_cmd(msg, a):
             a.out_v, a.out_w = msg.linear.x, msg.angular.z
+            a.base.command(rospy.get_time(), msg.linear.x, msg.angular.z)
 
         subs = [rospy.Subscriber("/agent_%d/cmd_vel" % i, Twist, on_cmd, callback_args=a, queue_size=5)
                 for i, a in enumerate(agents)]
@@ -234,7 +288,7 @@ def main():
         dt = (now - last).to_sec()
         last = now
         if dt > 0:
-            step(agents, t, min(dt, 0.2), gated)
+            step(agents, t, min(dt, 0.2), gated, now.to_sec())
             count_contacts(agents, counts)
         if t >= next_report or (duration > 0 and t + 1.5 / rate_hz >= duration):
             next_report = t + 10.0
@@ -259,8 +313,8 @@ def main():
             q = quat_z(a.yaw)
             (m.pose.pose.orientation.x, m.pose.pose.orientation.y, m.pose.pose.orientation.z,
              m.pose.pose.orientation.w) = q
-            m.twist.twist.linear.x = a.out_v if gated else a.v
-            m.twist.twist.angular.z = a.out_w if gated else a.wz
+            m.twist.twist.linear.x = a.base.v if gated else a.v
+            m.twist.twist.angular.z = a.base.w if gated else a.wz
             pubs[i].publish(m)
 
             base = TransformStamped()
@@ -287,6 +341,9 @@ def main():
             rate.sleep()
         except rospy.ROSTimeMovedBackwardsException:
             start = last = None
+            for a in agents:
+                if a.base:
+                    a.base.forget_pending()
 
 
 if __name__ == "__main__":

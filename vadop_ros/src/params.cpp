@@ -225,7 +225,8 @@ void checkBodyNames(const BodyParams& b, const std::string& path, const std::str
 
 GateParams parseGate(const XmlRpcValue& v, const std::string& path, double stale_timeout) {
   requireStruct(v, path);
-  rejectUnknown(v, {"cmd_vel_in", "cmd_vel_out", "time_before_collision", "cmd_timeout", "state_timeout", "ignore"},
+  rejectUnknown(v, {"cmd_vel_in", "cmd_vel_out", "time_before_collision", "cmd_timeout", "state_timeout", "ignore",
+                    "reaction_time", "others_may_stop"},
                 path);
   GateParams g;
   for (auto [key, topic] : {std::pair<const char*, std::string*>{"cmd_vel_in", &g.cmd_vel_in}, {"cmd_vel_out", &g.cmd_vel_out}}) {
@@ -237,6 +238,9 @@ GateParams parseGate(const XmlRpcValue& v, const std::string& path, double stale
                                    path + ".time_before_collision");
   g.cmd_timeout = ranged(member(v, "cmd_timeout"), g.cmd_timeout, 0.0, 3600.0, true, path + ".cmd_timeout");
   g.state_timeout = ranged(member(v, "state_timeout"), stale_timeout, 0.0, 1e6, true, path + ".state_timeout");
+  // At most 2 s: a base that takes longer to execute a command is not one a gate can protect.
+  g.reaction_time = ranged(member(v, "reaction_time"), g.reaction_time, 0.0, 2.0, false, path + ".reaction_time");
+  if (const XmlRpcValue* m = member(v, "others_may_stop")) g.others_may_stop = toBool(*m, path + ".others_may_stop");
   if (const XmlRpcValue* list = member(v, "ignore")) {
     requireArray(*list, path + ".ignore");
     for (int i = 0; i < list->size(); ++i) {
@@ -261,7 +265,8 @@ void checkGateNames(const BodyParams& b, const std::string& path, const std::str
 
 // The keys of a ~bodies entry: the body's own and its input kinds'.
 std::set<std::string> bodyKeys() {
-  std::set<std::string> keys = {"name", "frame", "shape", "robot_description", "tf_prefix", "count", "gate"};
+  std::set<std::string> keys = {"name", "frame", "shape", "robot_description", "tf_prefix", "count", "gate",
+                                "max_linear_decel", "max_angular_decel"};
   for (const SourceKind& kind : sourceKinds()) keys.insert(kind.keys.begin(), kind.keys.end());
   return keys;
 }
@@ -288,6 +293,23 @@ void parseBodyGeometry(const XmlRpcValue& e, const std::string& path, BodyParams
   }
 }
 
+// The body's decelerations: both or neither, since braking along an arc needs both (a body
+// given one would silently brake at once in the other). The upper bounds (about 10 g, and
+// 1000 rad/s^2) are beyond any base: a larger value is a unit mistake, not a robot.
+void parseBraking(const XmlRpcValue& e, const std::string& path, BodyParams& b) {
+  const XmlRpcValue* linear = member(e, "max_linear_decel");
+  const XmlRpcValue* angular = member(e, "max_angular_decel");
+  if (linear && !angular) {
+    fail(path + ".max_angular_decel", "is required with max_linear_decel (give both decelerations or neither)");
+  }
+  if (angular && !linear) {
+    fail(path + ".max_linear_decel", "is required with max_angular_decel (give both decelerations or neither)");
+  }
+  if (!linear) return;
+  b.max_linear_decel = ranged(linear, 0.0, 0.0, 100.0, true, path + ".max_linear_decel");
+  b.max_angular_decel = ranged(angular, 0.0, 0.0, 1000.0, true, path + ".max_angular_decel");
+}
+
 // One ~bodies entry (a template before its copies): its own keys, then each input kind's.
 BodyParams parseBody(const XmlRpcValue& e, const std::string& path, double stale_timeout) {
   requireStruct(e, path);
@@ -300,6 +322,7 @@ BodyParams parseBody(const XmlRpcValue& e, const std::string& path, double stale
   if (const XmlRpcValue* f = member(e, "frame")) b.frame = stripLeadingSlashes(toString(*f, path + ".frame"));
   parseBodyGeometry(e, path, b);
   for (const SourceKind& kind : sourceKinds()) kind.parse(e, path, b);
+  parseBraking(e, path, b);
   if (const XmlRpcValue* g = member(e, "gate")) {
     b.has_gate = true;
     b.gate = parseGate(*g, path + ".gate", stale_timeout);
@@ -540,6 +563,18 @@ MonitorParams parseParams(const XmlRpcValue& root) {
     if (const XmlRpcValue* v = member(root, kind.name)) kind.parse(*v, p);
   }
   return p;
+}
+
+std::vector<std::string> paramWarnings(const MonitorParams& params) {
+  std::vector<std::string> out;
+  for (const BodyParams& b : params.bodies) {
+    if (b.has_gate && !b.hasBraking()) {
+      out.push_back("gate of \"" + b.name +
+                    "\": no braking model (max_linear_decel / max_angular_decel not given): commands are checked as "
+                    "held over time_before_collision, starting after reaction_time");
+    }
+  }
+  return out;
 }
 
 std::vector<std::string> unknownTopLevelKeys(const XmlRpcValue& root) {

@@ -417,6 +417,7 @@ int main(int argc, char** argv) {
     for (const std::string& key : vadop_ros::unknownTopLevelKeys(root)) {
       ROS_WARN("vadop_monitor: unknown parameter ~%s ignored", key.c_str());
     }
+    for (const std::string& warning : vadop_ros::paramWarnings(params)) ROS_WARN("vadop_monitor: %s", warning.c_str());
     if (params.bodies.size() + params.static_obstacles.size() >= vadop_ros::kProgressEvery) {
       ROS_INFO("vadop_monitor: parameters of %zu bodies and obstacles read in %.1f s; setting up",
                params.bodies.size() + params.static_obstacles.size(), vadop_ros::secondsSince(start));

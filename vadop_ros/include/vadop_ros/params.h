@@ -49,7 +49,11 @@ struct GateParams {
   double cmd_timeout = 0.5;             // s, (0, 3600]: no command for this long -> one zero Twist
   double state_timeout = 0.0;           // s, (0, 1e6]; the node's ~stale_timeout when not given
   std::vector<std::string> ignore;      // "body/link" globs (as ~ignore_pairs) the gate leaves out
+  // s, [0, 2]: from a command's arrival until the body executes it (transport, the base's
+  // controller); meanwhile the last forwarded command goes on.
   double reaction_time = 0.1;
+  // Also check the future in which every other body brakes to standstill along its prediction
+  // (at its own max_*_decel, at once without them): a scale is clear only when both futures are.
   bool others_may_stop = true;
 };
 
@@ -68,10 +72,13 @@ struct BodyParams {
   // "<tf_prefix>/<link>" ("<link>" when empty); otherwise the links are rigid with the body.
   bool links_from_tf = false;
   std::string tf_prefix;
-  bool has_gate = false;
-  GateParams gate;
+  // How hard the body can brake: m/s^2 in (0, 100] and rad/s^2 in (0, 1000]; both given or
+  // neither (0, 0: no braking model). A gate brakes its own body at them; the others_may_stop
+  // future brakes the others at theirs (at once when they have none).
   double max_linear_decel = 0.0, max_angular_decel = 0.0;
   bool hasBraking() const { return max_linear_decel > 0.0; }
+  bool has_gate = false;
+  GateParams gate;
   // Optional planned path (nav_msgs/Path, poses of the body frame with their stamps): while
   // one covers the present, the body is predicted along it instead of its twist (body_registry.h).
   std::string path_topic;  // empty: none
@@ -163,6 +170,10 @@ MonitorParams parseParams(const XmlRpc::XmlRpcValue& root);
 // ~coherence_*) in their ranges; parseParams calls it, and MonitorCore for params built in code.
 // Throws ParamError naming the parameter.
 void checkPredictorParams(const MonitorParams& params);
+
+// Start-up warnings about valid parameters that weaken a guarantee (the node logs each one):
+// a gated body without decelerations, whose commands are checked as held instead of braked.
+std::vector<std::string> paramWarnings(const MonitorParams& params);
 
 // Top-level keys parseParams does not know (to warn about).
 std::vector<std::string> unknownTopLevelKeys(const XmlRpc::XmlRpcValue& root);
