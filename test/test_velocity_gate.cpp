@@ -35,13 +35,17 @@ geometry_msgs::Twist twist(double vx, double wz = 0.0) {
   return t;
 }
 
-MonitorCore makeCore(const std::string& gate_extra = "") {
+// The gate with the command held from the instant it is checked (reaction_time 0, the others
+// as predicted, no decelerations): the scenes below pin that rule; `gate_extra` adds gate keys,
+// `body_extra` keys of a.
+MonitorCore makeCore(const std::string& gate_extra = "", const std::string& body_extra = "") {
   const std::string text = R"(
 horizon: 5.0
 stale_timeout: 0.5
 bodies:
-  - {name: a, odom_topic: /a, shape: {type: sphere, radius: 0.5},
-     gate: {cmd_vel_in: /a/cmd_in, cmd_vel_out: /a/cmd_out, time_before_collision: 5.0)" +
+  - {name: a, odom_topic: /a, shape: {type: sphere, radius: 0.5})" + body_extra + R"(,
+     gate: {cmd_vel_in: /a/cmd_in, cmd_vel_out: /a/cmd_out, time_before_collision: 5.0,
+            reaction_time: 0.0, others_may_stop: false)" +
                            gate_extra + R"(}}
   - {name: b, odom_topic: /b, shape: {type: sphere, radius: 0.5}}
 )";
@@ -158,4 +162,50 @@ TEST(VelocityGate, CommandsStoppingGiveExactlyOneZero) {
   gate.onCommand(core, twist(1.0), ros::Time(103.0), tf);
   EXPECT_TRUE(gate.onCycle(ros::Time(103.6), out));
   EXPECT_EQ(gate.counts().timeouts, 2u);
+}
+
+// The braking rule through the gate (issue 48): a brakes at 1 m/s^2 and 2 rad/s^2, b's surface
+// 0.5 m ahead; the command is held for cmd_timeout 0.5 s after the reaction time, during which
+// the last forwarded command goes on.
+TEST(VelocityGate, BrakingRuleUsesTheLastForwardedCommandAndSaysWhichRuleLimits) {
+  MonitorCore core = makeCore(", cmd_timeout: 0.5, reaction_time: 0.1",
+                              ", max_linear_decel: 1.0, max_angular_decel: 2.0");
+  FakeTf tf;
+  VelocityGate gate(0, core.registry());
+  core.registry().onOdometry(0, odom(100.0, -2), ros::Time(100.0));
+  core.registry().onOdometry(1, odom(100.0, -0.5), ros::Time(100.0));
+  core.cycle(ros::Time(100.0), tf);
+  // Nothing forwarded yet (zero goes on for 0.1 s): 0.5 s + s^2 / 2 <= 0.5 m: 0.60.
+  geometry_msgs::Twist out = gate.onCommand(core, twist(1.0), ros::Time(100.0), tf);
+  EXPECT_NEAR(out.linear.x, 0.60, 1e-9);
+  EXPECT_EQ(gate.state().rule, "braking");
+  EXPECT_EQ(gate.state().future, "predicted");
+  EXPECT_EQ(gate.state().limiting_body, "b");
+  // Again at the same instant: 0.6 m/s now goes on for 0.1 s (0.06 m): 0.5 s + s^2 / 2 <= 0.44,
+  // s <= 0.5630: 0.56.
+  out = gate.onCommand(core, twist(1.0), ros::Time(100.0), tf);
+  EXPECT_NEAR(out.linear.x, 0.56, 1e-9);
+  // A zero published (timeout) is what goes on next: back to 0.60.
+  gate.onCycle(ros::Time(100.6), out);
+  EXPECT_EQ(out.linear.x, 0.0);
+  core.registry().onOdometry(0, odom(100.6, -2), ros::Time(100.6));
+  core.registry().onOdometry(1, odom(100.6, -0.5), ros::Time(100.6));
+  core.cycle(ros::Time(100.6), tf);
+  out = gate.onCommand(core, twist(1.0), ros::Time(100.6), tf);
+  EXPECT_NEAR(out.linear.x, 0.60, 1e-9);
+}
+
+TEST(VelocityGate, HeldRuleWithoutDecelerationsStartsAfterTheReactionTime) {
+  // No decelerations: the command held over time_before_collision (1 s) after 0.1 s of the last
+  // forwarded (zero): s <= 0.5 / 1.0 with b's surface 0.5 m ahead: 0.48 (0.50 touches at the
+  // window's end, within the tolerance).
+  MonitorCore core = makeCore(", reaction_time: 0.1, time_before_collision: 1.0");
+  FakeTf tf;
+  VelocityGate gate(0, core.registry());
+  core.registry().onOdometry(0, odom(100.0, -2), ros::Time(100.0));
+  core.registry().onOdometry(1, odom(100.0, -0.5), ros::Time(100.0));
+  core.cycle(ros::Time(100.0), tf);
+  const geometry_msgs::Twist out = gate.onCommand(core, twist(1.0), ros::Time(100.0), tf);
+  EXPECT_NEAR(out.linear.x, 0.48, 1e-9);
+  EXPECT_EQ(gate.state().rule, "held_command");
 }
