@@ -73,6 +73,7 @@ class Body:
         self.plan = None           # (vx, wz) its planner publishes, or None
         self.script = None         # ungated: f(t since the start) -> (vx, wz)
         self.travelled = 0.0
+        self.peak = 0.0            # the largest applied speed
 
     def step(self, now, t, dt):
         if self.gated:
@@ -92,6 +93,7 @@ class Body:
             self.y += self.v * math.sin(self.yaw) * dt
         self.yaw = yaw2
         self.travelled += abs(self.v) * dt
+        self.peak = max(self.peak, abs(self.v))
 
 
 def leader_script(t):
@@ -118,7 +120,7 @@ class World:
         self.bodies["l"].script = leader_script
         self.min_gap = {s: float("inf") for s in "abcde"}
         self.gap = {}
-        self.start_r = self.bodies["r"].x
+        self.at_leader_stop = None  # (gap, follower's speed) when the leader stopped
 
     def gaps(self):
         b = self.bodies
@@ -128,6 +130,8 @@ class World:
     def step(self, now, t, dt):
         for body in self.bodies.values():
             body.step(now, t, dt)
+        if self.at_leader_stop is None and t >= LEADER_STOP:
+            self.at_leader_stop = (sphere_gap(self.bodies["f"], self.bodies["l"]), self.bodies["f"].v)
         self.gap = self.gaps()
         for s, g in self.gap.items():
             self.min_gap[s] = min(self.min_gap[s], g)
@@ -244,14 +248,19 @@ class GateBrakingLoop(unittest.TestCase):
         for p, world in cls.worlds.items():
             b = world.bodies
             wl_stop = b["wl"].travelled - cls.slowed_at.get((p, "wl"), b["wl"].travelled)
-            f_stop = b["f"].travelled - cls.slowed_at.get((p, "f"), b["f"].travelled)
+            f_stop = world.at_leader_stop[0] - world.gap["c"]  # the leader stands meanwhile
             rospy.loginfo("gate_braking_loop %s: smallest gap: head-on %.4f, crossing %.4f, follower %.4f, "
                           "wall %.4f, backing %.4f m", MONITORS[p], *[world.min_gap[s] for s in "abcde"])
             rospy.loginfo("gate_braking_loop %s: final gap: head-on %.4f, crossing %.4f, follower %.4f, "
                           "wall %.4f, backing %.4f m", MONITORS[p], *[world.gap[s] for s in "abcde"])
-            rospy.loginfo("gate_braking_loop %s: wall robot: final speed %.3f m/s, %.3f m driven from its first "
-                          "slowed command on; follower %.3f m; c reached y = %.2f", MONITORS[p], b["wl"].v,
-                          wl_stop, f_stop, b["c"].y)
+            rospy.loginfo("gate_braking_loop %s: wall robot: top speed %.3f m/s, final speed %.3f m/s, stopping "
+                          "distance %.3f m (driven from its gate's first slowed command on)", MONITORS[p], b["wl"].peak,
+                          b["wl"].v, wl_stop)
+            rospy.loginfo("gate_braking_loop %s: follower: top speed %.3f m/s, gap %.3f m and speed %.3f m/s when the "
+                          "leader stopped, %.3f m driven after it; head-on top speeds "
+                          "%.3f, %.3f m/s; crossing robot: top speed %.3f m/s, reached y = %.2f", MONITORS[p],
+                          b["f"].peak, world.at_leader_stop[0], world.at_leader_stop[1], f_stop, b["a1"].peak,
+                          b["a2"].peak, b["c"].peak, b["c"].y)
 
     def setUp(self):
         self.assertTrue(self.connected, "the monitors did not subscribe to every topic")
@@ -266,6 +275,12 @@ class GateBrakingLoop(unittest.TestCase):
         self.assertGreater(world.gap["d"], 0.0)
         self.assertLessEqual(world.gap["d"], 0.6, "the wall robot stopped %.3f m from the wall" % world.gap["d"])
         self.assertLess(abs(world.bodies["wl"].v), 0.05, "the wall robot did not stop")
+        # Not by standing still: each drove at speed, the head-on pair and the follower came close.
+        for name in ("a1", "a2", "c", "f", "wl"):
+            self.assertGreater(world.bodies[name].peak, 0.5, "%s never drove at speed" % name)
+        self.assertGreater(world.bodies["wl"].peak, 0.8, "the wall robot never drove at speed")
+        self.assertLess(world.gap["a"], 0.6, "the head-on robots stopped far apart")
+        self.assertLess(world.at_leader_stop[0], 1.5, "the follower kept far behind the leader")
         self.assertGreater(world.bodies["c"].y, 0.5, "the crossing robot never passed the walker's lane")
         self.check_backing_away(world)
 
