@@ -10,10 +10,12 @@ leader) move as the script says, ideally (their velocity may jump).
 
 The same five scenes run at once in two monitors' worlds (their own topics, prefixes /bk and /nb):
 vadop_braking, whose gated bodies have the braking model (max_linear_decel, max_angular_decel),
-and vadop_no_braking, the same without it (the gate's rule before issue 48: the mutation).
+and vadop_no_braking, the same without it (the held-command rule: the mutation). Both gates have
+reaction_time 0.1 s and time_before_collision 0.3 s (gate_closed_loop.test says why).
   a. head-on: two gated robots driving at each other;
   b. crossing: a gated robot crossing the lane of an ungated walker;
-  c. follower: a gated robot 0.3 m behind an ungated leader that stops at once;
+  c. follower: a gated robot 0.3 m behind an ungated leader that starts like a base and, at
+     LEADER_STOP, stops at once;
   d. wall: a gated robot driving at a static wall (it must stop within 0.6 m of it);
   e. backing away: a gated robot touching a static block, commanded away from it (reversing).
 The metric is the exact gap between the shapes (spheres and boxes, analytic) at every step;
@@ -34,7 +36,7 @@ RADIUS = 0.5
 BASE_DELAY = 0.06     # s from a command's arrival until the base executes it
 LINEAR_RAMP = 1.0     # m/s^2: the base's applied velocity moves towards the executed command
 ANGULAR_RAMP = 2.0    # rad/s^2
-MAX_STEP = 0.005      # s: the integration step (200 Hz at most apart)
+MAX_STEP = 0.005      # s: the longest integration step (>= 200 Hz)
 ODOM_HZ = 50.0
 PLAN_HZ = 20.0
 SPEED = 0.9           # m/s: every planner's speed
