@@ -351,6 +351,9 @@ Gap gapAt(const toi_truth::Body& A, const Pose& PA, const toi_truth::Body& B, co
   return g;
 }
 
+constexpr double kDtMin = 1e-4;  // s: the truth's finest step (near contact)
+constexpr double kDtMax = 5e-3;  // s: and its coarsest (200 samples a second at least)
+
 struct Scan {
   bool contact = false;
   double t_contact = kInf;  // a time of certain contact, no earlier than... the earliest found
@@ -359,11 +362,11 @@ struct Scan {
 };
 
 // The truth over [t0, t1]: samples stepped by half the certified gap over the speed bound (at
-// least dt_min), so each stretch between samples is certified above min_lo; at the first
-// sample in contact, bisection back to the earliest time found in contact.
+// least dt_min, at most kDtMax), so each stretch between samples is certified above min_lo; at
+// the first sample in contact, bisection back to the earliest time found in contact.
 template <class PoseA, class PoseB, class Speed>
 Scan scan(const toi_truth::Body& A, PoseA pose_a, const toi_truth::Body& B, PoseB pose_b, Speed speed, double t0,
-          double t1, double dt_min) {
+          double t1, double dt_min = kDtMin) {
   Scan s;
   double t = t0, prev = t0;
   for (;;) {
@@ -385,7 +388,7 @@ Scan scan(const toi_truth::Body& A, PoseA pose_a, const toi_truth::Body& B, Pose
     }
     const double L = speed(t);
     double step = L > 0.0 ? std::max(dt_min, 0.5 * g.lo / L) : t1 - t;
-    step = std::min(step, t1 - t);
+    step = std::min({step, kDtMax, t1 - t});
     s.min_lo = std::min(s.min_lo, g.lo - L * step);
     prev = t;
     t = step < t1 - t ? t + step : t1;
@@ -410,7 +413,6 @@ struct Tally {
 };
 
 constexpr double kOthersDeviation = 5e-4;  // world.h: the others' braking within 0.5 mm
-constexpr double kDtMin = 1e-4;            // s: the truth's finest step
 
 struct OtherBody {
   Motion motion;
@@ -568,6 +570,187 @@ TEST(FirstContactAlong, BrakingManoeuvreAgainstTheDenseTruthForEveryShapeKind) {
   EXPECT_GT(total.clears, total.scenes / 5);
   EXPECT_GT(total.stopping_contacts, 0);
   EXPECT_LT(total.band, total.scenes / 10);
+}
+
+// ---------------------------------------------------------------------------------------
+// 3. The pressing rule: touching at the start of a stretch blocks only where it presses.
+
+Motion rest(const Vector3d& p) { return twist(p, Quaterniond::Identity(), Vector3d::Zero(), Vector3d::Zero(), 0.0, false); }
+Motion along(const Vector3d& p, const Vector3d& v, double t_ref) {
+  return twist(p, Quaterniond::Identity(), v, Vector3d::Zero(), t_ref, false);
+}
+
+// A manoeuvre from rest at the origin's `start`: `held` until 0.1 s, `command` until 0.4 s,
+// braking over 0.5 s.
+Manoeuvre fromTouching(const Vector3d& held_velocity, const Vector3d& command_velocity) {
+  Manoeuvre m;
+  m.t0 = 0.0;
+  m.ta = 0.1;
+  m.tb = 0.4;
+  m.T = 0.5;
+  m.held = along(Vector3d::Zero(), held_velocity, 0.0);
+  m.command = along(toi_truth::poseAt(m.held, m.ta).p, command_velocity, m.ta);
+  return m;
+}
+
+std::optional<vadop::World::MoverContact> ask(vadop::World& world, const Manoeuvre& m, double radius, bool others_stop,
+                                              double horizon = 1.2) {
+  double dev = 0.0;
+  const TimedPath path = m.path(radius, 1e-3, &dev);
+  vadop::World::PathQuery q;
+  q.deviation = dev;
+  q.others_stop = others_stop;
+  return world.firstContactAlong({"mover"}, {path}, m.t0, horizon, q);
+}
+
+TEST(FirstContactAlong, ATouchingPairBlocksOnlyWhereTheStagePressesIt) {
+  // The mover (a sphere, then a box) touches a static box's face at x = 0.2 at t0 (gap 0).
+  for (const vadop::Shape& mover : {vadop::makeSphere(0.2), vadop::makeBox(Vector3d(0.4, 0.4, 0.4))}) {
+    vadop::World world;
+    world.add("wall", vadop::makeBox(Vector3d(0.2, 2.0, 2.0)), rest(Vector3d(0.3, 0, 0)));
+    world.add("mover", mover, rest(Vector3d::Zero()));
+    const std::string what = vadop::toString(mover.type);
+    const double r = mover.bounding_radius;
+    const Vector3d zero = Vector3d::Zero(), in(0.5, 0, 0), away(-0.5, 0, 0), slide(0, 0.5, 0);
+    // At rest through the reaction time, then away: never pressed.
+    EXPECT_FALSE(ask(world, fromTouching(zero, away), r, false)) << what;
+    EXPECT_FALSE(ask(world, fromTouching(zero, away), r, true)) << what;
+    // At rest, then sliding along the face: not pressed either.
+    EXPECT_FALSE(ask(world, fromTouching(zero, slide), r, false)) << what;
+    // At rest, then into it: a contact at the stage boundary.
+    auto c = ask(world, fromTouching(zero, in), r, false);
+    ASSERT_TRUE(c) << what;
+    EXPECT_EQ(c->other, "wall");
+    EXPECT_NEAR(c->impact.time, 0.1, 1e-9) << what;
+    EXPECT_FALSE(c->others_stopping);
+    // Into it from the start: a contact at t0.
+    c = ask(world, fromTouching(in, in), r, false);
+    ASSERT_TRUE(c) << what;
+    EXPECT_NEAR(c->impact.time, 0.0, 1e-9) << what;
+    // Away during the reaction time (to x = -0.05), then back at 1 m/s: touches again at 0.15 s.
+    c = ask(world, fromTouching(away, Vector3d(1.0, 0, 0)), r, false);
+    ASSERT_TRUE(c) << what;
+    EXPECT_NEAR(c->impact.time, 0.15, 2.5e-3) << what;  // the band: 2 mm of tolerance at 1 m/s
+    EXPECT_LE(c->impact.time, 0.15 + 1e-9) << what;
+  }
+}
+
+// ---------------------------------------------------------------------------------------
+// 4. Scenes built where keyframes alone would be wrong.
+
+// A body crossing the mover's line where the exact braking is, while the mover's keyframes
+// (one stretch: the mean speed) lag a quarter of a metre behind: the deviation's tolerance
+// must find it.
+TEST(FirstContactAlong, ACrossingTheExactBrakingReachesIsFoundWhereItsKeyframesLag) {
+  vadop::World world;
+  world.add("mover", vadop::makeSphere(0.1), rest(Vector3d::Zero()));
+  // Crosses x = 0.75 (where the exact braking is at 0.5 s) at 0.5 s, at 4 m/s along -y.
+  world.add("crossing", vadop::makeSphere(0.05), along(Vector3d(0.75, 0, 0), Vector3d(0, -4, 0), 0.5));
+  Manoeuvre m;
+  m.held = m.command = along(Vector3d::Zero(), Vector3d(2, 0, 0), 0.0);
+  m.T = 1.0;  // from 2 m/s to rest over 1 s: 1 m
+  double dev = 0.0;
+  const TimedPath path = m.path(0.1, 1.0, &dev);
+  ASSERT_EQ(path.keyframes().size(), 2u);  // one stretch at the mean speed, 1 m/s
+  EXPECT_DOUBLE_EQ(dev, 0.25);
+  // The keyframes pass 0.24 m from the crossing body's centre (0.15 would touch), the exact
+  // braking through it; the truth's first contact:
+  const toi_truth::Body A = toi_truth::makeBody(vadop::makeSphere(0.1)), B = toi_truth::makeBody(vadop::makeSphere(0.05));
+  const Motion crossing = along(Vector3d(0.75, 0, 0), Vector3d(0, -4, 0), 0.5);
+  const Scan truth = scan(
+      A, [&](double t) { return m.at(t); }, B, [&](double t) { return toi_truth::poseAt(crossing, t); },
+      [](double) { return 6.0; }, 0.0, 1.5);
+  ASSERT_TRUE(truth.contact);
+  vadop::World::PathQuery q;
+  q.deviation = dev;
+  const auto c = world.firstContactAlong({"mover"}, {path}, 0.0, 1.5, q);
+  ASSERT_TRUE(c) << "the exact braking touches at " << truth.t_contact;
+  EXPECT_EQ(c->other, "crossing");
+  EXPECT_LE(c->impact.time, truth.t_contact + 1e-9);
+}
+
+// A body braking towards a plate that sweeps across its line after its predicted self has
+// passed: it touches only in the future where it brakes, at the middle of one of its braking
+// keyframes' stretches, where those lag most (0.47 mm) behind the exact braking.
+TEST(FirstContactAlong, TheOthersBrakingIsCheckedWithinItsKeyframesDeviation) {
+  const double v = 2.0, stop = 1.0, r = 0.05;
+  const Motion braker = along(Vector3d::Zero(), Vector3d(-v, 0, 0), 0.0);
+  std::vector<Keyframe> k;  // the others' keyframes as world.h builds them (0.5 mm)
+  vadop::appendBrakingKeyframes(braker, 0.0, stop, r, kOthersDeviation, k);
+  ASSERT_GT(k.size(), 10u);
+  const size_t mid = (k.size() - 1) / 2;
+  const double t_c = 0.5 * (k[mid - 1].time + k[mid].time);  // the middle of a stretch
+  const double x_c = -(v * t_c - v * t_c * t_c / (2.0 * stop));   // the exact braking there
+  const double face = x_c - r;
+  const Vector3d plate_size(0.02, 0.4, 0.4);
+  const Vector3d plate_at_tc(face - 0.01, -0.18, 0.0);  // covering the line y = 0 at t_c
+  const Motion plate = along(plate_at_tc, Vector3d(0, 2, 0), t_c);
+  vadop::World world;
+  world.add("braker", vadop::makeSphere(r), braker);
+  world.add("mover", vadop::makeBox(plate_size), plate);
+  world.setStopDuration("braker", stop);
+  // The truth: no contact in the predicted future; the braking one touches first at t_c.
+  const toi_truth::Body A = toi_truth::makeBody(vadop::makeBox(plate_size)), B = toi_truth::makeBody(vadop::makeSphere(r));
+  const auto plate_pose = [&](double t) { return toi_truth::poseAt(plate, t); };
+  const auto speed = [](double) { return 5.0; };
+  const Scan predicted = scan(A, plate_pose, B, [&](double t) { return toi_truth::poseAt(braker, t); }, speed, 0.0, 1.2);
+  const Scan braking = scan(A, plate_pose, B, [&](double t) { return brakingPose(braker, 0.0, stop, t); }, speed, 0.0, 1.2);
+  ASSERT_FALSE(predicted.contact);
+  ASSERT_GT(predicted.min_lo, 0.01);
+  ASSERT_TRUE(braking.contact);
+  ASSERT_NEAR(braking.t_contact, t_c, 1e-6);
+  const TimedPath path(plate);
+  vadop::World::PathQuery q;
+  EXPECT_FALSE(world.firstContactAlong({"mover"}, {path}, 0.0, 1.2, q));
+  q.others_stop = true;
+  const auto c = world.firstContactAlong({"mover"}, {path}, 0.0, 1.2, q);
+  ASSERT_TRUE(c);
+  EXPECT_TRUE(c->others_stopping);
+  EXPECT_EQ(c->other, "braker");
+  EXPECT_LE(c->impact.time, braking.t_contact + 1e-9);
+  EXPECT_GE(c->impact.time, braking.t_contact - 3e-3);  // the band: 2 mm at 1 m/s
+}
+
+// A follower 0.2 m behind a leader, both at 1 m/s: the follower's manoeuvre (1 m/s held for
+// the reaction time and the command, then braking at 1 m/s^2) is clear of the leader going on,
+// and touches the leader braking hard (within 0.2 s) at 0.2 + 1 - sqrt(0.8) s.
+TEST(FirstContactAlong, AFollowerTouchesALeaderThatBrakesOnlyInTheOthersStopFuture) {
+  vadop::World world;
+  world.add("leader", vadop::makeSphere(0.2), along(Vector3d(0.6, 0, 0), Vector3d(1, 0, 0), 0.0));
+  world.add("mover", vadop::makeSphere(0.2), along(Vector3d::Zero(), Vector3d(1, 0, 0), 0.0));
+  Manoeuvre m;
+  m.held = m.command = along(Vector3d::Zero(), Vector3d(1, 0, 0), 0.0);
+  m.ta = 0.1;
+  m.tb = 0.2;
+  m.T = 1.0;
+  // No stop duration: it is not known to stop; that future moves it as set.
+  EXPECT_FALSE(ask(world, m, 0.2, false, 2.0));
+  EXPECT_FALSE(ask(world, m, 0.2, true, 2.0));
+  world.setStopDuration("leader", 0.2);
+  EXPECT_FALSE(ask(world, m, 0.2, false, 2.0));
+  auto c = ask(world, m, 0.2, true, 2.0);
+  ASSERT_TRUE(c);
+  EXPECT_TRUE(c->others_stopping);
+  EXPECT_EQ(c->other, "leader");
+  const double t_star = 0.2 + 1.0 - std::sqrt(0.8);
+  EXPECT_LE(c->impact.time, t_star + 1e-9);
+  EXPECT_GE(c->impact.time, t_star - 5e-3);  // the band: 4 mm at 0.9 m/s
+  // Stopping at once: the follower reaches it at 0.2 s.
+  world.setStopDuration("leader", 0.0);
+  c = ask(world, m, 0.2, true, 2.0);
+  ASSERT_TRUE(c);
+  EXPECT_TRUE(c->others_stopping);
+  EXPECT_NEAR(c->impact.time, 0.2, 5e-3);
+  EXPECT_LE(c->impact.time, 0.2 + 1e-9);
+  // Bad stop durations throw and change nothing.
+  EXPECT_THROW(world.setStopDuration("leader", -1.0), vadop::InvalidArgument);
+  EXPECT_THROW(world.setStopDuration("leader", std::numeric_limits<double>::quiet_NaN()), vadop::InvalidArgument);
+  EXPECT_THROW(world.setStopDuration("nobody", 1.0), vadop::InvalidArgument);
+  c = ask(world, m, 0.2, true, 2.0);
+  ASSERT_TRUE(c);
+  EXPECT_NEAR(c->impact.time, 0.2, 5e-3);
+  world.setStopDuration("leader", kInf);
+  EXPECT_FALSE(ask(world, m, 0.2, true, 2.0));
 }
 
 }  // namespace
