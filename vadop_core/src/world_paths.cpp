@@ -16,6 +16,20 @@ namespace {
 // m: how far the others' braking paths (PathQuery::others_stop) may lie from the exact braking.
 constexpr double kOthersDeviation = 5e-4;
 
+// Whether a pair found touching at s but not pressed together there (the closing speed at the
+// witness point <= 0) still digs in over [s, e]: the witness of a face contact is one point of
+// the face, and another corner may press (a box turning in place against a wall). The gap at
+// four times of the stretch, against the gap at s less the tolerance. A guard of the exemption
+// only (sampled): a pair that presses at the witness is a contact whatever this says.
+bool digsIn(const PreparedShape& a, const Motion& ma, const PreparedShape& b, const Motion& mb, double s, double e,
+            double start_gap, double tolerance) {
+  for (int k = 1; k <= 4; ++k) {
+    const double t = s + (e - s) * k / 4.0;
+    if (distance(a, ma.poseAt(t), b, mb.poseAt(t)).distance < std::min(start_gap, 0.0) - tolerance) return true;
+  }
+  return false;
+}
+
 // The first contact of a along pa and b along pb over [t0, t1], stretch by stretch (each a pair of
 // constant twists, timeOfImpact's contract on each): a pair touching at the start of a stretch is
 // a contact only when the two pieces press it together at the touching point; else that stretch
@@ -33,7 +47,8 @@ TimeOfImpact pressingImpact(const PreparedShape& a, const TimedPath& pa, const P
     if (out.hit && out.initially_touching) {
       const Eigen::Vector3d closing =
           pa.motion(ka).velocityOfPoint(out.point, s) - pb.motion(kb).velocityOfPoint(out.point, s);
-      pressing = closing.dot(out.normal) > 0.0;
+      pressing = closing.dot(out.normal) > 0.0 ||
+                 digsIn(a, pa.motion(ka), b, pb.motion(kb), s, e, out.distance, options.tolerance);
     }
     if (pressing && (out.hit || out.undecided)) {
       out.iterations = iterations;
