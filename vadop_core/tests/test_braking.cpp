@@ -753,4 +753,43 @@ TEST(FirstContactAlong, AFollowerTouchesALeaderThatBrakesOnlyInTheOthersStopFutu
   EXPECT_FALSE(ask(world, m, 0.2, true, 2.0));
 }
 
+// A body touching a wall with a face (or within the tolerance of it) that turns in place: the
+// closing speed at one witness point of the face says nothing of its corners, one of which digs
+// into the wall at once (the truth's gap goes below zero within the stage). A round body turning
+// in place, or a box sliding along the wall, presses nothing.
+TEST(FirstContactAlong, AFaceTouchingAWallThatTurnsDigsACornerIn) {
+  const vadop::Shape box = vadop::makeBox(Vector3d(0.4, 0.4, 0.4));
+  const vadop::Shape wall = vadop::makeBox(Vector3d(0.2, 2.0, 2.0));
+  const toi_truth::Body A = toi_truth::makeBody(box), B = toi_truth::makeBody(wall);
+  for (double gap0 : {0.0, 1e-7, 5e-4}) {
+    for (double w : {1.0, -1.0}) {
+      const std::string what = "gap " + std::to_string(gap0) + ", turning at " + std::to_string(w) + " rad/s";
+      vadop::World world;
+      const Motion wall_motion = rest(Vector3d(0.3 + gap0, 0, 0));
+      world.add("wall", wall, wall_motion);
+      world.add("mover", box, rest(Vector3d::Zero()));
+      Manoeuvre m = fromTouching(Vector3d::Zero(), Vector3d::Zero());
+      m.command.angular_velocity = Vector3d(0, 0, w);
+      const Scan truth = scan(
+          A, [&](double t) { return m.at(t); }, B, [&](double t) { return toi_truth::poseAt(wall_motion, t); },
+          [&](double t) { return m.speedFrom(t, toi_truth::bodyLever(A)); }, 0.1, 1.2);
+      ASSERT_TRUE(truth.contact) << what;
+      const auto c = ask(world, m, box.bounding_radius, false);
+      ASSERT_TRUE(c) << what << ": the truth touches at " << truth.t_contact;
+      EXPECT_LE(c->impact.time, truth.t_contact + 1e-9) << what;
+      EXPECT_GE(c->impact.time, 0.1 - 1e-9) << what;  // not during the reaction time at rest
+    }
+  }
+  // Not blocked: a cylinder turning in place against the wall; a box sliding along it.
+  vadop::World world;
+  world.add("wall", wall, rest(Vector3d(0.3, 0, 0)));
+  world.add("mover", vadop::makeCylinder(0.2, 0.4), rest(Vector3d::Zero()));
+  Manoeuvre turn = fromTouching(Vector3d::Zero(), Vector3d::Zero());
+  turn.command.angular_velocity = Vector3d(0, 0, 1.0);
+  EXPECT_FALSE(ask(world, turn, 0.3, false));
+  world.remove("mover");
+  world.add("mover", box, rest(Vector3d::Zero()));
+  EXPECT_FALSE(ask(world, fromTouching(Vector3d::Zero(), Vector3d(0, 0.5, 0.2)), box.bounding_radius, false));
+}
+
 }  // namespace
