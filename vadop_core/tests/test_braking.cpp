@@ -352,11 +352,11 @@ Gap gapAt(const toi_truth::Body& A, const Pose& PA, const toi_truth::Body& B, co
 }
 
 constexpr double kDtMin = 1e-4;  // s: the truth's finest step (near contact)
-constexpr double kDtMax = 5e-3;  // s: and its coarsest (200 samples a second at least)
+constexpr double kDtMax = 1e-2;  // s: and its coarsest (100 samples a second at least)
 
 struct Scan {
   bool contact = false;
-  double t_contact = kInf;  // a time of certain contact, no earlier than... the earliest found
+  double t_contact = kInf;  // the earliest time found in contact (>= the first contact)
   double min_lo = kInf;     // certified: the gap is >= min_lo over [t0, t1] (up to t_contact)
   int evaluations = 0;
 };
@@ -499,7 +499,7 @@ void checkScene(vadop::World& world, const vadop::Shape& mover_shape, const vado
 OtherBody randomOther(toi_scenes::Rng& r, const Manoeuvre& man, double horizon, double reach, int kind) {
   const double tau = man.t0 + r.uni(0.0, horizon);
   const Pose at = man.at(tau);
-  const Vector3d p = at.p + r.unit() * reach * r.uni(0.3, 1.4);
+  const Vector3d p = at.p + r.unit() * (reach * r.uni(0.3, 1.4) + r.uni(0.0, 0.05));
   OtherBody o;
   if (kind == 0) {
     o.motion = twist(p, r.quat(), Vector3d::Zero(), Vector3d::Zero(), tau, false);
@@ -511,7 +511,7 @@ OtherBody randomOther(toi_scenes::Rng& r, const Manoeuvre& man, double horizon, 
       o.stop = r.chance(0.15) ? 0.0 : r.uni(0.05, 1.5);
       // Half of them near the mover at tau in the future where they brake (where their motion
       // puts them at t0 + u - u^2 / (2 stop)), not in the predicted one.
-      if (r.chance(0.5)) {
+      if (r.chance(0.7)) {
         const double u = std::min(tau - man.t0, o.stop);
         t_ref = man.t0 + (o.stop > 0.0 ? u - u * u / (2.0 * o.stop) : 0.0);
       }
