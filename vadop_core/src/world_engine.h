@@ -213,8 +213,14 @@ class WorldEngine {
 
   // firstContactAlong's pair: mover rm along `path` against `other`, in its own motion's future
   // and, with query.others_stop, in its braking one; the earlier contact.
+  struct Ball {
+    Eigen::Vector3d centre;
+    double radius;
+  };
+  // `reach`: a ball the mover stays in over [t0, t1] (bounding radius plus its path's travel).
   std::optional<MoverContact> pathImpact(const Record& rm, BodyId rm_id, size_t mover, const TimedPath& path,
-                                         BodyId other, const World::PathQuery& query, double t0, double t1) const;
+                                         const Ball& reach, BodyId other, const World::PathQuery& query, double t0,
+                                         double t1) const;
   // Body `other` braking to standstill from t0 along its motion (its stop duration), and how far
   // the keyframed path lies from the exact braking: made once per body while t0 and the world
   // stay (a gate's scales ask the same others again).

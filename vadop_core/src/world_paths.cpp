@@ -17,6 +17,20 @@ namespace {
 // m: how far the others' braking paths (PathQuery::others_stop) may lie from the exact braking.
 constexpr double kOthersDeviation = 5e-4;
 
+// Whether a pair found touching at s but not pressed together there (the closing speed at the
+// witness point <= 0) still digs in over [s, e]: the witness of a face contact is one point of
+// the face, and another corner may press (a box turning in place against a wall). The gap at
+// four times of the stretch, against the gap at s less the tolerance. A guard of the exemption
+// only (sampled): a pair that presses at the witness is a contact whatever this says.
+bool digsIn(const PreparedShape& a, const Motion& ma, const PreparedShape& b, const Motion& mb, double s, double e,
+            double start_gap, double tolerance) {
+  for (int k = 1; k <= 4; ++k) {
+    const double t = s + (e - s) * k / 4.0;
+    if (distance(a, ma.poseAt(t), b, mb.poseAt(t)).distance < std::min(start_gap, 0.0) - tolerance) return true;
+  }
+  return false;
+}
+
 // The first contact of a along pa and b along pb over [t0, t1], stretch by stretch (each a pair of
 // constant twists, timeOfImpact's contract on each): a pair touching at the start of a stretch is
 // a contact only when the two pieces press it together at the touching point; else that stretch
@@ -49,7 +63,7 @@ TimeOfImpact pressingImpact(const PreparedShape& a, const TimedPath& pa, const P
     bool pressing = true;
     if (out.hit && out.initially_touching) {
       const Eigen::Vector3d closing = ma.velocityOfPoint(out.point, s) - mb.velocityOfPoint(out.point, s);
-      pressing = closing.dot(out.normal) > 0.0;
+      pressing = closing.dot(out.normal) > 0.0 || digsIn(a, ma, b, mb, s, e, out.distance, options.tolerance);
     }
     if (pressing && (out.hit || out.undecided)) {
       out.iterations = iterations;
@@ -109,12 +123,16 @@ std::optional<WorldEngine::MoverContact> WorldEngine::firstContactAlong(const st
   std::optional<MoverContact> best;
   for (size_t i = 0; i < ids.size(); ++i) {
     const Record& rm = records_[ids[i]];
+    // A ball the mover stays in over the window: the others' futures that stay out of it are
+    // clear without a path or a narrow phase.
+    const Ball reach{paths[i].poseAt(t0).translation(),
+                     broad_phase_->shape(ids[i]).bounding_radius + paths[i].travel(t0, t1)};
     for (BodyId other : among.ids) {
       if (!broad_phase_->contains(other) || std::binary_search(sorted.begin(), sorted.end(), other)) continue;
       const Record& ro = records_[other];
       if (!shouldTest(rm, ro) || (query.skip && query.skip(ro.key))) continue;
       // Only the first contact matters: later pairs search up to the best time so far.
-      std::optional<MoverContact> c = pathImpact(rm, ids[i], i, paths[i], other, query, t0, t1);
+      std::optional<MoverContact> c = pathImpact(rm, ids[i], i, paths[i], reach, other, query, t0, t1);
       if (c && (!best || c->impact.time < best->impact.time)) {
         best = std::move(c);
         t1 = best->impact.time;
@@ -141,9 +159,9 @@ const WorldEngine::BrakingPath& WorldEngine::brakingOf(BodyId other, double t0) 
 }
 
 std::optional<WorldEngine::MoverContact> WorldEngine::pathImpact(const Record& rm, BodyId rm_id, size_t mover,
-                                                                 const TimedPath& path, BodyId other,
-                                                                 const World::PathQuery& query, double t0,
-                                                                 double t1) const {
+                                                                 const TimedPath& path, const Ball& reach,
+                                                                 BodyId other, const World::PathQuery& query,
+                                                                 double t0, double t1) const {
   const Record& ro = records_[other];
   // The broad phase's shapes are padded by the tolerance: their radii bound the shapes'.
   const double radius = broad_phase_->shape(rm_id).bounding_radius + broad_phase_->shape(other).bounding_radius;
@@ -171,8 +189,17 @@ std::optional<WorldEngine::MoverContact> WorldEngine::pathImpact(const Record& r
     return out;
   }
   const Motion& om = broad_phase_->motion(other);
-  consider(pressingImpact(*rm.prepared, path, *ro.prepared, TimedPath(om), t0, t1, radius, options), false);
-  if (query.others_stop && std::isfinite(ro.stop_duration)) {
+  // The other's origin travels at most originSpeed * time along its screw; braking, half its
+  // stop duration's worth.
+  const double gap = (reach.centre - om.positionAt(t0)).norm() - reach.radius -
+                     broad_phase_->shape(other).bounding_radius;
+  const double speed = originSpeed(om);
+  if (gap - speed * (t1 - t0) <= options.tolerance) {
+    consider(pressingImpact(*rm.prepared, path, *ro.prepared, TimedPath(om), t0, t1, radius, options), false);
+  }
+  const double braking_reach = speed * std::min(0.5 * ro.stop_duration, t1 - t0);
+  if (query.others_stop && std::isfinite(ro.stop_duration) &&
+      gap - braking_reach <= 2.0 * (query.deviation + kOthersDeviation) + config_.toi.tolerance) {
     const BrakingPath& braking = brakingOf(other, t0);
     ToiOptions braking_options = config_.toi;
     braking_options.tolerance = std::max(braking_options.tolerance, 2.0 * (query.deviation + braking.deviation));

@@ -87,21 +87,37 @@ vadop::GateScale GateManoeuvre::search() {
   std::vector<Eigen::Vector3d> origins;
   std::vector<double> reach;
   const double t_react = t_now_ + question_.reaction_time, hold = question_.hold;
-  const std::vector<vadop::TimedPath> at_zero = pathsAt(0.0);
-  const std::vector<vadop::TimedPath>& at_one = pathsAt(1.0);
+  const std::vector<vadop::TimedPath> slowest = pathsAt(0.0);
+  const std::vector<vadop::TimedPath>& fastest = pathsAt(1.0);
   const double t_end = endAt(1.0);
   for (size_t k = 0; k < parts_.size(); ++k) {
-    const double speed = std::max(at_zero[k].travel(t_react, t_react + hold), at_one[k].travel(t_react, t_react + hold)) / hold;
+    const double speed =
+        std::max(slowest[k].travel(t_react, t_react + hold), fastest[k].travel(t_react, t_react + hold)) / hold;
     origins.push_back(parts_[k].pose.translation());
     // The queries count contacts within a tolerance of 2 (kDeviation + the others' 0.5 mm).
-    reach.push_back(at_one[k].travel(t_now_, t_react) + speed * (hold + brakingDuration(1.0)) + 4.0 * kDeviation);
+    reach.push_back(fastest[k].travel(t_now_, t_react) + speed * (hold + brakingDuration(1.0)) + 4.0 * kDeviation);
   }
   struct EndReach {
     Predictor& p;
     ~EndReach() { p.endReach(); }
   } end_reach{world_};
   world_.beginReach(movers_, origins, reach, t_now_, t_end - t_now_);
-  return vadop::searchGateScale([this](double s) { return firstContactAt(s); });
+  // A contact within the reaction time comes before any command takes effect: every scale meets
+  // it, and s = 0 last (its query has the smallest tolerance, no braking keyframes), so the
+  // scan would end at s = 0: answered at once (blocked commands try every scale otherwise).
+  const double at_one = firstContactAt(1.0);
+  if (at_one < t_react) {
+    const double at_zero = firstContactAt(0.0);
+    if (at_zero < t_react) {
+      vadop::GateScale stopped;
+      stopped.scale = 0.0;
+      stopped.contact_time = at_zero;
+      stopped.evaluations = 2;
+      return stopped;
+    }
+  }
+  size_t evaluations = 0;
+  return vadop::searchGateScale([&](double s) { return ++evaluations == 1 ? at_one : firstContactAt(s); });
 }
 
 const Predictor::MoverContact* GateManoeuvre::limit(const vadop::GateScale& scale) const {
