@@ -173,6 +173,41 @@ Shape makeMesh(std::vector<Eigen::Vector3d> vertices, std::vector<std::array<int
   return s;
 }
 
+Shape makePointSet(std::vector<Eigen::Vector3d> points, double radius) {
+  if (points.empty()) throw InvalidArgument("point set: no point");
+  if (!(std::isfinite(radius) && radius > 0.0)) {
+    throw InvalidArgument("point set: radius must be finite and > 0, got " + formatNumber(radius));
+  }
+  std::vector<std::array<int, 3>> triangles(points.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    const int k = static_cast<int>(i);
+    triangles[i] = {k, k, k};
+  }
+  return inflate(makeMesh(std::move(points), std::move(triangles)), radius);
+}
+
+Shape makeBoxSet(const std::vector<Eigen::Vector3d>& centres, const Eigen::Vector3d& size) {
+  if (centres.empty()) throw InvalidArgument("box set: no box");
+  if (!(size.allFinite() && (size.array() > 0.0).all())) throw InvalidArgument("box set: sizes must be finite and > 0");
+  const Eigen::Vector3d h = 0.5 * size;
+  // The 12 triangles of a box's faces over its 8 corners (corner c: x sign bit 0, y bit 1, z bit 2).
+  static const int kFaces[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                                    {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+  std::vector<Eigen::Vector3d> vertices;
+  std::vector<std::array<int, 3>> triangles;
+  vertices.reserve(8 * centres.size());
+  triangles.reserve(12 * centres.size());
+  for (const Eigen::Vector3d& c : centres) {
+    const int base = static_cast<int>(vertices.size());
+    for (int corner = 0; corner < 8; ++corner) {
+      vertices.push_back(c + Eigen::Vector3d(corner & 1 ? h.x() : -h.x(), corner & 2 ? h.y() : -h.y(),
+                                             corner & 4 ? h.z() : -h.z()));
+    }
+    for (const auto& f : kFaces) triangles.push_back({base + f[0], base + f[1], base + f[2]});
+  }
+  return makeMesh(std::move(vertices), std::move(triangles));
+}
+
 Shape transformShape(const Shape& shape, const Eigen::Isometry3d& pose) {
   const Eigen::Matrix3d R = pose.linear();
   const Eigen::Vector3d t = pose.translation();

@@ -41,6 +41,15 @@ Shape makeCylinder(double radius, double length);  // length = full height, alon
 Shape makeConvex(std::vector<Eigen::Vector3d> points);
 Shape makeMesh(std::vector<Eigen::Vector3d> vertices, std::vector<std::array<int, 3>> triangles);
 
+// Obstacles a sensor sees, as one shape (a laser scan, a point cloud, an occupancy grid's
+// occupied cells), in its body frame: a ball of `radius` about each point (a mesh whose
+// triangles are the points, grown by the radius: the mesh's bounding-volume tree and narrow
+// phase serve it), or a box of `size` (full edges) about each centre (a mesh of the boxes'
+// faces: a body wholly inside one box does not touch it). Throws vadop::InvalidArgument for no
+// point, a point that is not finite, or a radius / size that is not finite and > 0.
+Shape makePointSet(std::vector<Eigen::Vector3d> points, double radius);
+Shape makeBoxSet(const std::vector<Eigen::Vector3d>& centres, const Eigen::Vector3d& size);
+
 // Returns the shape grown by `padding` metres in every direction: the exact Minkowski sum
 // with a ball (it adds to `margin`). Throws when padding is negative or not finite.
 Shape inflate(const Shape& shape, double padding);
