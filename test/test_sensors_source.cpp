@@ -58,8 +58,9 @@ void addLaser(FakeTf& tf) {
 }
 
 // A scan in "laser" of a wall at odom x = wall_x (addLaser()): in the laser frame the line
-// y = -(wall_x - 1), seen by 121 beams 0.01 rad apart about -90 degrees.
-sensor_msgs::LaserScan wallScan(double stamp, double wall_x = 3.0) {
+// y = -(wall_x - 1), seen by 121 beams 0.01 rad apart about -90 degrees. With crate_x, a crate's
+// face at odom x = crate_x for |y| < 0.4 in front of the wall.
+sensor_msgs::LaserScan wallScan(double stamp, double wall_x = 3.0, double crate_x = 0.0) {
   sensor_msgs::LaserScan s;
   s.header.stamp = ros::Time(stamp);
   s.header.frame_id = "laser";
@@ -70,7 +71,8 @@ sensor_msgs::LaserScan wallScan(double stamp, double wall_x = 3.0) {
   s.range_max = 20.0f;
   for (int i = 0; i <= 120; ++i) {
     const double a = static_cast<double>(s.angle_min) + i * static_cast<double>(s.angle_increment);
-    s.ranges.push_back(static_cast<float>(-(wall_x - 1.0) / std::sin(a)));
+    const bool crate = crate_x > 0.0 && std::fabs((crate_x - 1.0) / std::tan(a)) < 0.4;
+    s.ranges.push_back(static_cast<float>(-((crate ? crate_x : wall_x) - 1.0) / std::sin(a)));
   }
   return s;
 }
@@ -493,9 +495,10 @@ TEST(SensorsInTheMonitor, ImpactAgainstAScanOnlyWallAtItsExactTime) {
   // The box's face at x = 0.3 + t meets the ball (radius 0.02) about the beam point (3, 0, 0.1).
   EXPECT_NEAR(out.impacts[0].time_to_impact, 3.0 - 0.02 - 0.3, 0.03);
   EXPECT_NEAR(out.impacts[0].point.x, 2.98, 0.03);
-  // The next scan sees the wall 0.5 m closer: the sensor's element re-enters with its new points.
+  // The next scan sees a crate in front of the wall, 0.5 m closer: the sensor's element re-enters
+  // with its new points (the old wall posed at the new centroid, x = 2.78, would say 2.36 s).
   core.registry().onOdometry(0, odom(100.1, 0.1, 1.0), ros::Time(100.1));
-  sensors.onScan(0, wallScan(100.1, 2.5), ros::Time(100.1), tf);
+  sensors.onScan(0, wallScan(100.1, 3.0, 2.5), ros::Time(100.1), tf);
   const vadop::ImpactArray& closer = core.cycle(ros::Time(100.1), tf);
   ASSERT_EQ(closer.impacts.size(), 1u);
   EXPECT_NEAR(closer.impacts[0].time_to_impact, 2.5 - 0.02 - 0.4, 0.03);
