@@ -233,7 +233,11 @@ InputResult SensorsSource::onScan(size_t sensor, const sensor_msgs::LaserScan& m
                         " NaN beam(s) in this scan give no point; the rest is kept)", receipt);
   }
   // laser_geometry keeps the beams with range_min <= range < range_max (NaN and +-Inf never).
-  projector_.projectLaser(msg, projected_, -1.0, laser_geometry::channel_option::None);
+  try {
+    projector_.projectLaser(msg, projected_, -1.0, laser_geometry::channel_option::None);
+  } catch (const std::exception& e) {  // not expected with the fields checked; never into the node
+    return dropMessage(sensor, std::string("ranges: laser_geometry could not project the scan: ") + e.what(), receipt);
+  }
   scratch_.clear();
   sensor_msgs::PointCloud2ConstIterator<float> x(projected_, "x"), y(projected_, "y"), z(projected_, "z");
   for (; x != x.end(); ++x, ++y, ++z) {
