@@ -25,6 +25,9 @@
 // beam would leave the sensor stale and stop every gate. A cloud's non-finite points (an
 // organized cloud's "no return") and points beyond vadop::kMaxCoordinate are skipped and counted.
 //
+// A message's points and shape are built without the node's lock (a 30,000-point cloud takes a
+// few ms on the 2-core machine), then committed under it: the gates do not wait for them.
+//
 // It does not (yet): drop the points within monitored bodies or tracked objects (filter_margin,
 // self_margin), compensate a moving sensor's motion during a scan, or merge a map's cells.
 #pragma once
@@ -38,12 +41,15 @@
 #include <sensor_msgs/LaserScan.h>
 #include <sensor_msgs/PointCloud2.h>
 
+#include <vadop/shapes.h>
+
 #include <Eigen/Geometry>
 #include <ros/time.h>
 
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <unordered_set>
 #include <utility>
@@ -101,21 +107,47 @@ class SensorsSource : public BodiesSource {
   static std::pair<double, double> mapBand(const SensorParams& p);
 
  private:
-  // The header: its stamp (skew, order) and frame (`to_fixed`: into the fixed frame). False
-  // when the message is dropped (counted, warned) or out of order (`result` says which).
-  bool checkHeader(size_t sensor, const std_msgs::Header& h, const ros::Time& receipt, TransformSource& tf,
-                   Eigen::Isometry3d& to_fixed, InputResult& result);
+  // A voxel's integer coordinates (64 bits: a 1 mm voxel at kMaxCoordinate overflows 32).
+  using Voxel = std::array<int64_t, 3>;
+  struct VoxelHash {
+    size_t operator()(const Voxel& v) const;
+  };
+  // One sensor's message as prepared without the node's lock (prepare*: its own Work, the
+  // parameters and tf only), so that the gates do not wait while a large cloud's points and
+  // shape are built; commit then takes it under the lock. A subscription's callbacks never run
+  // concurrently (roscpp's default), so each sensor's Work has one user at a time.
+  struct Work {
+    std::string why;           // non-empty: the message is dropped, for this reason
+    ros::Time stamp;           // the message's (its receipt when zero)
+    size_t nan_beams = 0, first_nan = 0, skipped = 0;
+    std::vector<Eigen::Vector3d> points;  // kept, in the fixed frame
+    bool has_shape = false;    // false: no point kept
+    vadop::Shape shape;        // about the points' centroid
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    laser_geometry::LaserProjection projector;  // its cache of a scan's angles
+    sensor_msgs::PointCloud2 projected;         // a scan's projection
+    std::unordered_set<Voxel, VoxelHash> voxels;  // the voxels met in a cloud
+  };
+  // The header's stamp (skew) and frame (`to_fixed`: into the fixed frame); false and w.why
+  // when the message is to be dropped.
+  bool prepareHeader(const std_msgs::Header& h, const ros::Time& receipt, TransformSource& tf, Work& w,
+                     Eigen::Isometry3d& to_fixed) const;
+  void prepareScan(size_t sensor, const sensor_msgs::LaserScan& msg, const ros::Time& receipt, TransformSource& tf,
+                   Work& w) const;
+  void prepareCloud(size_t sensor, const sensor_msgs::PointCloud2& msg, const ros::Time& receipt,
+                    TransformSource& tf, Work& w) const;
+  void prepareMap(size_t sensor, const nav_msgs::OccupancyGrid& msg, const ros::Time& receipt, TransformSource& tf,
+                  Work& w) const;
+  // w.points become the shape posed at their centroid: balls about each, or boxes of `box`
+  // when it is non-zero (a map: turned by `turn`).
+  void buildShape(size_t sensor, Work& w, const Eigen::Vector3d& box = Eigen::Vector3d::Zero(),
+                  const Eigen::Matrix3d& turn = Eigen::Matrix3d::Identity()) const;
+  // Keeps `p` (fixed frame) when within the z band and the library's range (else counts it).
+  bool admit(size_t sensor, const Eigen::Vector3d& p, Work& w) const;
+  // Under the lock: the prepared message dropped, ignored (out of order) or kept.
+  InputResult commit(size_t sensor, Work& w, const ros::Time& receipt);
   InputResult dropMessage(size_t sensor, const std::string& why, const ros::Time& receipt);
   void problem(size_t sensor, const std::string& why, const ros::Time& receipt);
-  // The sensor's points (in the fixed frame, `kept`) become its body: balls about each, or
-  // boxes of `box` when it is non-zero (a map: rotated by `turn`), posed at their centroid.
-  void keep(size_t sensor, std::vector<Eigen::Vector3d>& kept, const ros::Time& stamp, const ros::Time& receipt,
-            const Eigen::Vector3d& box = Eigen::Vector3d::Zero(),
-            const Eigen::Matrix3d& turn = Eigen::Matrix3d::Identity());
-  // Keeps `p` (fixed frame) when within the z band and the library's range (else counts it).
-  bool admit(size_t sensor, const Eigen::Vector3d& p);
-  // A cloud's voxel filter: true the first time a point's voxel is met in this message.
-  bool firstInVoxel(const Eigen::Vector3d& p, double voxel);
   void release(size_t slot);
 
   std::vector<SensorParams> params_;
@@ -125,15 +157,7 @@ class SensorsSource : public BodiesSource {
   std::vector<ros::Time> last_stamp_;             // per sensor: of the last accepted message
   std::vector<std::vector<Eigen::Vector3d>> points_;
   std::vector<char> emptied_;  // per sensor: its last accepted message had no point (leaves)
-  laser_geometry::LaserProjection projector_;
-  sensor_msgs::PointCloud2 projected_;      // scratch: a scan's projection
-  std::vector<Eigen::Vector3d> scratch_;    // scratch: a message's kept points
-  // A voxel's integer coordinates (64 bits: a 1 mm voxel at kMaxCoordinate overflows 32).
-  using Voxel = std::array<int64_t, 3>;
-  struct VoxelHash {
-    size_t operator()(const Voxel& v) const;
-  };
-  std::unordered_set<Voxel, VoxelHash> voxels_;  // scratch: the voxels met in a cloud
+  std::vector<std::unique_ptr<Work>> work_;  // per sensor (LaserProjection does not move)
 };
 
 }  // namespace vadop_ros

@@ -94,6 +94,7 @@ SensorsSource::SensorsSource(std::vector<SensorParams> params, std::string fixed
       points_(params_.size()),
       emptied_(params_.size(), 0) {
   bodies_.resize(params_.size());  // slot i: sensor i
+  for (size_t i = 0; i < params_.size(); ++i) work_.push_back(std::make_unique<Work>());
 }
 
 void SensorsSource::problem(size_t sensor, const std::string& why, const ros::Time& receipt) {
@@ -114,24 +115,21 @@ InputResult SensorsSource::dropMessage(size_t sensor, const std::string& why, co
   return InputResult::kInvalid;
 }
 
-bool SensorsSource::checkHeader(size_t sensor, const std_msgs::Header& h, const ros::Time& receipt,
-                                TransformSource& tf, Eigen::Isometry3d& to_fixed, InputResult& result) {
-  const ros::Time stamp = h.stamp.isZero() ? receipt : h.stamp;
-  if (const std::string why = stampSkewError(stamp, receipt, max_stamp_skew_); !why.empty()) {
-    result = dropMessage(sensor, "header.stamp: " + why, receipt);
-    return false;
-  }
-  // Older than the last accepted one (while that one is not ahead of the clock): out of order.
-  const ros::Time& last = last_stamp_[sensor];
-  if (!last.isZero() && stamp < last && last <= receipt) {
-    ++status_[sensor].out_of_order;
-    result = InputResult::kOutOfOrder;
+bool SensorsSource::prepareHeader(const std_msgs::Header& h, const ros::Time& receipt, TransformSource& tf, Work& w,
+                                  Eigen::Isometry3d& to_fixed) const {
+  w.why.clear();
+  w.nan_beams = w.skipped = 0;
+  w.points.clear();
+  w.has_shape = false;
+  w.stamp = h.stamp.isZero() ? receipt : h.stamp;
+  if (const std::string why = stampSkewError(w.stamp, receipt, max_stamp_skew_); !why.empty()) {
+    w.why = "header.stamp: " + why;
     return false;
   }
   std::string frame = h.frame_id;
   while (!frame.empty() && frame.front() == '/') frame.erase(0, 1);
   if (frame.empty()) {
-    result = dropMessage(sensor, "header.frame_id is empty", receipt);
+    w.why = "header.frame_id is empty";
     return false;
   }
   to_fixed = Eigen::Isometry3d::Identity();
@@ -140,21 +138,18 @@ bool SensorsSource::checkHeader(size_t sensor, const std_msgs::Header& h, const 
   std::string error;
   bool found = false;
   try {
-    found = tf.lookup(fixed_frame_, frame, stamp, to_fixed, tf_stamp, error);
+    found = tf.lookup(fixed_frame_, frame, w.stamp, to_fixed, tf_stamp, error);
   } catch (const std::exception& e) {
     error = e.what();
   }
-  if (!found) {
-    result = dropMessage(sensor, "header.frame_id \"" + frame + "\": no transform to \"" + fixed_frame_ +
-                                     "\" at its stamp: " + error, receipt);
-  }
+  if (!found) w.why = "header.frame_id \"" + frame + "\": no transform to \"" + fixed_frame_ + "\" at its stamp: " + error;
   return found;
 }
 
-bool SensorsSource::admit(size_t sensor, const Eigen::Vector3d& p) {
+bool SensorsSource::admit(size_t sensor, const Eigen::Vector3d& p, Work& w) const {
   const SensorParams& sp = params_[sensor];
   if (!(p.cwiseAbs().maxCoeff() <= vadop::kMaxCoordinate)) {  // false for NaN
-    ++status_[sensor].points_skipped;
+    ++w.skipped;
     return false;
   }
   return p.z() >= sp.min_z && p.z() <= sp.max_z;
@@ -167,107 +162,120 @@ size_t SensorsSource::VoxelHash::operator()(const Voxel& v) const {
   return static_cast<size_t>(h);
 }
 
-bool SensorsSource::firstInVoxel(const Eigen::Vector3d& p, double voxel) {
-  if (!(voxel > 0.0)) return true;
-  const Voxel key = {static_cast<int64_t>(std::floor(p.x() / voxel)), static_cast<int64_t>(std::floor(p.y() / voxel)),
-                     static_cast<int64_t>(std::floor(p.z() / voxel))};
-  return voxels_.insert(key).second;
-}
-
-void SensorsSource::keep(size_t sensor, std::vector<Eigen::Vector3d>& kept, const ros::Time& stamp,
-                         const ros::Time& receipt, const Eigen::Vector3d& box, const Eigen::Matrix3d& turn) {
-  SensorStatus& st = status_[sensor];
-  ++st.accepted;
-  st.last_receipt = receipt;
-  last_stamp_[sensor] = stamp;
-  st.points = kept.size();
-  points_[sensor].swap(kept);
-  const std::vector<Eigen::Vector3d>& pts = points_[sensor];
-  if (pts.empty()) {
-    emptied_[sensor] = 1;  // its body leaves at the next expire
-    return;
-  }
+void SensorsSource::buildShape(size_t sensor, Work& w, const Eigen::Vector3d& box, const Eigen::Matrix3d& turn) const {
+  if (w.points.empty()) return;
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3d& p : pts) centroid += p;
-  centroid /= static_cast<double>(pts.size());
+  for (const Eigen::Vector3d& p : w.points) centroid += p;
+  centroid /= static_cast<double>(w.points.size());
   std::vector<Eigen::Vector3d> local;
-  local.reserve(pts.size());
-  for (const Eigen::Vector3d& p : pts) local.push_back(turn.transpose() * (p - centroid));
-  SourcedBody& b = bodies_[sensor];
+  local.reserve(w.points.size());
+  for (const Eigen::Vector3d& p : w.points) local.push_back(turn.transpose() * (p - centroid));
   try {
-    b.shape = box.isZero() ? vadop::makePointSet(std::move(local), params_[sensor].point_radius)
+    w.shape = box.isZero() ? vadop::makePointSet(std::move(local), params_[sensor].point_radius)
                            : vadop::makeBoxSet(local, box);
   } catch (const vadop::InvalidArgument& e) {  // cannot happen: the points are finite and in range
-    problem(sensor, std::string("points refused by the library: ") + e.what(), receipt);
-    emptied_[sensor] = 1;
+    w.why = std::string("points refused by the library: ") + e.what();
     return;
   }
+  w.has_shape = true;
+  w.pose = Eigen::Isometry3d::Identity();
+  w.pose.linear() = turn;
+  w.pose.translation() = centroid;
+}
+
+InputResult SensorsSource::commit(size_t sensor, Work& w, const ros::Time& receipt) {
+  if (!w.why.empty()) return dropMessage(sensor, w.why, receipt);
+  SensorStatus& st = status_[sensor];
+  // Older than the last accepted one (while that one is not ahead of the clock): out of order.
+  const ros::Time& last = last_stamp_[sensor];
+  if (!last.isZero() && w.stamp < last && last <= receipt) {
+    ++st.out_of_order;
+    return InputResult::kOutOfOrder;
+  }
+  st.points_skipped += w.skipped;
+  if (w.nan_beams > 0) {
+    st.beams_nan += w.nan_beams;
+    problem(sensor, "ranges[" + std::to_string(w.first_nan) + "] is NaN (" + std::to_string(w.nan_beams) +
+                        " NaN beam(s) in this scan give no point; the rest is kept)", receipt);
+  }
+  ++st.accepted;
+  st.last_receipt = receipt;
+  last_stamp_[sensor] = w.stamp;
+  st.points = w.points.size();
+  points_[sensor].swap(w.points);
+  if (!w.has_shape) {
+    emptied_[sensor] = 1;  // its body leaves at the next expire
+    return InputResult::kAccepted;
+  }
   emptied_[sensor] = 0;
+  SourcedBody& b = bodies_[sensor];
   b.alive = true;
   b.name = params_[sensor].name;
   b.link.clear();
-  b.pose = Eigen::Isometry3d::Identity();
-  b.pose.linear() = turn;
-  b.pose.translation() = centroid;
+  std::swap(b.shape, w.shape);  // no copy of a large shape under the lock
+  b.pose = w.pose;
   b.v.setZero();
   b.w.setZero();
-  b.stamp = stamp;
+  b.stamp = w.stamp;
   ++b.shape_version;
+  return InputResult::kAccepted;
 }
 
-InputResult SensorsSource::onScan(size_t sensor, const sensor_msgs::LaserScan& msg, const ros::Time& receipt,
-                                  TransformSource& tf) {
+void SensorsSource::prepareScan(size_t sensor, const sensor_msgs::LaserScan& msg, const ros::Time& receipt,
+                                TransformSource& tf, Work& w) const {
   Eigen::Isometry3d to_fixed;
-  InputResult result = InputResult::kAccepted;
-  if (!checkHeader(sensor, msg.header, receipt, tf, to_fixed, result)) return result;
-  if (const std::string why = scanError(msg); !why.empty()) return dropMessage(sensor, why, receipt);
+  if (!prepareHeader(msg.header, receipt, tf, w, to_fixed)) return;
+  if (const std::string why = scanError(msg); !why.empty()) {
+    w.why = why;
+    return;
+  }
   // REP 117: NaN is an erroneous beam (no point; counted and warned about), +-Inf out of range.
-  size_t nan_beams = 0, first_nan = 0;
   for (size_t i = 0; i < msg.ranges.size(); ++i) {
     if (!std::isnan(msg.ranges[i])) continue;
-    if (nan_beams++ == 0) first_nan = i;
-  }
-  if (nan_beams > 0) {
-    status_[sensor].beams_nan += nan_beams;
-    problem(sensor, "ranges[" + std::to_string(first_nan) + "] is NaN (" + std::to_string(nan_beams) +
-                        " NaN beam(s) in this scan give no point; the rest is kept)", receipt);
+    if (w.nan_beams++ == 0) w.first_nan = i;
   }
   // laser_geometry keeps the beams with range_min <= range < range_max (NaN and +-Inf never).
   try {
-    projector_.projectLaser(msg, projected_, -1.0, laser_geometry::channel_option::None);
+    w.projector.projectLaser(msg, w.projected, -1.0, laser_geometry::channel_option::None);
   } catch (const std::exception& e) {  // not expected with the fields checked; never into the node
-    return dropMessage(sensor, std::string("ranges: laser_geometry could not project the scan: ") + e.what(), receipt);
+    w.why = std::string("ranges: laser_geometry could not project the scan: ") + e.what();
+    return;
   }
-  scratch_.clear();
-  sensor_msgs::PointCloud2ConstIterator<float> x(projected_, "x"), y(projected_, "y"), z(projected_, "z");
+  sensor_msgs::PointCloud2ConstIterator<float> x(w.projected, "x"), y(w.projected, "y"), z(w.projected, "z");
   for (; x != x.end(); ++x, ++y, ++z) {
     const Eigen::Vector3d p = to_fixed * Eigen::Vector3d(*x, *y, *z);
-    if (admit(sensor, p)) scratch_.push_back(p);
+    if (admit(sensor, p, w)) w.points.push_back(p);
   }
-  keep(sensor, scratch_, msg.header.stamp.isZero() ? receipt : msg.header.stamp, receipt);
-  return InputResult::kAccepted;
+  buildShape(sensor, w);
 }
 
-InputResult SensorsSource::onCloud(size_t sensor, const sensor_msgs::PointCloud2& msg, const ros::Time& receipt,
-                                   TransformSource& tf) {
+void SensorsSource::prepareCloud(size_t sensor, const sensor_msgs::PointCloud2& msg, const ros::Time& receipt,
+                                 TransformSource& tf, Work& w) const {
   Eigen::Isometry3d to_fixed;
-  InputResult result = InputResult::kAccepted;
-  if (!checkHeader(sensor, msg.header, receipt, tf, to_fixed, result)) return result;
-  if (const std::string why = cloudLayoutError(msg); !why.empty()) return dropMessage(sensor, why, receipt);
-  scratch_.clear();
-  voxels_.clear();
+  if (!prepareHeader(msg.header, receipt, tf, w, to_fixed)) return;
+  if (const std::string why = cloudLayoutError(msg); !why.empty()) {
+    w.why = why;
+    return;
+  }
+  w.voxels.clear();
   const double voxel = params_[sensor].voxel;
+  // At most one point per voxel of the fixed frame's grid: true the first time one is met.
+  const auto firstInVoxel = [&w, voxel](const Eigen::Vector3d& p) {
+    if (!(voxel > 0.0)) return true;
+    const Voxel key = {static_cast<int64_t>(std::floor(p.x() / voxel)), static_cast<int64_t>(std::floor(p.y() / voxel)),
+                       static_cast<int64_t>(std::floor(p.z() / voxel))};
+    return w.voxels.insert(key).second;
+  };
   sensor_msgs::PointCloud2ConstIterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z");
   for (; x != x.end(); ++x, ++y, ++z) {
     if (!(std::isfinite(*x) && std::isfinite(*y) && std::isfinite(*z))) {  // an organized cloud's "no return"
-      ++status_[sensor].points_skipped;
+      ++w.skipped;
       continue;
     }
     const Eigen::Vector3d p = to_fixed * Eigen::Vector3d(*x, *y, *z);
-    if (admit(sensor, p) && firstInVoxel(p, voxel)) scratch_.push_back(p);
+    if (admit(sensor, p, w) && firstInVoxel(p)) w.points.push_back(p);
   }
-  keep(sensor, scratch_, msg.header.stamp.isZero() ? receipt : msg.header.stamp, receipt);
-  return InputResult::kAccepted;
+  buildShape(sensor, w);
 }
 
 std::pair<double, double> SensorsSource::mapBand(const SensorParams& p) {
@@ -278,24 +286,23 @@ std::pair<double, double> SensorsSource::mapBand(const SensorParams& p) {
   return {kMapFloor, kMapFloor + kMapHeight};
 }
 
-InputResult SensorsSource::onMap(size_t sensor, const nav_msgs::OccupancyGrid& msg, const ros::Time& receipt,
-                                 TransformSource& tf) {
+void SensorsSource::prepareMap(size_t sensor, const nav_msgs::OccupancyGrid& msg, const ros::Time& receipt,
+                               TransformSource& tf, Work& w) const {
   Eigen::Isometry3d to_fixed;
-  InputResult result = InputResult::kAccepted;
-  if (!checkHeader(sensor, msg.header, receipt, tf, to_fixed, result)) return result;
+  if (!prepareHeader(msg.header, receipt, tf, w, to_fixed)) return;
   const nav_msgs::MapMetaData& info = msg.info;
   const uint64_t cells = static_cast<uint64_t>(info.width) * info.height;
   if (msg.data.size() != cells) {
-    return dropMessage(sensor, "data has " + std::to_string(msg.data.size()) + " cells, width x height = " +
-                                   std::to_string(cells), receipt);
+    w.why = "data has " + std::to_string(msg.data.size()) + " cells, width x height = " + std::to_string(cells);
+    return;
   }
-  std::string why;
   if (!(info.resolution > 0.0f && info.resolution <= vadop::kMaxSize)) {
-    return dropMessage(sensor, "info.resolution is " + number(info.resolution) + " (must be > 0 and finite)", receipt);
+    w.why = "info.resolution is " + number(info.resolution) + " (must be > 0 and finite)";
+    return;
   }
-  if (!checkPoint(info.origin.position, "info.origin.position", why) ||
-      !checkQuaternion(info.origin.orientation, "info.origin.orientation", why)) {
-    return dropMessage(sensor, why, receipt);
+  if (!checkPoint(info.origin.position, "info.origin.position", w.why) ||
+      !checkQuaternion(info.origin.orientation, "info.origin.orientation", w.why)) {
+    return;
   }
   const geometry_msgs::Quaternion& q = info.origin.orientation;
   Eigen::Isometry3d grid = Eigen::Isometry3d::Identity();
@@ -308,7 +315,6 @@ InputResult SensorsSource::onMap(size_t sensor, const nav_msgs::OccupancyGrid& m
   const double res = info.resolution;
   const Eigen::Matrix3d turn =
       Eigen::AngleAxisd(std::atan2(grid.linear()(1, 0), grid.linear()(0, 0)), Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  scratch_.clear();
   const int occupied = params_[sensor].occupied;
   for (size_t i = 0; i < msg.data.size(); ++i) {
     if (msg.data[i] < occupied) continue;  // -1 (unknown) included
@@ -316,14 +322,30 @@ InputResult SensorsSource::onMap(size_t sensor, const nav_msgs::OccupancyGrid& m
     Eigen::Vector3d c = grid * Eigen::Vector3d(cx, cy, 0.0);
     c.z() = 0.5 * (z0 + z1);
     if (c.cwiseAbs().maxCoeff() <= vadop::kMaxCoordinate) {
-      scratch_.push_back(c);
+      w.points.push_back(c);
     } else {
-      ++status_[sensor].points_skipped;
+      ++w.skipped;
     }
   }
-  keep(sensor, scratch_, msg.header.stamp.isZero() ? receipt : msg.header.stamp, receipt, Eigen::Vector3d(res, res, z1 - z0),
-       turn);
-  return InputResult::kAccepted;
+  buildShape(sensor, w, Eigen::Vector3d(res, res, z1 - z0), turn);
+}
+
+InputResult SensorsSource::onScan(size_t sensor, const sensor_msgs::LaserScan& msg, const ros::Time& receipt,
+                                  TransformSource& tf) {
+  prepareScan(sensor, msg, receipt, tf, *work_.at(sensor));
+  return commit(sensor, *work_[sensor], receipt);
+}
+
+InputResult SensorsSource::onCloud(size_t sensor, const sensor_msgs::PointCloud2& msg, const ros::Time& receipt,
+                                   TransformSource& tf) {
+  prepareCloud(sensor, msg, receipt, tf, *work_.at(sensor));
+  return commit(sensor, *work_[sensor], receipt);
+}
+
+InputResult SensorsSource::onMap(size_t sensor, const nav_msgs::OccupancyGrid& msg, const ros::Time& receipt,
+                                 TransformSource& tf) {
+  prepareMap(sensor, msg, receipt, tf, *work_.at(sensor));
+  return commit(sensor, *work_[sensor], receipt);
 }
 
 bool SensorsSource::stale(size_t sensor, const ros::Time& now) const {
@@ -396,11 +418,15 @@ std::vector<ros::Subscriber> SensorsSource::subscribe(const Wiring& w) {
   for (size_t s = 0; s < params_.size(); ++s) {
     std::mutex* lock = &w.lock;
     TransformSource* tf = &w.tf;
-    // Each handler under the node's lock, stamped with the node's clock at its receipt.
-    auto handler = [this, s, lock, tf](auto on) {
-      return [this, s, lock, tf, on](const auto& msg) {
+    // Each message stamped with the node's clock at its receipt, prepared without the lock (its
+    // points and shape: milliseconds for a large cloud, which the gates need not wait for),
+    // then committed under it.
+    auto handler = [this, s, lock, tf](auto prepare) {
+      return [this, s, lock, tf, prepare](const auto& msg) {
+        const ros::Time receipt = ros::Time::now();
+        (this->*prepare)(s, *msg, receipt, *tf, *work_[s]);
         std::lock_guard<std::mutex> guard(*lock);
-        (this->*on)(s, *msg, ros::Time::now(), *tf);
+        commit(s, *work_[s], receipt);
       };
     };
     const std::string& topic = params_[s].topic;
@@ -408,17 +434,17 @@ std::vector<ros::Subscriber> SensorsSource::subscribe(const Wiring& w) {
     switch (params_[s].type) {
       case SensorType::kScan:
         subs.push_back(w.nh.subscribe<sensor_msgs::LaserScan>(
-            topic, 5, std::function<void(const sensor_msgs::LaserScanConstPtr&)>(handler(&SensorsSource::onScan)),
+            topic, 5, std::function<void(const sensor_msgs::LaserScanConstPtr&)>(handler(&SensorsSource::prepareScan)),
             ros::VoidConstPtr(), hints));
         break;
       case SensorType::kCloud:
         subs.push_back(w.nh.subscribe<sensor_msgs::PointCloud2>(
-            topic, 2, std::function<void(const sensor_msgs::PointCloud2ConstPtr&)>(handler(&SensorsSource::onCloud)),
+            topic, 2, std::function<void(const sensor_msgs::PointCloud2ConstPtr&)>(handler(&SensorsSource::prepareCloud)),
             ros::VoidConstPtr(), hints));
         break;
       case SensorType::kMap:
         subs.push_back(w.nh.subscribe<nav_msgs::OccupancyGrid>(
-            topic, 1, std::function<void(const nav_msgs::OccupancyGridConstPtr&)>(handler(&SensorsSource::onMap)),
+            topic, 1, std::function<void(const nav_msgs::OccupancyGridConstPtr&)>(handler(&SensorsSource::prepareMap)),
             ros::VoidConstPtr(), hints));
         break;
     }
