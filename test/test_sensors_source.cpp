@@ -4,7 +4,8 @@
 // naming the sensor and the field with the previous points kept; NaN beams; expiry after the
 // timeout; a map's occupied cells; and through MonitorCore and VelocityGate: an impact against a
 // scan-only wall at its exact time, the wall's new points re-entering the world, a gate stopping
-// short of the wall, and zero commands while the scan is stale (unless the gate ignores it).
+// short of the wall, zero commands while the scan is stale (unless the gate ignores it), and the
+// kept points drawn as one marker.
 #include "vadop_ros/monitor_core.h"
 #include "vadop_ros/sensors_source.h"
 #include "vadop_ros/velocity_gate.h"
@@ -563,5 +564,31 @@ TEST(SensorsInTheMonitor, GatesPublishZeroWhileAScanIsStaleUnlessTheyIgnoreIt) {
       EXPECT_EQ(gate.state().reason, vadop::GateState::REASON_STALE);
       EXPECT_EQ(gate.state().detail, "sensor \"lidar\" (/scan): no message for 0.6 s (timeout 0.5 s)");
     }
+  }
+}
+
+TEST(SensorsInTheMonitor, TheKeptPointsAreDrawnAsOneSphereListEach) {
+  MonitorCore core = makeCore();
+  FakeTf tf;
+  addLaser(tf);
+  sensorsOf(core).onScan(0, wallScan(100.0), ros::Time(100.0), tf);
+  core.registry().onOdometry(0, odom(100.0, 0.0, 0.0), ros::Time(100.0));
+  core.cycle(ros::Time(100.0), tf);
+  const visualization_msgs::MarkerArray markers = core.markers();
+  std::vector<const visualization_msgs::Marker*> lists;
+  for (const auto& m : markers.markers) {
+    if (m.ns == "lidar" && m.type == visualization_msgs::Marker::SPHERE_LIST) lists.push_back(&m);
+  }
+  ASSERT_FALSE(lists.empty());
+  const visualization_msgs::Marker& m = *lists.front();
+  ASSERT_EQ(m.points.size(), 121u);
+  EXPECT_DOUBLE_EQ(m.scale.x, 0.04);  // balls of point_radius 0.02
+  const Eigen::Isometry3d pose = Eigen::Translation3d(m.pose.position.x, m.pose.position.y, m.pose.position.z) *
+                                 Eigen::Quaterniond(m.pose.orientation.w, m.pose.orientation.x, m.pose.orientation.y,
+                                                    m.pose.orientation.z);
+  for (const geometry_msgs::Point& p : m.points) {
+    const Eigen::Vector3d q = pose * Eigen::Vector3d(p.x, p.y, p.z);
+    EXPECT_NEAR(q.x(), 3.0, 1e-5);
+    EXPECT_NEAR(q.z(), 0.1, 1e-9);
   }
 }
