@@ -29,6 +29,30 @@ void setColour(Marker& m, const std::array<float, 3>& c, float a) {
   m.color.a = a;
 }
 
+// A mesh without a mesh resource (a sensor's points or a map's cells: vadop::makePointSet /
+// makeBoxSet) as one marker: a SPHERE_LIST of its points (balls of its margin) when every
+// triangle is a point, else a TRIANGLE_LIST of its faces (margin not drawn). False: no triangle.
+bool addMeshList(visualization_msgs::MarkerArray& out, Marker base, const vadop::Shape& s) {
+  if (s.triangles.empty()) return false;
+  const bool points = std::all_of(s.triangles.begin(), s.triangles.end(),
+                                  [](const std::array<int, 3>& t) { return t[0] == t[1] && t[1] == t[2]; });
+  base.type = points ? Marker::SPHERE_LIST : Marker::TRIANGLE_LIST;
+  base.scale.x = base.scale.y = base.scale.z = points ? 2.0 * std::max(s.margin, 1e-3) : 1.0;
+  base.points.reserve(s.triangles.size() * (points ? 1 : 3));
+  for (const std::array<int, 3>& t : s.triangles) {
+    for (int k = 0; k < (points ? 1 : 3); ++k) {
+      const Eigen::Vector3d& v = s.points[static_cast<size_t>(t[k])];
+      geometry_msgs::Point p;
+      p.x = v.x();
+      p.y = v.y();
+      p.z = v.z();
+      base.points.push_back(p);
+    }
+  }
+  out.markers.push_back(std::move(base));
+  return true;
+}
+
 // Appends the markers drawing `e`'s shape at `pose`.
 void addShape(visualization_msgs::MarkerArray& out, Marker base, const MarkerElement& e,
               const Eigen::Isometry3d& pose) {
@@ -80,6 +104,7 @@ void addShape(visualization_msgs::MarkerArray& out, Marker base, const MarkerEle
         out.markers.push_back(base);
         return;
       }
+      if (addMeshList(out, base, s)) return;
       break;
     case vadop::ShapeType::kConvex:
       break;

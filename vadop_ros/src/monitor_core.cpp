@@ -506,6 +506,7 @@ size_t MonitorCore::syncSourcedBodies(size_t j, double t_now, const ros::Time& n
     sourced_in_world_.resize(needed);
     sourced_matches_.resize(needed);
     sourced_soonest_.resize(needed, std::numeric_limits<double>::infinity());
+    sourced_shape_version_.resize(needed, 0);
   }
   std::string error;
   size_t in_world = 0;
@@ -515,6 +516,9 @@ size_t MonitorCore::syncSourcedBodies(size_t j, double t_now, const ros::Time& n
     const size_t element = setElement(j, s), k = element - setBase();
     // A slot's new body: the old one (if any) leaves first.
     if (!sourced_in_world_[k].empty() && sourced_in_world_[k] != t.name) unsetSourced(element);
+    // A new shape (a sensor's new points): the world keeps an element's shape from its entry, so
+    // it re-enters (both worlds; the gates' at the cycle's end).
+    if (predictor_.contains(element) && sourced_shape_version_[k] != t.shape_version) unsetSourced(element);
     std::string why;
     vadop::Motion m;
     try {
@@ -525,8 +529,11 @@ size_t MonitorCore::syncSourcedBodies(size_t j, double t_now, const ros::Time& n
     }
     if (why.empty()) {
       const bool fresh = !predictor_.contains(element);
-      const vadop::Shape shape = fresh && params_.padding > 0.0 ? vadop::inflate(t.shape, params_.padding) : t.shape;
+      // Not copied while in the world (set uses the shape on entry only): a sensor's is large.
+      const vadop::Shape padded = fresh && params_.padding > 0.0 ? vadop::inflate(t.shape, params_.padding) : vadop::Shape();
+      const vadop::Shape& shape = fresh && params_.padding > 0.0 ? padded : t.shape;
       if (!predictor_.set(element, t.name, shape, m, error, kMovingGroup, ~0u)) why = "refused by the world: " + error;
+      sourced_shape_version_[k] = t.shape_version;
     }
     if (!why.empty()) {
       source.drop(s, "motion out of range: " + why, now);

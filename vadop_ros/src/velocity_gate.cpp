@@ -26,6 +26,21 @@ geometry_msgs::Twist scaled(const geometry_msgs::Twist& t, double s) {
   return out;
 }
 
+// A sensor the gate may not go without that has no fresh message (source.h's staleInput), unless
+// the gate's ignore globs match it ("<sensor>" or "<sensor>/*"); `why` names it.
+bool staleSensor(const MonitorCore& core, const GateParams& gate, const ros::Time& now, std::string& why) {
+  const auto ignored = [&gate](const std::string& name) {
+    for (const std::string& pattern : gate.ignore) {
+      if (patternMatches(pattern, ElementKey{name, ""})) return true;
+    }
+    return false;
+  };
+  for (const auto& source : core.bodiesSources()) {
+    if (source->staleInput(now, ignored, why)) return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 VelocityGate::VelocityGate(size_t body, const BodyRegistry& registry)
@@ -75,6 +90,12 @@ geometry_msgs::Twist VelocityGate::onCommand(MonitorCore& core, const geometry_m
       ROS_WARN("vadop_monitor: gate of \"%s\": a command on %s has NaN/Inf: a zero command is published instead",
                state_.body.c_str(), params_.cmd_vel_in.c_str());
     }
+    return state_.command_out;
+  }
+  // Blind while a sensor is stale: what it would show is not known.
+  if (std::string why; staleSensor(core, params_, now, why)) {
+    ++counts_.unchecked;
+    publishZero(vadop::GateState::REASON_STALE, why, command);
     return state_.command_out;
   }
   CommandQuestion q;

@@ -5,7 +5,9 @@
 // path of its origin (sampled, so a turning body draws an arc). An element on a planned path
 // (MarkerElement::path) is also drawn, faint, at each pose of the path inside the horizon (at
 // most kPathGhosts of them, evenly picked), and its line follows the path. Static obstacles:
-// the shape only. Meshes are drawn as MESH_RESOURCE from their URI (without the padding); the other
+// the shape only. Meshes are drawn as MESH_RESOURCE from their URI (without the padding); a mesh
+// without one (a sensor's points or a map's cells) as one SPHERE_LIST of its points (balls of
+// its margin: point radius and padding) or one TRIANGLE_LIST of its faces; the other
 // shapes include the padding (boxes and cylinders as their padded bounding primitive).
 // Colour: by the body's soonest time to impact: red below 0.5 s, amber below the horizon,
 // grey when clear.

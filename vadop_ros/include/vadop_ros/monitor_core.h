@@ -279,6 +279,8 @@ class MonitorCore {
   std::vector<std::string> sourced_in_world_;
   std::vector<PairFilter::Matches> sourced_matches_;
   std::vector<double> sourced_soonest_;
+  // The shape_version each source body's element entered the world with: a newer one re-enters.
+  std::vector<uint64_t> sourced_shape_version_;
   Predictor predictor_;
   // The gates' world: every element of predictor_ with the same shape and motion as at the
   // end of the last cycle (syncGateWorld), and the gated commands adopted since.

@@ -13,7 +13,12 @@
 //    body-set source fills its own entry): "N tracked objects from M source(s)", and per source (its prefix
 //    P) "P: objects" (in the world now), "P: arrays accepted", "P: arrays dropped", "P: arrays
 //    out of order", "P: objects dropped", "P: objects expired", "P: last problem"; WARN while a
-//    source dropped something within the last BodyRegistry::kInvalidMarkSeconds.
+//    source dropped something within the last BodyRegistry::kInvalidMarkSeconds;
+//  - "sensors" (with ~sensors; SensorsSource::report): "N point(s) from M sensor(s)" and the
+//    stale ones, and per sensor S "S: topic", "S: type", "S: points" (kept now), "S: stale",
+//    "S: messages accepted", "S: messages dropped", "S: messages out of order", "S: beams NaN",
+//    "S: points skipped", "S: expired", "S: last problem"; WARN while a sensor is stale (the
+//    gates stop) or dropped something within the last BodyRegistry::kInvalidMarkSeconds.
 #pragma once
 
 #include "vadop_ros/monitor_core.h"

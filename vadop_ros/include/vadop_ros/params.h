@@ -19,6 +19,7 @@
 #include <Eigen/Geometry>
 #include <xmlrpcpp/XmlRpcValue.h>
 
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -113,6 +114,34 @@ struct TrackParams {
   double timeout = 0.5;        // s, (0, 3600]: absent from the arrays this long -> leaves the world
 };
 
+// A sensor whose every message is the set of obstacles it sees (~sensors[i]; sensors_source.h,
+// parsed by its source, src/sources/sensors_source.cpp): one body "<name>" (no link) of the
+// message's points (balls of point_radius) or occupied cells (boxes), static until the next
+// message replaces them. config/monitor.yaml documents each key.
+enum class SensorType {
+  kScan,   // sensor_msgs/LaserScan
+  kCloud,  // sensor_msgs/PointCloud2
+  kMap,    // nav_msgs/OccupancyGrid
+};
+struct SensorParams {
+  std::string name;  // unique among bodies, static obstacles and sensors; no '/'
+  SensorType type = SensorType::kScan;
+  std::string topic;
+  // s, (0, 3600] ([0, 3600] for a map; 0: a map that never goes stale once received): no
+  // accepted message this long -> its points leave the world and the gates stop (stale).
+  double timeout = 0.5;
+  double point_radius = 0.02;  // m, (0, 1]: each point a ball of this radius (maps: unused)
+  // m, in the fixed frame: points outside [min_z, max_z] are dropped (a map's boxes span the band).
+  double min_z = -std::numeric_limits<double>::infinity();
+  double max_z = std::numeric_limits<double>::infinity();
+  double voxel = 0.05;  // m, cloud only, [0, 10]: at most one point per voxel (0: every point)
+  // m, [0, 10]: points within a monitored body or tracked object grown by filter_margin (the
+  // sensor's own body: self_margin) are dropped.
+  double filter_margin = 0.1;
+  double self_margin = 0.02;
+  int occupied = 65;  // map only, [1, 100]: cells with a value >= this are obstacles
+};
+
 // The range of ~rate (Hz), the same as cfg/Monitor.cfg's: below 0.1 Hz the timer's period
 // (1 / rate) soon leaves what ros::Duration holds and the node would not cycle.
 constexpr double kMinRate = 0.1;
@@ -157,6 +186,7 @@ struct MonitorParams {
   std::vector<BodyParams> bodies;
   std::vector<StaticObstacleParams> static_obstacles;
   std::vector<TrackParams> tracks;
+  std::vector<SensorParams> sensors;
   bool log_impacts = false;     // log every cycle's impacts as readable lines (ROS_INFO)
   bool publish_markers = true;  // ~markers (built only while someone subscribes)
 };

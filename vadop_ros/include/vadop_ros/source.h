@@ -30,6 +30,7 @@
 #include <vadop/shapes.h>
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -175,6 +176,9 @@ struct SourcedBody {
   Eigen::Vector3d v = Eigen::Vector3d::Zero();
   Eigen::Vector3d w = Eigen::Vector3d::Zero();
   ros::Time stamp;
+  // Bumped by the source whenever `shape` changes in a living slot (a sensor's new points): the
+  // world keeps an element's shape from its entry, so MonitorCore re-enters the element then.
+  uint64_t shape_version = 0;
 };
 
 // An input that brings a set of bodies (the kind's topics, their latest messages, the bodies
@@ -216,6 +220,13 @@ class BodiesSource {
   virtual void clear(std::vector<size_t>& left) = 0;
   // Fills its diagnostics entry (named kind()).
   virtual void report(diagnostic_updater::DiagnosticStatusWrapper& stat, const ros::Time& now) const = 0;
+  // Inputs the gates must not go without (sensors): true, with `why` naming it, when one that
+  // `ignored` (given its name) does not leave out has no fresh message at `now`. The gates
+  // then publish zero Twists (reason stale). None by default.
+  virtual bool staleInput(const ros::Time& /*now*/, const std::function<bool(const std::string& name)>& /*ignored*/,
+                          std::string& /*why*/) const {
+    return false;
+  }
 
   // The slots, alive or free (no virtual call per body in MonitorCore's loops).
   const std::vector<SourcedBody>& bodies() const { return bodies_; }

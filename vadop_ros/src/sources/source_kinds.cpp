@@ -10,6 +10,7 @@ SourceKind jointStatesSourceKind();
 SourceKind jointTrajectorySourceKind();
 SourceKind pathSourceKind();
 BodiesSourceKind trackedObjectsSourceKind();
+BodiesSourceKind sensorsSourceKind();
 
 const std::vector<SourceKind>& sourceKinds() {
   // The velocity source first: the others start from the body frame it gives. The rest in the
@@ -23,6 +24,7 @@ const std::vector<SourceKind>& sourceKinds() {
 const std::vector<BodiesSourceKind>& bodiesSourceKinds() {
   static const std::vector<BodiesSourceKind> kinds = {
       trackedObjectsSourceKind(),
+      sensorsSourceKind(),
   };
   return kinds;
 }

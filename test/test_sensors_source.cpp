@@ -1,0 +1,594 @@
+// Sensors (~sensors, sensors_source.h): the parameters (defaults, each bad key named, type-only
+// keys, unique names, the gated body's padding against self_margin); a laser scan of a wall
+// placed in the fixed frame through tf; the z band; a cloud's voxel filter; bad messages dropped
+// naming the sensor and the field with the previous points kept; NaN beams; expiry after the
+// timeout; a map's occupied cells; and through MonitorCore and VelocityGate: an impact against a
+// scan-only wall at its exact time, the wall's new points re-entering the world, a gate stopping
+// short of the wall, zero commands while the scan is stale (unless the gate ignores it), and the
+// kept points drawn as one marker.
+#include "vadop_ros/monitor_core.h"
+#include "vadop_ros/sensors_source.h"
+#include "vadop_ros/velocity_gate.h"
+#include "fake_tf.h"
+#include "yaml_xmlrpc.h"
+
+#include <gtest/gtest.h>
+
+#include <diagnostic_updater/DiagnosticStatusWrapper.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
+
+#include <cmath>
+#include <limits>
+#include <map>
+#include <string>
+#include <vector>
+
+using vadop_ros::InputResult;
+using vadop_ros::MonitorCore;
+using vadop_ros::SensorParams;
+using vadop_ros::SensorsSource;
+using vadop_ros::SensorType;
+using vadop_test::FakeTf;
+
+namespace {
+
+std::string paramError(const std::string& text) {
+  try {
+    vadop_ros::parseParams(vadop_test::yaml(text));
+  } catch (const vadop_ros::ParamError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+SensorParams sensor(SensorType type, const std::string& name = "lidar") {
+  SensorParams p;
+  p.name = name;
+  p.type = type;
+  p.topic = "/" + name;
+  return p;
+}
+
+// tf: the laser 1 m ahead of the odom origin, 0.1 m up, turned +90 degrees about z (its x axis
+// along odom's y).
+void addLaser(FakeTf& tf) {
+  Eigen::Isometry3d laser = Eigen::Isometry3d::Identity();
+  laser.translation() = Eigen::Vector3d(1.0, 0.0, 0.1);
+  laser.linear() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  tf.set("odom", "laser", laser);
+}
+
+// A scan in "laser" of a wall at odom x = wall_x (addLaser()): in the laser frame the line
+// y = -(wall_x - 1), seen by 121 beams 0.01 rad apart about -90 degrees. With crate_x, a crate's
+// face at odom x = crate_x for |y| < 0.4 in front of the wall.
+sensor_msgs::LaserScan wallScan(double stamp, double wall_x = 3.0, double crate_x = 0.0) {
+  sensor_msgs::LaserScan s;
+  s.header.stamp = ros::Time(stamp);
+  s.header.frame_id = "laser";
+  s.angle_min = static_cast<float>(-M_PI / 2 - 0.6);
+  s.angle_increment = 0.01f;
+  s.angle_max = s.angle_min + 120 * s.angle_increment;
+  s.range_min = 0.05f;
+  s.range_max = 20.0f;
+  for (int i = 0; i <= 120; ++i) {
+    const double a = static_cast<double>(s.angle_min) + i * static_cast<double>(s.angle_increment);
+    const bool crate = crate_x > 0.0 && std::fabs((crate_x - 1.0) / std::tan(a)) < 0.4;
+    s.ranges.push_back(static_cast<float>(-((crate ? crate_x : wall_x) - 1.0) / std::sin(a)));
+  }
+  return s;
+}
+
+// An unorganized cloud in `frame` of the given points (x, y, z FLOAT32, 16-byte points).
+sensor_msgs::PointCloud2 cloud(double stamp, const std::vector<Eigen::Vector3d>& pts, const std::string& frame = "odom") {
+  sensor_msgs::PointCloud2 c;
+  c.header.stamp = ros::Time(stamp);
+  c.header.frame_id = frame;
+  sensor_msgs::PointCloud2Modifier mod(c);
+  mod.setPointCloud2FieldsByString(1, "xyz");
+  mod.resize(pts.size());
+  sensor_msgs::PointCloud2Iterator<float> x(c, "x"), y(c, "y"), z(c, "z");
+  for (const Eigen::Vector3d& p : pts) {
+    *x = static_cast<float>(p.x());
+    *y = static_cast<float>(p.y());
+    *z = static_cast<float>(p.z());
+    ++x, ++y, ++z;
+  }
+  return c;
+}
+
+nav_msgs::Odometry odom(double stamp, double x, double vx) {
+  nav_msgs::Odometry m;
+  m.header.stamp = ros::Time(stamp);
+  m.header.frame_id = "odom";
+  m.pose.pose.position.x = x;
+  m.pose.pose.orientation.w = 1.0;
+  m.twist.twist.linear.x = vx;
+  return m;
+}
+
+SensorsSource& sensorsOf(MonitorCore& core) {
+  for (const auto& s : core.bodiesSources()) {
+    if (auto* found = dynamic_cast<SensorsSource*>(s.get())) return *found;
+  }
+  throw std::runtime_error("no sensors source");
+}
+
+}  // namespace
+
+TEST(SensorParams, DefaultsAndEveryKey) {
+  const auto p = vadop_ros::parseParams(vadop_test::yaml(R"(
+sensors:
+  - {name: front, type: scan, topic: /scan}
+  - {name: depth, type: cloud, topic: /points, timeout: 1.5, point_radius: 0.05, min_z: 0.1, max_z: 1.9, voxel: 0.1,
+     filter_margin: 0.2, self_margin: 0.05}
+  - {name: floor, type: map, topic: /map, timeout: 0, occupied: 50}
+)"));
+  ASSERT_EQ(p.sensors.size(), 3u);
+  const SensorParams& f = p.sensors[0];
+  EXPECT_EQ(f.name, "front");
+  EXPECT_EQ(f.type, SensorType::kScan);
+  EXPECT_EQ(f.topic, "/scan");
+  EXPECT_DOUBLE_EQ(f.timeout, 0.5);
+  EXPECT_DOUBLE_EQ(f.point_radius, 0.02);
+  EXPECT_EQ(f.min_z, -std::numeric_limits<double>::infinity());
+  EXPECT_EQ(f.max_z, std::numeric_limits<double>::infinity());
+  EXPECT_DOUBLE_EQ(f.voxel, 0.05);
+  EXPECT_DOUBLE_EQ(f.filter_margin, 0.1);
+  EXPECT_DOUBLE_EQ(f.self_margin, 0.02);
+  EXPECT_EQ(f.occupied, 65);
+  const SensorParams& d = p.sensors[1];
+  EXPECT_EQ(d.type, SensorType::kCloud);
+  EXPECT_DOUBLE_EQ(d.timeout, 1.5);
+  EXPECT_DOUBLE_EQ(d.point_radius, 0.05);
+  EXPECT_DOUBLE_EQ(d.min_z, 0.1);
+  EXPECT_DOUBLE_EQ(d.max_z, 1.9);
+  EXPECT_DOUBLE_EQ(d.voxel, 0.1);
+  EXPECT_DOUBLE_EQ(d.filter_margin, 0.2);
+  EXPECT_DOUBLE_EQ(d.self_margin, 0.05);
+  EXPECT_EQ(p.sensors[2].type, SensorType::kMap);
+  EXPECT_DOUBLE_EQ(p.sensors[2].timeout, 0.0);
+  EXPECT_EQ(p.sensors[2].occupied, 50);
+}
+
+TEST(SensorParams, EachBadKeyIsNamed) {
+  const std::string s = "sensors:\n  - ";
+  EXPECT_EQ(paramError("sensors: {name: a}"), "~sensors: must be a list, got a dictionary");
+  EXPECT_EQ(paramError(s + "{type: scan, topic: /s}"), "~sensors[0].name: is required (the impacts' body name)");
+  EXPECT_EQ(paramError(s + "{name: a/b, type: scan, topic: /s}"),
+            "~sensors[0] (\"a/b\").name: must not contain '/' or spaces, got \"a/b\"");
+  EXPECT_EQ(paramError(s + "{name: a, topic: /s}"), "~sensors[0] (\"a\").type: is required (scan, cloud or map)");
+  EXPECT_EQ(paramError(s + "{name: a, type: radar, topic: /s}"),
+            "~sensors[0] (\"a\").type: must be scan, cloud or map, got \"radar\"");
+  EXPECT_EQ(paramError(s + "{name: a, type: scan}"), "~sensors[0] (\"a\").topic: is required");
+  EXPECT_EQ(paramError(s + "{name: a, type: scan, topic: \"bad topic\"}"),
+            "~sensors[0] (\"a\").topic: must be a valid ROS topic name (a letter or '/' first, then letters, digits, "
+            "'_' and '/'), got \"bad topic\"");
+  EXPECT_EQ(paramError(s + "{name: a, type: scan, topic: /s, timeout: 0}"),
+            "~sensors[0] (\"a\").timeout: must be in (0, 3600], got 0");
+  EXPECT_EQ(paramError(s + "{name: a, type: map, topic: /s, timeout: -1}"),
+            "~sensors[0] (\"a\").timeout: must be in [0, 3600], got -1");
+  EXPECT_EQ(paramError(s + "{name: a, type: scan, topic: /s, point_radius: 0}"),
+            "~sensors[0] (\"a\").point_radius: must be in (0, 1], got 0");
+  EXPECT_EQ(paramError(s + "{name: a, type: scan, topic: /s, min_z: 1, max_z: 0.5}"),
+            "~sensors[0] (\"a\").max_z: must be > min_z (1), got 0.5");
+  EXPECT_EQ(paramError(s + "{name: a, type: scan, topic: /s, min_z: .nan}"),
+            "~sensors[0] (\"a\").min_z: must be a finite number, got nan");
+  EXPECT_EQ(paramError(s + "{name: a, type: cloud, topic: /s, voxel: -0.1}"),
+            "~sensors[0] (\"a\").voxel: must be in [0, 10], got -0.1");
+  EXPECT_EQ(paramError(s + "{name: a, type: scan, topic: /s, filter_margin: 11}"),
+            "~sensors[0] (\"a\").filter_margin: must be in [0, 10], got 11");
+  EXPECT_EQ(paramError(s + "{name: a, type: scan, topic: /s, self_margin: -1}"),
+            "~sensors[0] (\"a\").self_margin: must be in [0, 10], got -1");
+  EXPECT_EQ(paramError(s + "{name: a, type: map, topic: /s, occupied: 0}"),
+            "~sensors[0] (\"a\").occupied: must be in [1, 100] (an occupancy probability in percent), got 0");
+  EXPECT_EQ(paramError(s + "{name: a, type: map, topic: /s, occupied: 0.5}"),
+            "~sensors[0] (\"a\").occupied: must be an integer, got a number");
+  EXPECT_EQ(paramError(s + "{name: a, type: scan, topic: /s, range: 4}"),
+            "~sensors[0] (\"a\").range: unknown key (expected one of: filter_margin, max_z, min_z, name, occupied, "
+            "point_radius, self_margin, timeout, topic, type, voxel)");
+  // Keys of another type.
+  EXPECT_EQ(paramError(s + "{name: a, type: scan, topic: /s, voxel: 0.1}"),
+            "~sensors[0] (\"a\").voxel: applies to type cloud only, not scan");
+  EXPECT_EQ(paramError(s + "{name: a, type: cloud, topic: /s, occupied: 50}"),
+            "~sensors[0] (\"a\").occupied: applies to type map only, not cloud");
+  EXPECT_EQ(paramError(s + "{name: a, type: map, topic: /s, point_radius: 0.1}"),
+            "~sensors[0] (\"a\").point_radius: applies to types scan and cloud only (a map's cells are boxes of the "
+            "cell size)");
+}
+
+TEST(SensorParams, NamesAreUniqueAmongBodiesObstaclesAndSensors) {
+  const std::string body = "bodies:\n  - {name: robot, odom_topic: /odom, shape: {type: sphere, radius: 0.3}}\n";
+  const std::string wall = "static_obstacles:\n  - {name: wall, shape: {type: box, size: [1, 1, 1]}}\n";
+  EXPECT_EQ(paramError(body + "sensors: [{name: robot, type: scan, topic: /s}]"),
+            "~sensors[0] (\"robot\").name: duplicate name \"robot\" (names are unique among bodies, static obstacles "
+            "and sensors)");
+  EXPECT_EQ(paramError(wall + "sensors: [{name: wall, type: scan, topic: /s}]"),
+            "~sensors[0] (\"wall\").name: duplicate name \"wall\" (names are unique among bodies, static obstacles "
+            "and sensors)");
+  EXPECT_EQ(paramError("sensors: [{name: a, type: scan, topic: /s}, {name: a, type: cloud, topic: /c}]"),
+            "~sensors[1] (\"a\").name: duplicate name \"a\" (names are unique among bodies, static obstacles and "
+            "sensors)");
+  EXPECT_EQ(paramError(body + wall + "sensors: [{name: a, type: scan, topic: /s}]"), "no error");
+}
+
+TEST(SensorParams, AGatedBodysPaddingMustExceedEverySelfMargin) {
+  const std::string gated = R"(
+bodies:
+  - {name: robot, odom_topic: /odom, shape: {type: sphere, radius: 0.3}, gate: {cmd_vel_in: /in, cmd_vel_out: /out}}
+sensors: [{name: a, type: scan, topic: /s}, {name: b, type: scan, topic: /t, self_margin: 0.05}]
+)";
+  EXPECT_EQ(paramError("padding: 0.03\n" + gated),
+            "~padding: must exceed ~sensors[1] (\"b\").self_margin = 0.05 m while the body \"robot\" has a gate (the "
+            "sensor may be mounted on it: which body carries a sensor is known only through tf at run time), got 0.03 "
+            "(a wall within the margin would be taken for the body and its gate would go blind)");
+  EXPECT_NE(paramError("padding: 0.02\n" + gated).find("~sensors[0] (\"a\").self_margin = 0.02 m"), std::string::npos);
+  EXPECT_EQ(paramError("padding: 0.06\n" + gated), "no error");
+  // No gate: nothing to go blind.
+  EXPECT_EQ(paramError("sensors: [{name: a, type: scan, topic: /s}]"), "no error");
+}
+
+TEST(SensorsSource, ScanOfAWallGivesItsPointsInTheFixedFrame) {
+  SensorsSource src({sensor(SensorType::kScan)}, "odom", 5.0);
+  FakeTf tf;
+  addLaser(tf);
+  ASSERT_EQ(src.onScan(0, wallScan(100.0), ros::Time(100.0), tf), InputResult::kAccepted);
+  const auto& pts = src.points(0);
+  ASSERT_EQ(pts.size(), 121u);
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : pts) {
+    EXPECT_NEAR(p.x(), 3.0, 1e-5);  // float ranges
+    EXPECT_NEAR(p.z(), 0.1, 1e-9);
+    centroid += p;
+  }
+  centroid /= 121.0;
+  // Beams from -90 - 34 to -90 + 34 degrees: the wall from y = -2 tan(0.6) to +2 tan(0.6).
+  EXPECT_NEAR(pts.front().y(), -2.0 * std::tan(0.6), 1e-4);
+  EXPECT_NEAR(pts.back().y(), 2.0 * std::tan(0.6), 1e-3);
+  const vadop_ros::SourcedBody& b = src.bodies()[0];
+  EXPECT_TRUE(b.alive);
+  EXPECT_EQ(b.name, "lidar");
+  EXPECT_EQ(b.link, "");
+  EXPECT_TRUE(b.pose.translation().isApprox(centroid, 1e-12));
+  EXPECT_TRUE(b.v.isZero() && b.w.isZero());
+  EXPECT_EQ(b.stamp, ros::Time(100.0));
+  EXPECT_EQ(b.shape.type, vadop::ShapeType::kMesh);
+  EXPECT_EQ(b.shape.points.size(), 121u);
+  // About the centroid: the bounding radius is the wall's half length plus the ball.
+  EXPECT_NEAR(b.shape.bounding_radius, 2.0 * std::tan(0.6) + 0.02, 2e-3);
+  const uint64_t version = b.shape_version;
+  src.onScan(0, wallScan(100.1, 2.5), ros::Time(100.1), tf);
+  EXPECT_EQ(src.bodies()[0].shape_version, version + 1);
+  EXPECT_NEAR(src.points(0)[60].x(), 2.5, 1e-5);
+}
+
+TEST(SensorsSource, PointsOutsideTheZBandAreDropped) {
+  SensorParams p = sensor(SensorType::kCloud, "depth");
+  p.min_z = 0.2;
+  p.max_z = 0.8;
+  p.voxel = 0.0;
+  SensorsSource src({p}, "odom", 5.0);
+  FakeTf tf;
+  src.onCloud(0, cloud(100.0, {{1, 0, 0.1}, {1, 0.5, 0.5}, {1, 1, 1.0}, {1, 1.5, 0.21}, {1, 2, 0.79}}), ros::Time(100.0), tf);
+  ASSERT_EQ(src.points(0).size(), 3u);
+  EXPECT_DOUBLE_EQ(src.points(0)[0].y(), 0.5);
+  EXPECT_DOUBLE_EQ(src.points(0)[1].y(), 1.5);
+  EXPECT_DOUBLE_EQ(src.points(0)[2].y(), 2.0);
+  // The band is in the fixed frame: the same points in a frame 0.5 m up leave only z 0.1 + 0.5.
+  Eigen::Isometry3d up = Eigen::Isometry3d::Identity();
+  up.translation().z() = 0.5;
+  tf.set("odom", "camera", up);
+  src.onCloud(0, cloud(100.1, {{1, 0, 0.1}, {1, 0.5, 0.5}, {1, 1, 1.0}}, "camera"), ros::Time(100.1), tf);
+  ASSERT_EQ(src.points(0).size(), 1u);
+  EXPECT_NEAR(src.points(0)[0].z(), 0.6, 1e-6);
+  // Nothing within the band: the body leaves at the next expire, without waiting for the timeout.
+  src.onCloud(0, cloud(100.2, {{1, 0, 5.0}}), ros::Time(100.2), tf);
+  EXPECT_TRUE(src.points(0).empty());
+  std::vector<size_t> left;
+  src.expire(ros::Time(100.2), left);
+  EXPECT_EQ(left, std::vector<size_t>{0});
+  EXPECT_FALSE(src.bodies()[0].alive);
+  EXPECT_FALSE(src.stale(0, ros::Time(100.2)));  // an empty view is a fresh one
+}
+
+TEST(SensorsSource, VoxelFilterKeepsOnePointPerVoxel) {
+  // 10 x 10 points 1 cm apart in a 10 cm square (x, y in [0.005, 0.095]), and 3 far apart.
+  std::vector<Eigen::Vector3d> pts;
+  for (int i = 0; i < 10; ++i) {
+    for (int j = 0; j < 10; ++j) pts.emplace_back(0.005 + 0.01 * i, 0.005 + 0.01 * j, 0.5);
+  }
+  pts.emplace_back(5, 0, 0.5);
+  pts.emplace_back(5, 1, 0.5);
+  pts.emplace_back(5, 1.01, 0.5);  // the voxel of the one before
+  SensorParams p = sensor(SensorType::kCloud, "depth");
+  SensorsSource src({p}, "odom", 5.0);
+  FakeTf tf;
+  src.onCloud(0, cloud(100.0, pts), ros::Time(100.0), tf);
+  EXPECT_EQ(src.points(0).size(), 4u + 2u);  // 2 x 2 voxels of 5 cm, then 2 of the far ones
+  p.voxel = 0.0;
+  SensorsSource every({p}, "odom", 5.0);
+  every.onCloud(0, cloud(100.0, pts), ros::Time(100.0), tf);
+  EXPECT_EQ(every.points(0).size(), 103u);
+}
+
+TEST(SensorsSource, BadMessagesAreDroppedNamingTheSensorAndFieldAndThePointsKept) {
+  SensorsSource src({sensor(SensorType::kScan), sensor(SensorType::kCloud, "depth"), sensor(SensorType::kMap, "floor")},
+                    "odom", 5.0);
+  FakeTf tf;
+  addLaser(tf);
+  ASSERT_EQ(src.onScan(0, wallScan(100.0), ros::Time(100.0), tf), InputResult::kAccepted);
+  ASSERT_EQ(src.onCloud(1, cloud(100.0, {{1, 2, 0.5}}), ros::Time(100.0), tf), InputResult::kAccepted);
+  nav_msgs::OccupancyGrid map;
+  map.header.frame_id = "odom";
+  map.header.stamp = ros::Time(100.0);
+  map.info.resolution = 0.5f;
+  map.info.width = 2;
+  map.info.height = 2;
+  map.info.origin.orientation.w = 1.0;
+  map.data = {100, 0, 0, 0};
+  ASSERT_EQ(src.onMap(2, map, ros::Time(100.0), tf), InputResult::kAccepted);
+  const std::vector<uint64_t> versions = {src.bodies()[0].shape_version, src.bodies()[1].shape_version,
+                                          src.bodies()[2].shape_version};
+  auto expectDropped = [&](size_t s, InputResult r, const std::string& field) {
+    EXPECT_EQ(r, InputResult::kInvalid) << field;
+    EXPECT_NE(src.status(s).last_problem.find(field), std::string::npos) << src.status(s).last_problem;
+    EXPECT_EQ(src.bodies()[s].shape_version, versions[s]) << field;  // the previous points stay
+  };
+  sensor_msgs::LaserScan scan = wallScan(100.1);
+  scan.angle_increment = std::numeric_limits<float>::quiet_NaN();
+  expectDropped(0, src.onScan(0, scan, ros::Time(100.1), tf), "angle_increment is nan");
+  scan = wallScan(100.1);
+  scan.header.frame_id = "nowhere";
+  expectDropped(0, src.onScan(0, scan, ros::Time(100.1), tf), "header.frame_id \"nowhere\": no transform to \"odom\"");
+  EXPECT_EQ(src.status(0).dropped, 2u);
+  EXPECT_EQ(src.points(0).size(), 121u);
+  sensor_msgs::PointCloud2 c = cloud(100.1, {{1, 2, 0.5}});
+  c.point_step = 0;
+  expectDropped(1, src.onCloud(1, c, ros::Time(100.1), tf), "point_step is 0");
+  c = cloud(100.1, {{1, 2, 0.5}});
+  c.fields[2].name = "w";
+  expectDropped(1, src.onCloud(1, c, ros::Time(100.1), tf), "fields: no field \"z\"");
+  c = cloud(100.1, {{1, 2, 0.5}});
+  c.fields[1].datatype = sensor_msgs::PointField::FLOAT64;
+  expectDropped(1, src.onCloud(1, c, ros::Time(100.1), tf), "fields[\"y\"].datatype is 8, not FLOAT32 (7)");
+  c = cloud(100.1, {{1, 2, 0.5}});
+  c.data.pop_back();
+  expectDropped(1, src.onCloud(1, c, ros::Time(100.1), tf), "data has 15 bytes, row_step x height = 16");
+  nav_msgs::OccupancyGrid bad = map;
+  bad.data.push_back(0);
+  expectDropped(2, src.onMap(2, bad, ros::Time(100.1), tf), "data has 5 cells, width x height = 4");
+  bad = map;
+  bad.info.resolution = 0.0f;
+  expectDropped(2, src.onMap(2, bad, ros::Time(100.1), tf), "info.resolution is 0");
+  // The warning names the sensor (ROS_WARN's text), the diagnostics per sensor.
+  diagnostic_updater::DiagnosticStatusWrapper stat;
+  src.report(stat, ros::Time(100.1));
+  std::map<std::string, std::string> kv;
+  for (const auto& v : stat.values) kv[v.key] = v.value;
+  EXPECT_EQ(kv["depth: messages dropped"], "4");
+  EXPECT_EQ(kv["lidar: points"], "121");
+  EXPECT_EQ(stat.level, diagnostic_msgs::DiagnosticStatus::WARN);
+}
+
+TEST(SensorsSource, NanBeamsGiveNoPointAndAreCountedTheRestKept) {
+  SensorsSource src({sensor(SensorType::kScan)}, "odom", 5.0);
+  FakeTf tf;
+  addLaser(tf);
+  sensor_msgs::LaserScan scan = wallScan(100.0);
+  scan.ranges[7] = std::numeric_limits<float>::quiet_NaN();
+  scan.ranges[9] = std::numeric_limits<float>::quiet_NaN();
+  scan.ranges[10] = std::numeric_limits<float>::infinity();    // REP 117: nothing within range
+  scan.ranges[11] = -std::numeric_limits<float>::infinity();   // REP 117: too close
+  ASSERT_EQ(src.onScan(0, scan, ros::Time(100.0), tf), InputResult::kAccepted);
+  EXPECT_EQ(src.points(0).size(), 121u - 4u);
+  EXPECT_EQ(src.status(0).beams_nan, 2u);
+  EXPECT_NE(src.status(0).last_problem.find("ranges[7] is NaN (2 NaN beam(s)"), std::string::npos)
+      << src.status(0).last_problem;
+}
+
+TEST(SensorsSource, PointsExpireAfterTheTimeoutAndTheSensorIsStale) {
+  SensorsSource src({sensor(SensorType::kScan)}, "odom", 5.0);
+  FakeTf tf;
+  addLaser(tf);
+  std::string why;
+  EXPECT_TRUE(src.stale(0, ros::Time(100.0)));  // nothing yet
+  EXPECT_TRUE(src.staleInput(ros::Time(100.0), {}, why));
+  EXPECT_EQ(why, "sensor \"lidar\" (/lidar): no message yet");
+  src.onScan(0, wallScan(100.0), ros::Time(100.0), tf);
+  std::vector<size_t> left;
+  src.expire(ros::Time(100.45), left);
+  EXPECT_TRUE(left.empty());
+  EXPECT_FALSE(src.staleInput(ros::Time(100.45), {}, why));
+  src.expire(ros::Time(100.55), left);
+  EXPECT_EQ(left, std::vector<size_t>{0});
+  EXPECT_FALSE(src.bodies()[0].alive);
+  EXPECT_EQ(src.status(0).expired, 1u);
+  EXPECT_TRUE(src.staleInput(ros::Time(100.55), {}, why));
+  EXPECT_EQ(why, "sensor \"lidar\" (/lidar): no message for 0.55 s (timeout 0.5 s)");
+  EXPECT_FALSE(src.staleInput(ros::Time(100.55), [](const std::string& n) { return n == "lidar"; }, why));
+  // A map with timeout 0 never goes stale once received.
+  SensorParams m = sensor(SensorType::kMap, "floor");
+  m.timeout = 0.0;
+  SensorsSource maps({m}, "odom", 5.0);
+  nav_msgs::OccupancyGrid g;
+  g.header.frame_id = "odom";
+  g.header.stamp = ros::Time(100.0);
+  g.info.resolution = 1.0f;
+  g.info.width = 1;
+  g.info.height = 1;
+  g.info.origin.orientation.w = 1.0;
+  g.data = {100};
+  EXPECT_TRUE(maps.stale(0, ros::Time(100.0)));
+  maps.onMap(0, g, ros::Time(100.0), tf);
+  maps.expire(ros::Time(4000.0), left);
+  EXPECT_TRUE(maps.bodies()[0].alive);
+  EXPECT_FALSE(maps.stale(0, ros::Time(4000.0)));
+}
+
+TEST(SensorsSource, AMapsOccupiedCellsAreBoxesOfTheCellSize) {
+  SensorParams p = sensor(SensorType::kMap, "floor");
+  p.occupied = 65;
+  SensorsSource src({p}, "odom", 5.0);
+  FakeTf tf;
+  nav_msgs::OccupancyGrid g;
+  g.header.frame_id = "odom";
+  g.header.stamp = ros::Time(100.0);
+  g.info.resolution = 0.5f;
+  g.info.width = 4;
+  g.info.height = 3;
+  g.info.origin.position.x = 10.0;
+  g.info.origin.position.y = 20.0;
+  g.info.origin.orientation.w = 1.0;
+  // Row-major from the origin: (ix, iy) = (1, 0) 65, (3, 2) 100; 64 free, -1 unknown.
+  g.data = {0, 65, 64, -1, 0, 0, 0, 0, 0, 0, 0, 100};
+  ASSERT_EQ(src.onMap(0, g, ros::Time(100.0), tf), InputResult::kAccepted);
+  ASSERT_EQ(src.points(0).size(), 2u);
+  EXPECT_TRUE(src.points(0)[0].isApprox(Eigen::Vector3d(10.75, 20.25, 1.0), 1e-12));  // band [0, 2] m
+  EXPECT_TRUE(src.points(0)[1].isApprox(Eigen::Vector3d(11.75, 21.25, 1.0), 1e-12));
+  const vadop_ros::SourcedBody& b = src.bodies()[0];
+  EXPECT_TRUE(b.pose.translation().isApprox(Eigen::Vector3d(11.25, 20.75, 1.0), 1e-12));
+  // Two boxes 0.5 x 0.5 x 2, 12 triangles each; each corner's distance from the centroid.
+  EXPECT_EQ(b.shape.triangles.size(), 24u);
+  EXPECT_NEAR(b.shape.bounding_radius, std::sqrt(0.75 * 0.75 + 0.75 * 0.75 + 1.0), 1e-9);
+  // The grid turned 90 degrees about its origin: cell (1, 0) lies along odom's y.
+  g.header.stamp = ros::Time(100.1);
+  g.info.origin.orientation.z = std::sin(M_PI / 4);
+  g.info.origin.orientation.w = std::cos(M_PI / 4);
+  src.onMap(0, g, ros::Time(100.1), tf);
+  EXPECT_TRUE(src.points(0)[0].isApprox(Eigen::Vector3d(10.0 - 0.25, 20.75, 1.0), 1e-9));
+  EXPECT_NEAR(src.bodies()[0].pose.linear()(1, 0), 1.0, 1e-9);
+  // A band given: the boxes span it.
+  EXPECT_EQ(SensorsSource::mapBand(p), std::make_pair(0.0, 2.0));
+  p.min_z = 0.5;
+  EXPECT_EQ(SensorsSource::mapBand(p), std::make_pair(0.5, 2.5));
+  p.max_z = 1.0;
+  EXPECT_EQ(SensorsSource::mapBand(p), std::make_pair(0.5, 1.0));
+}
+
+namespace {
+
+// A 0.6 x 0.6 x 0.4 box robot on odometry (optionally gated) and the laser of addLaser().
+MonitorCore makeCore(const std::string& extra = "", const std::string& gate = "") {
+  const std::string text = R"(
+horizon: 3.0
+bodies:
+  - {name: robot, odom_topic: /robot/odom, shape: {type: box, size: [0.6, 0.6, 0.4]})" +
+                           gate + R"(}
+sensors:
+  - {name: lidar, type: scan, topic: /scan}
+)" + extra;
+  return MonitorCore(vadop_ros::parseParams(vadop_test::yaml(text)), [](const std::string&, std::string&) { return false; });
+}
+
+}  // namespace
+
+TEST(SensorsInTheMonitor, ImpactAgainstAScanOnlyWallAtItsExactTime) {
+  MonitorCore core = makeCore();
+  FakeTf tf;
+  addLaser(tf);
+  SensorsSource& sensors = sensorsOf(core);
+  core.registry().onOdometry(0, odom(100.0, 0.0, 1.0), ros::Time(100.0));
+  sensors.onScan(0, wallScan(100.0), ros::Time(100.0), tf);
+  const vadop::ImpactArray& out = core.cycle(ros::Time(100.0), tf);
+  ASSERT_EQ(out.impacts.size(), 1u);
+  EXPECT_EQ(out.impacts[0].body_a, "robot");
+  EXPECT_EQ(out.impacts[0].body_b, "lidar");
+  EXPECT_EQ(out.impacts[0].link_b, "");
+  // The box's face at x = 0.3 + t meets the ball (radius 0.02) about the beam point (3, 0, 0.1).
+  EXPECT_NEAR(out.impacts[0].time_to_impact, 3.0 - 0.02 - 0.3, 0.03);
+  EXPECT_NEAR(out.impacts[0].point.x, 2.98, 0.03);
+  // The next scan sees a crate in front of the wall, 0.5 m closer: the sensor's element re-enters
+  // with its new points (the old wall posed at the new centroid, x = 2.78, would say 2.36 s).
+  core.registry().onOdometry(0, odom(100.1, 0.1, 1.0), ros::Time(100.1));
+  sensors.onScan(0, wallScan(100.1, 3.0, 2.5), ros::Time(100.1), tf);
+  const vadop::ImpactArray& closer = core.cycle(ros::Time(100.1), tf);
+  ASSERT_EQ(closer.impacts.size(), 1u);
+  EXPECT_NEAR(closer.impacts[0].time_to_impact, 2.5 - 0.02 - 0.4, 0.03);
+  // No scan for the timeout: the points leave, and so does the impact.
+  core.registry().onOdometry(0, odom(100.7, 0.7, 1.0), ros::Time(100.7));
+  EXPECT_TRUE(core.cycle(ros::Time(100.7), tf).impacts.empty());
+}
+
+TEST(SensorsInTheMonitor, AGateStopsShortOfAScanOnlyWall) {
+  MonitorCore core = makeCore("padding: 0.03\n", ", gate: {cmd_vel_in: /in, cmd_vel_out: /out, time_before_collision: 1.0}");
+  FakeTf tf;
+  addLaser(tf);
+  SensorsSource& sensors = sensorsOf(core);
+  vadop_ros::VelocityGate gate(0, core.registry());
+  geometry_msgs::Twist forward;
+  forward.linear.x = 1.0;
+  double x = 0.0, v = 0.0, closest_gap = 1e9;
+  for (int k = 0; k < 60; ++k) {  // 6 s at 10 Hz, the robot doing what the gate lets through
+    const double t = 100.0 + 0.1 * k;
+    core.registry().onOdometry(0, odom(t, x, v), ros::Time(t));
+    sensors.onScan(0, wallScan(t), ros::Time(t), tf);
+    core.cycle(ros::Time(t), tf);
+    v = gate.onCommand(core, forward, ros::Time(t), tf).linear.x;
+    x += 0.1 * v;
+    closest_gap = std::min(closest_gap, 3.0 - 0.02 - (x + 0.3));
+  }
+  EXPECT_GT(closest_gap, 0.0);  // never touched the wall's points
+  EXPECT_LT(closest_gap, 0.3);  // but came close: the gate slowed it, did not stop it early
+  EXPECT_EQ(gate.state().limiting_body, "lidar");
+  EXPECT_EQ(gate.counts().unchecked, 0u);
+}
+
+TEST(SensorsInTheMonitor, GatesPublishZeroWhileAScanIsStaleUnlessTheyIgnoreIt) {
+  for (const std::string& ignore : {std::string(""), std::string("\"lidar\""), std::string("\"lidar/*\"")}) {
+    MonitorCore core = makeCore("padding: 0.03\n", ", gate: {cmd_vel_in: /in, cmd_vel_out: /out, ignore: [" + ignore + "]}");
+    FakeTf tf;
+    addLaser(tf);
+    SensorsSource& sensors = sensorsOf(core);
+    vadop_ros::VelocityGate gate(0, core.registry());
+    geometry_msgs::Twist slow;
+    slow.linear.x = 0.2;  // the wall 2.7 m ahead: clear
+    const bool ignored = !ignore.empty();
+    // No scan yet: stale.
+    core.registry().onOdometry(0, odom(100.0, 0.0, 0.0), ros::Time(100.0));
+    core.cycle(ros::Time(100.0), tf);
+    EXPECT_DOUBLE_EQ(gate.onCommand(core, slow, ros::Time(100.0), tf).linear.x, ignored ? 0.2 : 0.0) << ignore;
+    if (!ignored) {
+      EXPECT_EQ(gate.state().reason, vadop::GateState::REASON_STALE);
+      EXPECT_EQ(gate.state().detail, "sensor \"lidar\" (/scan): no message yet");
+    }
+    // A fresh scan: the command goes through.
+    core.registry().onOdometry(0, odom(100.1, 0.0, 0.0), ros::Time(100.1));
+    sensors.onScan(0, wallScan(100.1), ros::Time(100.1), tf);
+    core.cycle(ros::Time(100.1), tf);
+    EXPECT_DOUBLE_EQ(gate.onCommand(core, slow, ros::Time(100.1), tf).linear.x, 0.2) << ignore;
+    EXPECT_EQ(gate.state().reason, vadop::GateState::REASON_CLEAR);
+    // The scan stops for longer than its timeout (0.5 s) while odometry goes on.
+    core.registry().onOdometry(0, odom(100.7, 0.12, 0.2), ros::Time(100.7));
+    core.cycle(ros::Time(100.7), tf);
+    EXPECT_DOUBLE_EQ(gate.onCommand(core, slow, ros::Time(100.7), tf).linear.x, ignored ? 0.2 : 0.0) << ignore;
+    if (!ignored) {
+      EXPECT_EQ(gate.state().reason, vadop::GateState::REASON_STALE);
+      EXPECT_EQ(gate.state().detail, "sensor \"lidar\" (/scan): no message for 0.6 s (timeout 0.5 s)");
+    }
+  }
+}
+
+TEST(SensorsInTheMonitor, TheKeptPointsAreDrawnAsOneSphereListEach) {
+  MonitorCore core = makeCore();
+  FakeTf tf;
+  addLaser(tf);
+  sensorsOf(core).onScan(0, wallScan(100.0), ros::Time(100.0), tf);
+  core.registry().onOdometry(0, odom(100.0, 0.0, 0.0), ros::Time(100.0));
+  core.cycle(ros::Time(100.0), tf);
+  const visualization_msgs::MarkerArray markers = core.markers();
+  std::vector<const visualization_msgs::Marker*> lists;
+  for (const auto& m : markers.markers) {
+    if (m.ns == "lidar" && m.type == visualization_msgs::Marker::SPHERE_LIST) lists.push_back(&m);
+  }
+  ASSERT_FALSE(lists.empty());
+  const visualization_msgs::Marker& m = *lists.front();
+  ASSERT_EQ(m.points.size(), 121u);
+  EXPECT_DOUBLE_EQ(m.scale.x, 0.04);  // balls of point_radius 0.02
+  const Eigen::Isometry3d pose = Eigen::Translation3d(m.pose.position.x, m.pose.position.y, m.pose.position.z) *
+                                 Eigen::Quaterniond(m.pose.orientation.w, m.pose.orientation.x, m.pose.orientation.y,
+                                                    m.pose.orientation.z);
+  for (const geometry_msgs::Point& p : m.points) {
+    const Eigen::Vector3d q = pose * Eigen::Vector3d(p.x, p.y, p.z);
+    EXPECT_NEAR(q.x(), 3.0, 1e-5);
+    EXPECT_NEAR(q.z(), 0.1, 1e-9);
+  }
+}
