@@ -209,6 +209,7 @@ struct Mover {
   // appendBrakingKeyframes.
   std::optional<TimedPath> manoeuvre;
   double deviation = 0.0;
+  std::optional<Motion> twist;  // a constant twist's motion (for World::predict)
 };
 
 struct Verdict {
@@ -275,14 +276,27 @@ struct Tally {
   }
 };
 
-// The query's answer `ours` (tolerance tau) against the two brute forces (tau / 4, 2 tau).
-void judge(const PartSet& s, const Mover& m, const TimeOfImpact& ours, double tau, const std::string& label,
-           Tally& tally) {
-  ++tally.cases;
+// The two brute forces that bracket every correct answer of a query of tolerance tau.
+struct Bracket {
+  std::vector<Vector3d> parts;  // those the mover may reach
+  Verdict tight, loose;         // at tau / 4 and 2 tau
+};
+
+Bracket bracket(const PartSet& s, const Mover& m, double tau) {
   const PreparedShape part(s.part), mover(m.shape);
-  const std::vector<Vector3d> parts = nearParts(s, m, tau);
-  const Verdict tight = bruteForce(parts, part, m, mover, 0.25 * tau);
-  const Verdict loose = bruteForce(parts, part, m, mover, 2.0 * tau);
+  Bracket b;
+  b.parts = nearParts(s, m, tau);
+  b.tight = bruteForce(b.parts, part, m, mover, 0.25 * tau);
+  b.loose = bruteForce(b.parts, part, m, mover, 2.0 * tau);
+  return b;
+}
+
+// The query's answer `ours` (tolerance tau) against the bracket.
+void judge(const PartSet& s, const Mover& m, const Bracket& b, const TimeOfImpact& ours, double tau,
+           const std::string& label, Tally& tally) {
+  ++tally.cases;
+  const Verdict& tight = b.tight;
+  const Verdict& loose = b.loose;
   char buf[320];
   std::snprintf(buf, sizeof buf, "%s: ours hit %d t %.9f undecided %d; brute tau/4 hit %d t %.9f, 2 tau hit %d t %.9f",
                 label.c_str(), ours.hit, ours.time, ours.undecided, tight.hit, tight.time, loose.hit, loose.time);
@@ -298,7 +312,7 @@ void judge(const PartSet& s, const Mover& m, const TimeOfImpact& ours, double ta
     tally.fail(std::string("missed: ") + buf);
   }
   if (!ours.hit) return;
-  const double gap = bruteGap(parts, s.part, m, ours.time);
+  const double gap = bruteGap(b.parts, s.part, m, ours.time);
   const double off = pointToParts(s, ours.point);
   const bool unit = ours.normal.allFinite() && std::abs(ours.normal.norm() - 1.0) < 1e-9;
   if (!(loose.hit && loose.time <= ours.time + kEps) || !(gap <= tau + 1e-9) || !(off <= tau + 1e-7) || !unit) {
@@ -356,6 +370,7 @@ Mover twistMover(const Shape& shape, Rng& r) {
     return vadop::timeOfImpact(a, motion, b, rest(at), 0.0, t1, options(tol));
   };
   m.poseAt = [motion](double t) { return motion.poseAt(t); };
+  m.twist = motion;
   return m;
 }
 
@@ -472,6 +487,18 @@ TimeOfImpact throughWorld(vadop::World& world, const Mover& m, double& tau) {
   return out;
 }
 
+// 0 missed, 0 false, 0 undecided, and both verdicts exercised.
+void expectSound(const std::string& what, const Tally& tally) {
+  std::printf("%s: %d cases, %d contacts, %d clear, %d in the band, %d missed, %d false, %d undecided\n",
+              what.c_str(), tally.cases, tally.hits, tally.clear, tally.in_band, tally.missed, tally.wrong,
+              tally.undecided);
+  EXPECT_EQ(tally.missed, 0) << tally.first_failure;
+  EXPECT_EQ(tally.wrong, 0) << tally.first_failure;
+  EXPECT_EQ(tally.undecided, 0) << tally.first_failure;
+  EXPECT_GE(tally.hits, tally.cases / 5);
+  EXPECT_GE(tally.clear, tally.cases / 10);
+}
+
 void runProperty(const char* motion, const MakeMover& make) {
   const int n = scenesPerCombination();
   Tally tally;
@@ -490,24 +517,205 @@ void runProperty(const char* motion, const MakeMover& make) {
         double tau = kTol;
         const TimeOfImpact ours = m.manoeuvre ? throughWorld(world, m, tau)
                                               : m.toi(PreparedShape(m.shape), set, s.centre, m.horizon, kTol);
-        judge(s, m, ours, tau, std::string(motion) + " " + s.name + " " + vadop::toString(kind) + " #" + std::to_string(i),
+        judge(s, m, bracket(s, m, tau), ours, tau, std::string(motion) + " " + s.name + " " + vadop::toString(kind) + " #" + std::to_string(i),
               tally);
       }
     }
   }
-  std::printf("%s: %d cases, %d contacts, %d clear, %d in the band, %d missed, %d false, %d undecided\n", motion,
-              tally.cases, tally.hits, tally.clear, tally.in_band, tally.missed, tally.wrong, tally.undecided);
-  EXPECT_EQ(tally.missed, 0) << tally.first_failure;
-  EXPECT_EQ(tally.wrong, 0) << tally.first_failure;
-  EXPECT_EQ(tally.undecided, 0) << tally.first_failure;
-  // Both verdicts are exercised.
-  EXPECT_GE(tally.hits, tally.cases / 5);
-  EXPECT_GE(tally.clear, tally.cases / 10);
+  expectSound(motion, tally);
 }
 
 TEST(PointSetProperty, ConstantTwist) { runProperty("twist", twistMover); }
 TEST(PointSetProperty, TimedPath) { runProperty("path", pathMover); }
 TEST(PointSetProperty, LinkChainWithMovingJoint) { runProperty("chain", chainMover); }
 TEST(PointSetProperty, BrakingManoeuvreThroughWorld) { runProperty("braking", brakingMover); }
+
+// ---------------------------------------------------------------------------------------
+// World::predict and World::firstContactIf: a set among 30 movers, under each broad phase.
+
+TEST(PointSetWorld, PredictAndFirstContactIfWithinTheBruteForce) {
+  Tally tally;
+  Rng r(4903);
+  for (const PartSet& s : partSets()) {
+    std::vector<Mover> movers;
+    std::vector<Bracket> brackets;
+    for (int i = 0; i < 30; ++i) {
+      movers.push_back(clearStart(s, kShapeKinds[i % 6], twistMover, r));
+      brackets.push_back(bracket(s, movers.back(), kTol));
+    }
+    for (const vadop::BroadPhaseKind kind : {vadop::BroadPhaseKind::kVadop, vadop::BroadPhaseKind::kSap,
+                                             vadop::BroadPhaseKind::kGrid, vadop::BroadPhaseKind::kBrute}) {
+      vadop::WorldConfig config;
+      config.broad_phase = kind;
+      config.toi.tolerance = kTol;
+      vadop::World world(config);
+      world.add(s.name, s.shape, rest(s.centre));
+      for (size_t i = 0; i < movers.size(); ++i) world.add("m" + std::to_string(i), movers[i].shape, *movers[i].twist);
+      std::vector<TimeOfImpact> predicted(movers.size());
+      for (TimeOfImpact& t : predicted) t.time = kHorizon;
+      for (const vadop::Contact& c : world.predict(0.0, kHorizon)) {
+        if (c.a == s.name) predicted[std::stoul(c.b.substr(1))] = c.impact;  // a: the set, added first
+      }
+      const uint64_t set_key = world.key(s.name);
+      const auto others = [set_key](uint64_t key) { return key != set_key; };
+      for (size_t i = 0; i < movers.size(); ++i) {
+        const std::string label = std::string(vadop::toString(kind)) + " " + s.name + " m" + std::to_string(i);
+        EXPECT_EQ(world.lastUndecided().size(), 0u);
+        judge(s, movers[i], brackets[i], predicted[i], kTol, "predict " + label, tally);
+        const auto c = world.firstContactIf({"m" + std::to_string(i)}, {*movers[i].twist}, 0.0, kHorizon, others);
+        TimeOfImpact ours;
+        ours.time = kHorizon;
+        if (c) {
+          ours = c->impact;
+          ours.undecided = c->undecided;
+        }
+        judge(s, movers[i], brackets[i], ours, kTol, "firstContactIf " + label, tally);
+      }
+    }
+  }
+  expectSound("World", tally);
+}
+
+// ---------------------------------------------------------------------------------------
+// Analytic corners.
+
+// A wall of points at x = 2 m, 1 cm apart (closer than their 2 cm radius), and a sphere of 0.1 m
+// driving at it at 1 m/s: aimed at a point it touches that point's ball first (t = 2 - 0.12);
+// aimed between four, the four at once, when (2 - x)^2 + 2 (5 mm)^2 = 0.12^2.
+TEST(PointSetCorners, SphereAtAWallOfPointsCloserThanTheirRadius) {
+  std::vector<Vector3d> points;
+  for (int i = -20; i <= 20; ++i)
+    for (int j = -20; j <= 20; ++j) points.emplace_back(2.0, 0.01 * i, 0.01 * j);
+  const PartSet wall = pointSet("wall", points, 0.02);
+  const Shape ball = vadop::makeSphere(0.1);
+  for (const double off : {0.0, 0.005}) {
+    const Motion m = vadop::makeMotion(Vector3d(0.0, off, off), Quaterniond::Identity(), Vector3d(1.0, 0.0, 0.0),
+                                       Vector3d::Zero());
+    const double exact = 2.0 - std::sqrt(0.12 * 0.12 - 2.0 * off * off);
+    const TimeOfImpact t = vadop::timeOfImpact(ball, m, wall.shape, rest(wall.centre), 0.0, 3.0);
+    ASSERT_TRUE(t.hit) << off;
+    EXPECT_LE(t.time, exact + 1e-12) << off;
+    EXPECT_GE(t.time, exact - 1e-6) << off;  // the default tolerance, 1e-6 m at 1 m/s
+    EXPECT_NEAR(t.point.x(), 1.98, 1e-3) << off;  // on the sphere's surface (within the tilt off x)
+    if (off == 0.0) EXPECT_LT((t.normal - Vector3d::UnitX()).norm(), 1e-6);
+    // The same through World::predict.
+    vadop::World world;
+    world.add("wall", wall.shape, rest(wall.centre));
+    world.add("ball", ball, m);
+    const std::vector<vadop::Contact> contacts = world.predict(0.0, 3.0);
+    ASSERT_EQ(contacts.size(), 1u);
+    EXPECT_NEAR(contacts[0].impact.time, exact, 1e-6);
+  }
+}
+
+// Two points 0.3 m apart (radius 2 cm): bodies narrower than the 0.26 m between their balls
+// pass; a sphere of 0.14 m (0.01 m too wide) touches both when (1 - x)^2 + 0.15^2 = 0.16^2.
+TEST(PointSetCorners, BodyPassesBetweenTwoPointsFartherApartThanItsSize) {
+  const PartSet pair = pointSet("pair", {Vector3d(1.0, 0.15, 0.0), Vector3d(1.0, -0.15, 0.0)}, 0.02);
+  const Motion m = vadop::makeMotion(Vector3d::Zero(), Quaterniond::Identity(), Vector3d(1.0, 0.0, 0.0), Vector3d::Zero());
+  for (const Shape& narrow : {vadop::makeSphere(0.12), vadop::makeBox(Vector3d(0.4, 0.2, 0.4)),
+                              vadop::makeCapsule(0.1, 0.5), vadop::makeCylinder(0.12, 0.3)}) {
+    const TimeOfImpact t = vadop::timeOfImpact(narrow, m, pair.shape, rest(pair.centre), 0.0, 2.0);
+    EXPECT_FALSE(t.hit) << vadop::toString(narrow.type) << " at " << t.time;
+    EXPECT_FALSE(t.undecided);
+  }
+  const TimeOfImpact t = vadop::timeOfImpact(vadop::makeSphere(0.14), m, pair.shape, rest(pair.centre), 0.0, 2.0);
+  const double exact = 1.0 - std::sqrt(0.16 * 0.16 - 0.15 * 0.15);
+  ASSERT_TRUE(t.hit);
+  EXPECT_LE(t.time, exact + 1e-12);
+  EXPECT_GE(t.time, exact - 1e-5);  // 1e-6 m at a closing speed of 0.35 m/s along the normal
+}
+
+// A box set: one 0.5 m box whose near face is at x = 1, and a wall of 5 cm map cells (0.4 m
+// tall) whose face is at x = 3. A sphere and a box driving at 0.5 m/s touch each face when
+// they reach it; a sphere sliding past the box's side 1 mm away does not.
+TEST(PointSetCorners, BoxSetFaces) {
+  std::vector<Vector3d> centres = {Vector3d(1.25, 0.0, 0.2)};
+  const PartSet big = boxSet("big", centres, Vector3d(0.5, 0.5, 0.5));
+  centres.clear();
+  for (int j = -10; j < 10; ++j) centres.emplace_back(3.025, 0.05 * j + 0.025, 0.2);
+  const PartSet cells = boxSet("cells", centres, Vector3d(0.05, 0.05, 0.4));
+  const Vector3d v(0.5, 0.0, 0.0);
+  for (const Shape& mover : {vadop::makeSphere(0.05), vadop::makeBox(Vector3d(0.1, 0.1, 0.1))}) {
+    const Motion to_big = vadop::makeMotion(Vector3d(0.0, 0.0123, 0.2), Quaterniond::Identity(), v, Vector3d::Zero());
+    TimeOfImpact t = vadop::timeOfImpact(mover, to_big, big.shape, rest(big.centre), 0.0, 4.0);
+    ASSERT_TRUE(t.hit) << vadop::toString(mover.type);
+    EXPECT_NEAR(t.time, 1.9, 2e-6) << vadop::toString(mover.type);
+    EXPECT_LT((t.normal - Vector3d::UnitX()).norm(), 1e-6);
+    const Motion to_cells = vadop::makeMotion(Vector3d(2.0, 0.0123, 0.2), Quaterniond::Identity(), v, Vector3d::Zero());
+    t = vadop::timeOfImpact(mover, to_cells, cells.shape, rest(cells.centre), 0.0, 4.0);
+    ASSERT_TRUE(t.hit) << vadop::toString(mover.type);
+    EXPECT_NEAR(t.time, 1.9, 2e-6) << vadop::toString(mover.type);
+  }
+  const Motion beside = vadop::makeMotion(Vector3d(0.0, 0.301, 0.2), Quaterniond::Identity(), v, Vector3d::Zero());
+  const TimeOfImpact t = vadop::timeOfImpact(vadop::makeSphere(0.05), beside, big.shape, rest(big.centre), 0.0, 6.0);
+  EXPECT_FALSE(t.hit) << t.time;
+}
+
+// ---------------------------------------------------------------------------------------
+// Static distance and penetration; the constructors.
+
+TEST(PointSetStatic, DistanceAndPenetrationAgainstPoints) {
+  // A point 1 cm inside a 0.4 m box's face (its ball 3 cm deep), one 5 cm outside, one far.
+  const Isometry3d at_origin = Isometry3d::Identity();
+  for (const Shape& solid : {vadop::makeBox(Vector3d(0.4, 0.4, 0.4)), vadop::makeCylinder(0.2, 0.4)}) {
+    const char* kind = vadop::toString(solid.type);
+    for (const double x : {0.19, 0.25}) {
+      const Shape set = vadop::makePointSet({Vector3d(x, 0.0, 0.0), Vector3d(5.0, 0.0, 0.0)}, 0.02);
+      const vadop::DistanceResult d = vadop::distance(solid, at_origin, set, at_origin);
+      EXPECT_NEAR(d.distance, x - 0.2 - 0.02, 1e-5) << kind << " " << x;
+      EXPECT_EQ(d.cores_overlap, x < 0.2) << kind << " " << x;
+      // A cylinder's penetration direction comes from the expanding polytope, to 1e-6 of the bodies'
+      // size in depth: about sqrt(1e-6) in angle.
+      EXPECT_LT((d.normal - Vector3d::UnitX()).norm(), solid.type == ShapeType::kBox ? 1e-9 : 1e-2) << kind << " " << x;
+    }
+  }
+  // A sphere centred on a point: every direction separates them alike; the answer is finite.
+  const vadop::DistanceResult d = vadop::distance(vadop::makeSphere(0.1), at_origin,
+                                                  vadop::makePointSet({Vector3d::Zero()}, 0.02), at_origin);
+  EXPECT_NEAR(d.distance, -0.12, 1e-12);
+  EXPECT_TRUE(d.normal.allFinite());
+  EXPECT_NEAR(d.normal.norm(), 1.0, 1e-12);
+  // The scan against a sphere: the nearest ball's gap, through the tree over 1,081 points.
+  const PartSet& scan = partSets()[0];
+  Rng r(4904);
+  for (int i = 0; i < 50; ++i) {
+    const Vector3d c(r.uni(-4.0, 4.0), r.uni(-4.0, 4.0), r.uni(0.0, 0.6));
+    const double radius = r.uni(0.05, 0.5);
+    double brute = kInf;
+    for (const Vector3d& p : scan.parts) brute = std::min(brute, (p - c).norm() - radius - 0.02);
+    const vadop::DistanceResult e = vadop::distance(vadop::makeSphere(radius), translation(c), scan.shape,
+                                                    translation(scan.centre));
+    EXPECT_NEAR(e.distance, brute, 1e-8) << c.transpose();
+  }
+}
+
+TEST(PointSetShapes, BoundsAndErrors) {
+  const Shape s = vadop::makePointSet({Vector3d(1.0, 0.0, 0.0), Vector3d(0.0, -2.0, 0.0)}, 0.05);
+  EXPECT_EQ(s.type, ShapeType::kMesh);
+  EXPECT_NEAR(s.bounding_radius, 2.05, 1e-12);
+  EXPECT_NEAR(vadop::support(s, Vector3d::UnitX()), 1.05, 1e-12);
+  const Shape b = vadop::makeBoxSet({Vector3d(1.0, 0.0, 0.0)}, Vector3d(0.2, 0.4, 0.6));
+  EXPECT_NEAR(vadop::support(b, Vector3d::UnitX()), 1.1, 1e-12);
+  EXPECT_NEAR(vadop::support(b, Vector3d::UnitZ()), 0.3, 1e-12);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(vadop::makePointSet({}, 0.02), vadop::InvalidArgument);
+  EXPECT_THROW(vadop::makePointSet({Vector3d::Zero()}, 0.0), vadop::InvalidArgument);
+  EXPECT_THROW(vadop::makePointSet({Vector3d::Zero()}, nan), vadop::InvalidArgument);
+  EXPECT_THROW(vadop::makeBoxSet({}, Vector3d::Ones()), vadop::InvalidArgument);
+  EXPECT_THROW(vadop::makeBoxSet({Vector3d::Zero()}, Vector3d(1.0, 0.0, 1.0)), vadop::InvalidArgument);
+  try {
+    vadop::makePointSet({Vector3d::Zero(), Vector3d(0.0, nan, 0.0)}, 0.02);
+    ADD_FAILURE() << "no throw";
+  } catch (const vadop::InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("points[1]"), std::string::npos) << e.what();
+  }
+  try {
+    vadop::makeBoxSet({Vector3d::Zero(), Vector3d::Zero(), Vector3d(nan, 0.0, 0.0)}, Vector3d::Ones());
+    ADD_FAILURE() << "no throw";
+  } catch (const vadop::InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("centres[2]"), std::string::npos) << e.what();
+  }
+}
 
 }  // namespace
