@@ -16,7 +16,8 @@
 //     (exact time and normal, aimed at a point and between four), a body passing between two
 //     points farther apart than its size (no contact; a slightly larger one hits at the exact
 //     time), a box set's face (exact time from outside; a body beside the face passes).
-//  4. Static distance and penetration (degenerate triangles: a point's normal is not needed),
+//  4. Static distance and penetration (degenerate triangles: a point's normal is not needed; a
+//     point inside a mesh body is not touched, inside a solid one it is),
 //     and the constructors' errors.
 // VADOP_POINT_SET_CASES: scenes per (set, shape kind, motion kind), default 6 (2 under ASan).
 #include "vadop/distance.h"  // PreparedShape (src/), for the path and chain queries
@@ -495,8 +496,8 @@ void expectSound(const std::string& what, const Tally& tally) {
   EXPECT_EQ(tally.missed, 0) << tally.first_failure;
   EXPECT_EQ(tally.wrong, 0) << tally.first_failure;
   EXPECT_EQ(tally.undecided, 0) << tally.first_failure;
-  EXPECT_GE(tally.hits, tally.cases / 5);
-  EXPECT_GE(tally.clear, tally.cases / 10);
+  EXPECT_GE(tally.hits, tally.cases / 8);
+  EXPECT_GE(tally.clear, tally.cases / 8);
 }
 
 void runProperty(const char* motion, const MakeMover& make) {
@@ -531,7 +532,8 @@ TEST(PointSetProperty, LinkChainWithMovingJoint) { runProperty("chain", chainMov
 TEST(PointSetProperty, BrakingManoeuvreThroughWorld) { runProperty("braking", brakingMover); }
 
 // ---------------------------------------------------------------------------------------
-// World::predict and World::firstContactIf: a set among 30 movers, under each broad phase.
+// World::predict and World::firstContactIf: a set among 5 movers per scene count (30; 10 under
+// ASan), under each broad phase.
 
 TEST(PointSetWorld, PredictAndFirstContactIfWithinTheBruteForce) {
   Tally tally;
@@ -539,7 +541,7 @@ TEST(PointSetWorld, PredictAndFirstContactIfWithinTheBruteForce) {
   for (const PartSet& s : partSets()) {
     std::vector<Mover> movers;
     std::vector<Bracket> brackets;
-    for (int i = 0; i < 30; ++i) {
+    for (int i = 0; i < 5 * scenesPerCombination(); ++i) {
       movers.push_back(clearStart(s, kShapeKinds[i % 6], twistMover, r));
       brackets.push_back(bracket(s, movers.back(), kTol));
     }
@@ -676,6 +678,12 @@ TEST(PointSetStatic, DistanceAndPenetrationAgainstPoints) {
   EXPECT_NEAR(d.distance, -0.12, 1e-12);
   EXPECT_TRUE(d.normal.allFinite());
   EXPECT_NEAR(d.normal.norm(), 1.0, 1e-12);
+  // A point inside a mesh body (a closed box surface, 1 m): a surface, as every mesh pair; inside a
+  // solid box, the cores overlap.
+  const Shape point = vadop::makePointSet({Vector3d::Zero()}, 0.02);
+  EXPECT_NEAR(vadop::distance(vadop::makeBoxSet({Vector3d::Zero()}, Vector3d::Ones()), at_origin, point, at_origin).distance,
+              0.48, 1e-9);
+  EXPECT_NEAR(vadop::distance(vadop::makeBox(Vector3d::Ones()), at_origin, point, at_origin).distance, -0.52, 1e-9);
   // The scan against a sphere: the nearest ball's gap, through the tree over 1,081 points.
   const PartSet& scan = partSets()[0];
   Rng r(4904);
