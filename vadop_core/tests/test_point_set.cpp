@@ -84,7 +84,9 @@ int scenesPerCombination() {
   return 6;
 }
 
-Motion rest(const Vector3d& at) { return vadop::makeMotion(at, Quaterniond::Identity(), Vector3d::Zero(), Vector3d::Zero()); }
+Motion rest(const Vector3d& at) {
+  return vadop::makeMotion(at, Quaterniond::Identity(), Vector3d::Zero(), Vector3d::Zero());
+}
 
 Isometry3d translation(const Vector3d& at) {
   Isometry3d pose = Isometry3d::Identity();
@@ -252,7 +254,9 @@ Verdict bruteForce(const std::vector<Vector3d>& parts, const PreparedShape& part
 // The gap between the mover at t and the nearest part, by the static distance of primitives.
 double bruteGap(const std::vector<Vector3d>& parts, const Shape& part, const Mover& m, double t) {
   double gap = kInf;
-  for (const Vector3d& c : parts) gap = std::min(gap, vadop::distance(m.shape, m.poseAt(t), part, translation(c)).distance);
+  for (const Vector3d& c : parts) {
+    gap = std::min(gap, vadop::distance(m.shape, m.poseAt(t), part, translation(c)).distance);
+  }
   return gap;
 }
 
@@ -318,7 +322,8 @@ void judge(const PartSet& s, const Mover& m, const Bracket& b, const TimeOfImpac
   const bool unit = ours.normal.allFinite() && std::abs(ours.normal.norm() - 1.0) < 1e-9;
   if (!(loose.hit && loose.time <= ours.time + kEps) || !(gap <= tau + 1e-9) || !(off <= tau + 1e-7) || !unit) {
     ++tally.wrong;
-    std::snprintf(buf + std::strlen(buf), sizeof buf - std::strlen(buf), "; gap at ours %.3g, point off %.3g", gap, off);
+    const size_t used = std::strlen(buf);
+    std::snprintf(buf + used, sizeof buf - used, "; gap at ours %.3g, point off %.3g", gap, off);
     tally.fail(std::string("false: ") + buf);
   }
 }
@@ -518,8 +523,9 @@ void runProperty(const char* motion, const MakeMover& make) {
         double tau = kTol;
         const TimeOfImpact ours = m.manoeuvre ? throughWorld(world, m, tau)
                                               : m.toi(PreparedShape(m.shape), set, s.centre, m.horizon, kTol);
-        judge(s, m, bracket(s, m, tau), ours, tau, std::string(motion) + " " + s.name + " " + vadop::toString(kind) + " #" + std::to_string(i),
-              tally);
+        const std::string label =
+            std::string(motion) + " " + s.name + " " + vadop::toString(kind) + " #" + std::to_string(i);
+        judge(s, m, bracket(s, m, tau), ours, tau, label, tally);
       }
     }
   }
@@ -614,7 +620,8 @@ TEST(PointSetCorners, SphereAtAWallOfPointsCloserThanTheirRadius) {
 // pass; a sphere of 0.14 m (0.01 m too wide) touches both when (1 - x)^2 + 0.15^2 = 0.16^2.
 TEST(PointSetCorners, BodyPassesBetweenTwoPointsFartherApartThanItsSize) {
   const PartSet pair = pointSet("pair", {Vector3d(1.0, 0.15, 0.0), Vector3d(1.0, -0.15, 0.0)}, 0.02);
-  const Motion m = vadop::makeMotion(Vector3d::Zero(), Quaterniond::Identity(), Vector3d(1.0, 0.0, 0.0), Vector3d::Zero());
+  const Motion m =
+      vadop::makeMotion(Vector3d::Zero(), Quaterniond::Identity(), Vector3d(1.0, 0.0, 0.0), Vector3d::Zero());
   for (const Shape& narrow : {vadop::makeSphere(0.12), vadop::makeBox(Vector3d(0.4, 0.2, 0.4)),
                               vadop::makeCapsule(0.1, 0.5), vadop::makeCylinder(0.12, 0.3)}) {
     const TimeOfImpact t = vadop::timeOfImpact(narrow, m, pair.shape, rest(pair.centre), 0.0, 2.0);
@@ -681,8 +688,8 @@ TEST(PointSetStatic, DistanceAndPenetrationAgainstPoints) {
   // A point inside a mesh body (a closed box surface, 1 m): a surface, as every mesh pair; inside a
   // solid box, the cores overlap.
   const Shape point = vadop::makePointSet({Vector3d::Zero()}, 0.02);
-  EXPECT_NEAR(vadop::distance(vadop::makeBoxSet({Vector3d::Zero()}, Vector3d::Ones()), at_origin, point, at_origin).distance,
-              0.48, 1e-9);
+  const Shape closed_box = vadop::makeBoxSet({Vector3d::Zero()}, Vector3d::Ones());
+  EXPECT_NEAR(vadop::distance(closed_box, at_origin, point, at_origin).distance, 0.48, 1e-9);
   EXPECT_NEAR(vadop::distance(vadop::makeBox(Vector3d::Ones()), at_origin, point, at_origin).distance, -0.52, 1e-9);
   // The scan against a sphere: the nearest ball's gap, through the tree over 1,081 points.
   const PartSet& scan = partSets()[0];
