@@ -175,6 +175,7 @@ Shape makeMesh(std::vector<Eigen::Vector3d> vertices, std::vector<std::array<int
 
 Shape makePointSet(std::vector<Eigen::Vector3d> points, double radius) {
   if (points.empty()) throw InvalidArgument("point set: no point");
+  requireFinitePoints(points, "point set points");  // named as the caller's points, not the mesh's vertices
   if (!(std::isfinite(radius) && radius > 0.0)) {
     throw InvalidArgument("point set: radius must be finite and > 0, got " + formatNumber(radius));
   }
@@ -189,6 +190,7 @@ Shape makePointSet(std::vector<Eigen::Vector3d> points, double radius) {
 Shape makeBoxSet(const std::vector<Eigen::Vector3d>& centres, const Eigen::Vector3d& size) {
   if (centres.empty()) throw InvalidArgument("box set: no box");
   if (!(size.allFinite() && (size.array() > 0.0).all())) throw InvalidArgument("box set: sizes must be finite and > 0");
+  requireFinitePoints(centres, "box set centres");
   const Eigen::Vector3d h = 0.5 * size;
   // The 12 triangles of a box's faces over its 8 corners (corner c: x sign bit 0, y bit 1, z bit 2).
   static const int kFaces[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},

@@ -28,6 +28,21 @@ double unitSupport(const Shape& s, const Eigen::Vector3d& d) {
   return support(s, d);
 }
 
+// The shape's extent from its origin along each coordinate axis e_k, turned by R(t) (rotation_t =
+// R(t)^T): up[k] = h(R^T e_k), down[k] = h(-R^T e_k) (one query for the centred primitives).
+void axisExtents(const Shape& shape, const Eigen::Matrix3d& rotation_t, double* up, double* down) {
+  const bool sphere = shape.type == ShapeType::kSphere;  // rotation_t is not read
+  const bool symmetric = shape.type != ShapeType::kConvex && shape.type != ShapeType::kMesh;
+  for (int k = 0; k < 3; ++k) {
+    if (sphere) {
+      up[k] = down[k] = shape.radius + shape.margin;
+    } else {
+      const Eigen::Vector3d a_body = rotation_t.col(k);  // R(t)^T e_k
+      up[k] = unitSupport(shape, a_body);
+      down[k] = symmetric ? up[k] : unitSupport(shape, -a_body);
+    }
+  }
+}
 
 }  // namespace
 
@@ -233,12 +248,16 @@ void SweptBody::partBoxes(const Shape& shape, const Motion& motion, double t0, d
   const Eigen::Vector3d centre_ref = pivot ? Eigen::Vector3d(motion.position + motion.pivot_offset) : motion.position;
   auto centreAt = [&](double t) -> Eigen::Vector3d { return centre_ref + motion.linear_velocity * (t - motion.t_ref); };
   Eigen::Vector3d c0 = centreAt(t0);
+  double up[3], down[3];
   for (int k = 0; k < parts; ++k, out += 6) {
     const double e = partEnd(t0, t1, k, parts);
     const Eigen::Vector3d c1 = centreAt(e);
     // Origin - pivot at mid-frame.
     const Eigen::Vector3d shift = pivot ? Eigen::Vector3d(-(spin * motion.pivot_offset)) : Eigen::Vector3d::Zero();
-    boxOf(shape, rotation_t, c0, c1, shift, rot, out);
+    // A body that does not turn has the same extents in every part: queried once (a sensor's
+    // point set, a static mesh: each query visits every vertex).
+    if (k == 0 || w > 0.0) axisExtents(shape, rotation_t, up, down);
+    boxOf(up, down, c0, c1, shift, rot, out);
     if (w > 0.0) {
       if (pivot) turnRotation(turn, spin);
       if (!sphere) stepRotation(rotation_t, turn_t);
@@ -332,23 +351,15 @@ Interval SweptBody::projectGeneral(const Eigen::Vector3d& a) const {
 void SweptBody::boxGeneral(double* out) const {
   double rot[3];
   for (int k = 0; k < 3; ++k) rot[k] = rotationReach(core_radius_, chord_, spin_axis_, k);
-  boxOf(*shape_, rotation_mid_t_, p0_, p1_, shift_mid_, rot, out);
+  double up[3], down[3];
+  axisExtents(*shape_, rotation_mid_t_, up, down);
+  boxOf(up, down, p0_, p1_, shift_mid_, rot, out);
 }
 
-void SweptBody::boxOf(const Shape& shape, const Eigen::Matrix3d& rotation_t, const Eigen::Vector3d& p0,
-                      const Eigen::Vector3d& p1, const Eigen::Vector3d& shift, const double* rot, double* out) {
-  const bool sphere = shape.type == ShapeType::kSphere;  // rotation_t is not read
-  const bool symmetric = shape.type != ShapeType::kConvex && shape.type != ShapeType::kMesh;
+void SweptBody::boxOf(const double* up, const double* down, const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
+                      const Eigen::Vector3d& shift, const double* rot, double* out) {
   for (int k = 0; k < 3; ++k) {
-    double up, down;
-    if (sphere) {
-      up = down = shape.radius + shape.margin;
-    } else {
-      const Eigen::Vector3d a_body = rotation_t.col(k);  // R(t_mid)^T e_k
-      up = unitSupport(shape, a_body);
-      down = symmetric ? up : unitSupport(shape, -a_body);
-    }
-    const Interval iv = axisBounds(p0[k], p1[k], up + shift[k], down - shift[k], rot[k]);
+    const Interval iv = axisBounds(p0[k], p1[k], up[k] + shift[k], down[k] - shift[k], rot[k]);
     out[k] = iv.lo;
     out[3 + k] = iv.hi;
   }

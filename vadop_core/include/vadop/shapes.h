@@ -47,6 +47,13 @@ Shape makeMesh(std::vector<Eigen::Vector3d> vertices, std::vector<std::array<int
 // phase serve it), or a box of `size` (full edges) about each centre (a mesh of the boxes'
 // faces: a body wholly inside one box does not touch it). Throws vadop::InvalidArgument for no
 // point, a point that is not finite, or a radius / size that is not finite and > 0.
+// Everywhere a mesh goes (distance, timeOfImpact under every motion, World's queries), a point
+// triangle is its point: nothing needs its normal or area. As for any mesh, a point set meets
+// the primitives (solid) and a mesh body as a surface: a point wholly inside a mesh body is not
+// touched. Costs (one core, RelWithDebInfo): building the tree (PreparedShape, World::add) about
+// 0.25 ms for 1,081 points, 2 ms for 5,000, 20 to 40 ms for 30,000 (filter clouds first); each
+// World::predict also reads every point a few dozen times (the broad phase's support queries of
+// the shape). JSON scenes (scene_io.h) carry no padding: a point set is not expressible there.
 Shape makePointSet(std::vector<Eigen::Vector3d> points, double radius);
 Shape makeBoxSet(const std::vector<Eigen::Vector3d>& centres, const Eigen::Vector3d& size);
 

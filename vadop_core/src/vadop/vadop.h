@@ -123,11 +123,12 @@ class SweptBody {
   Interval projectGeneral(const Eigen::Vector3d& axis) const;
   // projectGeneral on x, y and z, the products with the unit axes written out (the same values).
   void boxGeneral(double* out) const;
-  // The box of `shape` turned by R(t_mid) (rotation_t = its transpose; not read for a sphere),
-  // its pivot going from p0 to p1, `shift` = origin - pivot at mid-frame, rot[k] = rotation's
-  // reach along axis k: boxGeneral's and each part's of partBoxes.
-  static void boxOf(const Shape& shape, const Eigen::Matrix3d& rotation_t, const Eigen::Vector3d& p0,
-                    const Eigen::Vector3d& p1, const Eigen::Vector3d& shift, const double* rot, double* out);
+  // The box of a shape whose extents along the coordinate axes are up[k], down[k] (axisExtents
+  // in vadop.cpp: the shape turned by R(t_mid)), its pivot going from p0 to p1, `shift` =
+  // origin - pivot at mid-frame, rot[k] = rotation's reach along axis k: boxGeneral's and each
+  // part's of partBoxes.
+  static void boxOf(const double* up, const double* down, const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
+                    const Eigen::Vector3d& shift, const double* rot, double* out);
   // partBoxes for a turning body (|w| > 0) from its boxes at the parts' ends.
   static void partBoxesFromEnds(const Shape& shape, const Motion& motion, double t0, double t1, int parts, double* out);
   // The fields that do not depend on the window (shape, radii, spin axis); returns |w|.
