@@ -157,6 +157,8 @@ class WorldEngine {
   // f(k) for k in [0, n), on threads_ threads when n is large enough; rethrows the exception
   // of the smallest k that threw.
   void parallelFor(size_t n, const std::function<void(size_t)>& f) const;
+  // The velocity of body id's material point at x at time t (along its chain or its motion).
+  Eigen::Vector3d velocityOfPoint(BodyId id, const Eigen::Vector3d& x, double t) const;
   bool onPath(BodyId id) const { return records_[id].chain != nullptr; }
   // Some body is not on a path: only then can the broad phase find a pair or a partner that
   // the path bodies' own boxes do not (it holds a path body on its base's first piece only).
@@ -196,7 +198,7 @@ class WorldEngine {
   // The pairs that pass shouldTest, a = the body added first, every time slice searched.
   std::vector<Candidate> testedPairs(const std::vector<Pair>& pairs) const;
   // The contacts (or with `undecided`, the undecided pairs) of `results`, sorted by (time,
-  // a_key, b_key).
+  // a_key, b_key), with their closing speeds (contacts only).
   std::vector<Contact> contactsInOrder(const std::vector<Candidate>& tests, const std::vector<TimeOfImpact>& results,
                                            bool undecided) const;
   // firstContactIf's movers by id, their motions validated (throws naming the mover).

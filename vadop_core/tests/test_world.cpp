@@ -61,6 +61,39 @@ TEST(World, HeadOnSpheres) {
   EXPECT_NEAR(later[0].impact.time, t, 1e-12);
 }
 
+// A contact's closing speed, (v_a - v_b) . normal at its point and time, follows each body's
+// own motion, path or chain: the head-on pair closes at 1 + 2 m/s whether the two move with
+// one motion each or along paths; a body turning about its origin closes at w x r there.
+TEST(World, ContactsCarryTheClosingSpeedOfTheirBodies) {
+  World w;
+  w.add("left", makeSphere(0.5), moving({0, 0, 0}, {1, 0, 0}));
+  w.add("right", makeSphere(0.25), moving({4, 0, 0}, {-2, 0, 0}));
+  auto out = w.predict(0.0, 2.0);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_NEAR(out[0].closing_speed, 3.0, 1e-12);
+  // The same bodies on paths: at rest as set, moving along their paths (the paths' velocities).
+  w.setMotion("left", still({0, 0, 0}));
+  w.setMotion("right", still({4, 0, 0}));
+  w.setPath("left", TimedPath(moving({0, 0, 0}, {1, 0, 0})));
+  w.setPath("right", TimedPath(moving({4, 0, 0}, {-2, 0, 0})));
+  out = w.predict(0.0, 2.0);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_NEAR(out[0].closing_speed, 3.0, 1e-9);
+  // A bar turning at 1 rad/s about the z axis through its centre sweeps into a block at rest
+  // 1.5 m along +x from y < 0: the bar's point at the contact moves at w x r (r from the axis).
+  World turn;
+  turn.add("bar", makeBox(Eigen::Vector3d(4, 0.1, 0.1)),
+           makeMotion({0, 0, 0}, Eigen::Quaterniond(Eigen::AngleAxisd(-0.5, Eigen::Vector3d::UnitZ())), {0, 0, 0},
+                      {0, 0, 1}));
+  turn.add("block", makeBox(Eigen::Vector3d(0.2, 0.2, 0.2)), still({1.5, 0.2, 0}));
+  const auto swept = turn.predict(0.0, 1.0);
+  ASSERT_EQ(swept.size(), 1u);
+  const Contact& c = swept[0];
+  const Eigen::Vector3d v_bar = Eigen::Vector3d::UnitZ().cross(c.impact.point);  // the block stands
+  EXPECT_NEAR(c.closing_speed, v_bar.dot(c.impact.normal), 1e-12);
+  EXPECT_GT(c.closing_speed, 0.5);  // pressing together, not sliding
+}
+
 // A world emptied after a predict, then holding path bodies only (whose predicts leave the
 // broad phase alone), then a body of one motion again: each predict answers for the bodies it
 // holds now, never for pairs of an earlier one (an emptied world once read the broad phase's
@@ -316,6 +349,7 @@ TEST(World, UndecidedPairsAreListedApartFromContacts) {
     ASSERT_EQ(out.size(), 1u) << toString(kind);
     EXPECT_EQ(out[0].a + "-" + out[0].b, "left-right");
     EXPECT_NEAR(out[0].impact.time, 1.0, 1e-6);
+    EXPECT_NEAR(out[0].closing_speed, 2.0, 1e-12);
     const auto& und = w.lastUndecided();
     ASSERT_EQ(und.size(), 2u) << toString(kind);
     std::vector<std::string> names;
@@ -324,6 +358,7 @@ TEST(World, UndecidedPairsAreListedApartFromContacts) {
       EXPECT_TRUE(und[i].impact.undecided);
       EXPECT_GT(und[i].impact.time, 0.0);
       EXPECT_LT(und[i].impact.time, 0.08);  // certified clear only up to there, before the contact
+      EXPECT_EQ(und[i].closing_speed, 0.0);   // not a contact: no closing speed
       if (i > 0) {
         EXPECT_TRUE(und[i - 1].impact.time < und[i].impact.time ||
                     (und[i - 1].impact.time == und[i].impact.time && und[i - 1].a_key < und[i].a_key));

@@ -144,6 +144,10 @@ struct Contact {
   TimeOfImpact impact;  // time, contact point, normal from a to b (see time_of_impact.h)
   uint64_t a_user = 0;  // the caller's keys of a and b (add's `user`)
   uint64_t b_user = 0;
+  // (v_a - v_b) . normal: the velocities of the material points of a and b at impact.point, at
+  // impact.time, each along its own motion, path or chain (> 0: pressing together). Not set
+  // (0) for the undecided pairs of lastUndecided.
+  double closing_speed = 0.0;
 };
 
 class World {
