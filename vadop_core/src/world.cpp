@@ -870,7 +870,7 @@ WorldEngine::Reachable WorldEngine::reachable(const std::vector<std::string>& mo
 std::optional<WorldEngine::MoverContact> WorldEngine::firstContactIf(const std::vector<std::string>& movers,
                                                          const std::vector<Motion>& motions, double t0,
                                                          double horizon,
-                                                         const std::function<bool(uint64_t key)>& skip,
+                                                         const std::function<bool(uint64_t user)>& skip,
                                                          const Reachable* among) {
   const char* op = "firstContactIf";
   if (movers.size() != motions.size()) {
@@ -902,7 +902,7 @@ std::optional<WorldEngine::MoverContact> WorldEngine::firstContactIf(const std::
       if (std::binary_search(sorted.begin(), sorted.end(), other)) continue;
       const Record& ro = records_[other];
       if (!shouldTest(rm, ro)) continue;
-      if (skip && skip(ro.key)) continue;
+      if (skip && skip(ro.user)) continue;
       // Only the first contact matters: later windows shrink to the best time so far.
       const TimeOfImpact hit = moverImpact(rm, motions[i], other, mover_chain, t0, t1);
       if (!hit.hit && !hit.undecided) continue;

@@ -68,7 +68,7 @@ class WorldEngine {
                       const std::vector<double>& reach, double t0, double horizon);
   std::optional<MoverContact> firstContactIf(const std::vector<std::string>& movers,
                                              const std::vector<Motion>& motions, double t0, double horizon,
-                                             const std::function<bool(uint64_t key)>& skip,
+                                             const std::function<bool(uint64_t user)>& skip,
                                              const Reachable* among);
   void setStopDuration(const std::string& id, double seconds);
   void setStopDuration(const Handle& body, double seconds);
@@ -94,9 +94,11 @@ class WorldEngine {
     // setPath / setChain (a path is a chain without joints); the broad phase holds the first
     // piece of its base's path.
     std::shared_ptr<const LinkChain> chain;
+    // add's: read by the pair predicate and a query's skip when set, and copied into the
+    // contacts (at the start of the second line, beside the prepared shape's start).
+    uint64_t user = 0;
     // The shape as given, prepared for the narrow phase (the broad phase holds it padded).
     std::optional<PreparedShape> prepared;
-    uint64_t user = 0;  // add's: only copied into the contacts (past the first line)
     double stop_duration = std::numeric_limits<double>::infinity();  // setStopDuration
   };
   // The pairs of the path bodies in [t0, t1] (the caller sorts and dedups): each piece's query
@@ -189,11 +191,12 @@ class WorldEngine {
   // filled: returns true then). With path bodies its pairs without them and pathPairs' go to
   // `out` (sorted, unique); without, `out` stays empty (the candidates are broad_phase_->pairs()).
   bool allPairs(double t0, double t1, std::vector<Pair>& out);
-  // The pair rule, in one place (see the top of this file): the masks of setFilter, then the
-  // predicate of setPairFilter with the keys in insertion order.
+  // The pair rule, in one place (see the top of world.h): the masks of setFilter, then the
+  // predicate of setPairFilter with the caller's keys, that of the body added first first.
   bool shouldTest(const Record& a, const Record& b) const {
     if (!(a.group & b.mask) || !(b.group & a.mask)) return false;
-    return !pair_filter_ || pair_filter_(std::min(a.key, b.key), std::max(a.key, b.key));
+    if (!pair_filter_) return true;
+    return a.key < b.key ? pair_filter_(a.user, b.user) : pair_filter_(b.user, a.user);
   }
   // The pairs that pass shouldTest, a = the body added first, every time slice searched.
   std::vector<Candidate> testedPairs(const std::vector<Pair>& pairs) const;

@@ -59,7 +59,7 @@ World::Reachable World::reachable(const std::vector<std::string>& movers, const 
 
 std::optional<World::MoverContact> World::firstContactIf(const std::vector<std::string>& movers,
                                                          const std::vector<Motion>& motions, double t0,
-                                                         double horizon, const std::function<bool(uint64_t key)>& skip,
+                                                         double horizon, const std::function<bool(uint64_t user)>& skip,
                                                          const Reachable* among) {
   return engine().firstContactIf(movers, motions, t0, horizon, skip, among);
 }

@@ -130,7 +130,7 @@ std::optional<WorldEngine::MoverContact> WorldEngine::firstContactAlong(const st
     for (BodyId other : among.ids) {
       if (!broad_phase_->contains(other) || std::binary_search(sorted.begin(), sorted.end(), other)) continue;
       const Record& ro = records_[other];
-      if (!shouldTest(rm, ro) || (query.skip && query.skip(ro.key))) continue;
+      if (!shouldTest(rm, ro) || (query.skip && query.skip(ro.user))) continue;
       // Only the first contact matters: later pairs search up to the best time so far.
       std::optional<MoverContact> c = pathImpact(rm, ids[i], i, paths[i], reach, other, query, t0, t1);
       if (c && (!best || c->impact.time < best->impact.time)) {

@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -223,7 +224,7 @@ TEST(GateScale, MatchesBruteForceOnRandomScenes) {
 TEST(WorldFirstContactIf, BadInputThrowsAndChangesNothing) {
   World w;
   w.add("a", makeSphere(0.5), makeMotion({0, 0, 0}, Eigen::Quaterniond::Identity(), {0, 0, 0}, {0, 0, 0}));
-  w.add("b", makeSphere(0.5), makeMotion({3, 0, 0}, Eigen::Quaterniond::Identity(), {0, 0, 0}, {0, 0, 0}));
+  w.add("b", makeSphere(0.5), makeMotion({3, 0, 0}, Eigen::Quaterniond::Identity(), {0, 0, 0}, {0, 0, 0}), 7);
   const Motion go = makeMotion({0, 0, 0}, Eigen::Quaterniond::Identity(), {2, 0, 0}, {0, 0, 0});
   EXPECT_THROW(w.firstContactIf({"zz"}, {go}, 0.0, 1.0), InvalidArgument);
   EXPECT_THROW(w.firstContactIf({"a"}, {}, 0.0, 1.0), InvalidArgument);
@@ -240,8 +241,8 @@ TEST(WorldFirstContactIf, BadInputThrowsAndChangesNothing) {
   EXPECT_NEAR(hit->impact.time, 1.0, 1e-6);
   EXPECT_EQ(w.motion("a").linear_velocity, Eigen::Vector3d::Zero());
   EXPECT_TRUE(w.predict(0.0, 2.0).empty());
-  // A skipped body is not considered.
-  EXPECT_FALSE(w.firstContactIf({"a"}, {go}, 0.0, 2.0, [&](uint64_t key) { return key == w.key("b"); }).has_value());
+  // A skipped body (by its caller's key, add's `user`) is not considered.
+  EXPECT_FALSE(w.firstContactIf({"a"}, {go}, 0.0, 2.0, [&](uint64_t user) { return user == 7; }).has_value());
 }
 
 // A body touching a wall: moving away or sliding along it is not a contact for the gate;

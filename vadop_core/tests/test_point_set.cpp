@@ -557,15 +557,16 @@ TEST(PointSetWorld, PredictAndFirstContactIfWithinTheBruteForce) {
       config.broad_phase = kind;
       config.toi.tolerance = kTol;
       vadop::World world(config);
-      world.add(s.name, s.shape, rest(s.centre));
+      // The caller's keys (add's `user`): the set's is 1, the movers' 0.
+      constexpr uint64_t kSetUser = 1;
+      world.add(s.name, s.shape, rest(s.centre), kSetUser);
       for (size_t i = 0; i < movers.size(); ++i) world.add("m" + std::to_string(i), movers[i].shape, *movers[i].twist);
       std::vector<TimeOfImpact> predicted(movers.size());
       for (TimeOfImpact& t : predicted) t.time = kHorizon;
       for (const vadop::Contact& c : world.predict(0.0, kHorizon)) {
         if (c.a == s.name) predicted[std::stoul(c.b.substr(1))] = c.impact;  // a: the set, added first
       }
-      const uint64_t set_key = world.key(s.name);
-      const auto others = [set_key](uint64_t key) { return key != set_key; };
+      const auto others = [](uint64_t user) { return user != kSetUser; };
       for (size_t i = 0; i < movers.size(); ++i) {
         const std::string label = std::string(vadop::toString(kind)) + " " + s.name + " m" + std::to_string(i);
         EXPECT_EQ(world.lastUndecided().size(), 0u);

@@ -388,7 +388,8 @@ TEST(World, PairFiltersApplyBeforeTheNarrowPhase) {
     WorldConfig config;
     config.broad_phase = kind;
     World w(config);
-    for (int i = 0; i < 6; ++i) w.add("s" + std::to_string(i), makeSphere(1.0), still({0.1 * i, 0.05 * i, 0}));
+    // The caller's keys (add's `user`) in insertion order: si has user i.
+    for (int i = 0; i < 6; ++i) w.add("s" + std::to_string(i), makeSphere(1.0), still({0.1 * i, 0.05 * i, 0}), i);
     EXPECT_EQ(w.predict(0.0, 1.0).size(), 15u) << toString(kind);
     EXPECT_EQ(w.lastCandidateCount(), 15u) << toString(kind);
     // s0..s2: a group that does not collide with itself (as static obstacles).
@@ -399,8 +400,9 @@ TEST(World, PairFiltersApplyBeforeTheNarrowPhase) {
     w.setFilter("s5", World::kDefaultGroup, 0u);
     EXPECT_EQ(w.predict(0.0, 1.0).size(), 7u) << toString(kind);
     EXPECT_EQ(w.lastCandidateCount(), 7u) << toString(kind);
-    // The predicate sees the pairs that pass the masks, once each, keys in order; s3-s4 out.
-    const uint64_t k3 = w.key("s3"), k4 = w.key("s4");
+    // The predicate sees the pairs that pass the masks, once each, the caller's keys in the
+    // bodies' insertion order; s3-s4 out.
+    const uint64_t k3 = 3, k4 = 4;
     size_t seen = 0;
     w.setPairFilter([&](uint64_t a, uint64_t b) {
       ++seen;
@@ -423,6 +425,43 @@ TEST(World, PairFiltersApplyBeforeTheNarrowPhase) {
     w.add("s5", makeSphere(1.0), still({0.5, 0.25, 0}));
     EXPECT_EQ(w.predict(0.0, 1.0).size(), 12u) << toString(kind);
   }
+}
+
+// The pair predicate and a gate query's skip see the caller's keys (add's `user`), the pair's
+// in the bodies' insertion order whatever the keys' values; bodies may share a key.
+TEST(World, PairPredicateAndSkipSeeTheCallersKeys) {
+  World w;
+  w.add("first", makeSphere(1.0), still({0, 0, 0}), 9);
+  w.add("second", makeSphere(1.0), still({0.5, 0, 0}), 2);
+  w.add("third", makeSphere(1.0), still({0, 0.5, 0}), 2);
+  std::vector<std::pair<uint64_t, uint64_t>> seen;
+  w.setPairFilter([&](uint64_t a, uint64_t b) {
+    seen.emplace_back(a, b);
+    return b != 2 || a != 9;  // only second-third tested
+  });
+  const auto out = w.predict(0.0, 1.0);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].a + "-" + out[0].b, "second-third");
+  std::sort(seen.begin(), seen.end());
+  EXPECT_EQ(seen, (std::vector<std::pair<uint64_t, uint64_t>>{{2, 2}, {9, 2}, {9, 2}}));
+  // The gate query: the predicate applies, then skip by the others' keys.
+  seen.clear();
+  w.setPairFilter([&](uint64_t a, uint64_t b) {
+    seen.emplace_back(a, b);
+    return true;
+  });
+  // Touching at t0, a pair blocks only where the motions press it together: each mover heads
+  // into the others.
+  const Motion towards_third = moving({0.5, 0, 0}, {-1, 1, 0});
+  const auto hit = w.firstContactIf({"second"}, {towards_third}, 0.0, 1.0, [](uint64_t user) { return user == 9; });
+  ASSERT_TRUE(hit.has_value());
+  EXPECT_EQ(hit->other, "third");
+  EXPECT_EQ(hit->other_user, 2u);
+  EXPECT_EQ(std::count(seen.begin(), seen.end(), std::make_pair(uint64_t{2}, uint64_t{2})), 1);
+  EXPECT_EQ(std::count(seen.begin(), seen.end(), std::make_pair(uint64_t{2}, uint64_t{9})), 0);  // a added first
+  const Motion towards_both = moving({0, 0, 0}, {1, 1, 0});
+  EXPECT_TRUE(w.firstContactIf({"first"}, {towards_both}, 0.0, 1.0).has_value());
+  EXPECT_FALSE(w.firstContactIf({"first"}, {towards_both}, 0.0, 1.0, [](uint64_t user) { return user == 2; }));
 }
 
 TEST(World, FilteredPairsAreNeverUndecided) {

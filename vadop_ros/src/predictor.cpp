@@ -5,7 +5,6 @@
 #include <vadop/world.h>
 
 #include <optional>
-#include <unordered_map>
 
 namespace vadop_ros {
 namespace {
@@ -41,7 +40,6 @@ struct Predictor::Impl {
   struct Slot {
     bool in = false;
     std::string id;
-    uint64_t key = 0;
     vadop::World::Handle handle;  // setMotion every cycle without the name's lookup
     vadop::Motion motion;
     std::shared_ptr<const vadop::LinkChain> chain;  // null: motion alone
@@ -49,9 +47,6 @@ struct Predictor::Impl {
   vadop::World world;
   int threads;  // of the impacts' conversion, as the world's
   std::vector<Slot> slots;
-  // The world's insertion-order keys of the elements: for the pair filter and firstContact's skip,
-  // which the world asks by those keys (its contacts carry the element index itself).
-  std::unordered_map<uint64_t, size_t> by_key;
   vadop::World::PairPredicate ignored;  // setIgnored's, as the world's pair filter
   bool ignored_on = true;               // enableIgnored
   std::vector<RawImpact> undecided;  // of the last predict
@@ -68,15 +63,14 @@ bool Predictor::set(size_t i, const std::string& id, const vadop::Shape& shape, 
   Impl::Slot& s = impl_->slots[i];
   try {
     if (!s.in) {
-      impl_->world.add(id, shape, motion, i);  // contacts carry i back (Contact::a_user, b_user)
+      // Contacts, the pair filter and the queries' skip carry i back (the world's `user`).
+      impl_->world.add(id, shape, motion, i);
       impl_->world.setFilter(id, group, mask);  // the id is in: does not throw
       s.in = true;
       s.id = id;
-      s.key = impl_->world.key(id);
       s.handle = impl_->world.handle(id);
       s.motion = motion;
       s.chain = nullptr;
-      impl_->by_key[s.key] = i;
     } else if (!chain && (!sameMotion(s.motion, motion) || s.chain)) {
       impl_->world.setMotion(s.handle, motion);  // ends a chain
       s.motion = motion;
@@ -99,12 +93,7 @@ bool Predictor::set(size_t i, const std::string& id, const vadop::Shape& shape, 
 void Predictor::setIgnored(std::function<bool(size_t a, size_t b)> ignored) {
   impl_->ignored = nullptr;
   if (ignored) {
-    impl_->ignored = [impl = impl_.get(), ignored = std::move(ignored)](uint64_t ka, uint64_t kb) {
-      const auto ia = impl->by_key.find(ka);
-      const auto ib = impl->by_key.find(kb);
-      if (ia == impl->by_key.end() || ib == impl->by_key.end()) return true;  // not ours: tested
-      return !ignored(ia->second, ib->second);
-    };
+    impl_->ignored = [ignored = std::move(ignored)](uint64_t a, uint64_t b) { return !ignored(a, b); };
   }
   impl_->world.setPairFilter(impl_->ignored_on ? impl_->ignored : nullptr);
 }
@@ -119,7 +108,6 @@ void Predictor::unset(size_t i) {
   if (i >= impl_->slots.size() || !impl_->slots[i].in) return;
   Impl::Slot& s = impl_->slots[i];
   impl_->world.remove(s.id);
-  impl_->by_key.erase(s.key);
   s.in = false;
 }
 
@@ -162,15 +150,8 @@ bool Predictor::firstContact(const std::vector<size_t>& movers, const std::vecto
     if (!contains(i)) throw vadop::InvalidArgument("firstContact: element " + std::to_string(i) + " is not in the world");
     ids.push_back(impl_->slots[i].id);
   }
-  std::function<bool(uint64_t)> skip_key;
-  if (skip) {
-    skip_key = [this, &skip](uint64_t key) {
-      const auto it = impl_->by_key.find(key);
-      return it == impl_->by_key.end() || skip(it->second);
-    };
-  }
   const std::optional<vadop::World::MoverContact> hit =
-      impl_->world.firstContactIf(ids, motions, t0, horizon, skip_key, impl_->reach ? &*impl_->reach : nullptr);
+      impl_->world.firstContactIf(ids, motions, t0, horizon, skip, impl_->reach ? &*impl_->reach : nullptr);
   if (!hit) return false;
   contact.mover = movers[hit->mover];
   contact.other = hit->other_user;
@@ -191,12 +172,7 @@ bool Predictor::firstContactAlong(const std::vector<size_t>& movers, const std::
     ids.push_back(impl_->slots[i].id);
   }
   vadop::World::PathQuery query;
-  if (skip) {
-    query.skip = [this, &skip](uint64_t key) {
-      const auto it = impl_->by_key.find(key);
-      return it == impl_->by_key.end() || skip(it->second);
-    };
-  }
+  query.skip = skip;
   query.among = impl_->reach ? &*impl_->reach : nullptr;
   query.deviation = deviation;
   query.others_stop = others_stop;

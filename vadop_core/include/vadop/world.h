@@ -11,7 +11,9 @@
 // Pair filters (as Box2D's shouldCollide and Bullet's broadphase filter callback) leave
 // candidate pairs out BEFORE the narrow phase: a pair is tested only when
 //   (a.group & b.mask) != 0 && (b.group & a.mask) != 0      (setFilter; default group 1, mask ~0)
-// and, when a predicate is set (setPairFilter), should_test(a_key, b_key) is true. Filtered
+// and, when a predicate is set (setPairFilter), should_test(a_user, b_user) is true (the
+// caller's keys given to add, a = the body added first): the caller decides on its own keys,
+// with no table from the World's keys or ids back to its objects. Filtered
 // pairs cost no narrow-phase call, are not in lastCandidateCount() and never in lastUndecided().
 // The filters see each candidate pair once, whatever the broad phase, so the result still does
 // not depend on the broad phase (given a predicate that depends only on its arguments).
@@ -43,7 +45,6 @@
 
 #include <Eigen/Core>
 
-#include <algorithm>  // kept for includers that had it through the engines' headers
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -213,12 +214,13 @@ class World {
   static constexpr uint32_t kDefaultMask = 0xffffffffu;
   void setFilter(const std::string& id, uint32_t group, uint32_t mask);
   // For rules masks cannot express (per-pair rules, globs): called on each candidate pair that
-  // passes the masks, with the insertion-order keys (World::key) a_key < b_key; the pair goes to
-  // the narrow phase only when it returns true. Keys rather than names: no string work per
-  // pair. Must be a pure function of its arguments for the result to be independent of the
-  // broad phase; what it throws propagates out of predict (statistics unchanged). An empty
-  // function (the default) tests every pair.
-  using PairPredicate = std::function<bool(uint64_t a_key, uint64_t b_key)>;
+  // passes the masks (in predict and in the gate queries firstContactIf, firstContactAlong),
+  // with the two bodies' caller's keys (add's `user`), a_user of the body added first (the
+  // smaller World::key); the pair goes to the narrow phase only when it returns true. Keys
+  // rather than names: no string work per pair. Must be a pure function of its arguments for
+  // the result to be independent of the broad phase; what it throws propagates out of predict
+  // (statistics unchanged). An empty function (the default) tests every pair.
+  using PairPredicate = std::function<bool(uint64_t a_user, uint64_t b_user)>;
   void setPairFilter(PairPredicate should_test);
 
   bool contains(const std::string& id) const;
@@ -230,7 +232,7 @@ class World {
   // keyframe): see path(); for a link of a chain, the first piece of its base's path.
   const Motion& motion(const std::string& id) const;
   // The body's insertion-order key: later adds get larger keys (a body removed and added again
-  // gets a new one). These are the keys of Contact (a_key, b_key) and of the pair filters.
+  // gets a new one). These are the keys of Contact (a_key, b_key) and its order.
   uint64_t key(const std::string& id) const;
 
   // Every pair that touches within [t0, t0 + horizon], sorted by (time, a_key, b_key).
@@ -248,7 +250,8 @@ class World {
   // links) moved with `motions` (one each, the same order) instead of their own, against every
   // other body moving as set: the question of a velocity gate about a candidate command. Pairs
   // among the movers are not tested; the pair filters apply as in predict, and `skip` (when
-  // set) drops the other bodies whose key it accepts (a gate's ignore list). Answered by the
+  // set) drops the other bodies whose caller's key (add's `user`) it accepts (a gate's ignore
+  // list). Answered by the
   // broad phase's queries; the world is not changed. nullopt: no contact (an undecided pair
   // counts as a contact at the time it is certified clear to). A pair already touching at t0
   // (gap within the tolerance) is a contact only when the motions press it together there
@@ -285,7 +288,7 @@ class World {
   // `motions`), instead of querying the broad phase for each mover.
   std::optional<MoverContact> firstContactIf(const std::vector<std::string>& movers,
                                              const std::vector<Motion>& motions, double t0, double horizon,
-                                             const std::function<bool(uint64_t key)>& skip = {},
+                                             const std::function<bool(uint64_t user)>& skip = {},
                                              const Reachable* among = nullptr);
 
   // How long the body takes to brake to standstill from its motion (s, >= 0; 0: it stops at
@@ -303,7 +306,7 @@ class World {
   // pieces press it together there: a body standing against a wall during its reaction time and
   // then commanded away from it is not blocked, one commanded into it is.
   struct PathQuery {
-    std::function<bool(uint64_t key)> skip;  // as firstContactIf's
+    std::function<bool(uint64_t user)> skip;  // as firstContactIf's: by the others' `user`
     const Reachable* among = nullptr;        // as firstContactIf's; null: found from the paths
     // How far (m) the movers' paths may lie from the motions they stand for (the bound that
     // appendBrakingKeyframes returns): the pairs are tested with a tolerance of twice that plus
