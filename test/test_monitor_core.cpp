@@ -281,8 +281,8 @@ TEST(Predictor, GroupsAndIgnoredPairsLeaveCandidatesOutBeforeTheNarrowPhase) {
   });
   const auto out = p.predict(0.0, 1.0);
   ASSERT_EQ(out.size(), 1u);
-  EXPECT_EQ(out[0].a, 1u);
-  EXPECT_EQ(out[0].b, 2u);
+  EXPECT_EQ(out[0].a_user, 1u);
+  EXPECT_EQ(out[0].b_user, 2u);
   EXPECT_EQ(p.lastCandidateCount(), 1u);
   std::sort(asked.begin(), asked.end());
   EXPECT_EQ(asked, (std::vector<std::pair<size_t, size_t>>{{0, 2}, {1, 2}}));
@@ -684,11 +684,11 @@ TEST(Predictor, UndecidedPairsAreListedApartFromContacts) {
   const auto hits = predictor.predict(0.0, 10.0);
   EXPECT_TRUE(hits.empty());
   ASSERT_EQ(predictor.lastUndecided().size(), 1u);
-  const vadop_ros::RawImpact& u = predictor.lastUndecided()[0];
-  EXPECT_EQ(u.a, 0u);
-  EXPECT_EQ(u.b, 1u);
-  EXPECT_GE(u.time, 0.0);
-  EXPECT_LE(u.time, 10.0);
+  const vadop::Contact& u = predictor.lastUndecided()[0];
+  EXPECT_EQ(u.a_user, 0u);
+  EXPECT_EQ(u.b_user, 1u);
+  EXPECT_GE(u.impact.time, 0.0);
+  EXPECT_LE(u.impact.time, 10.0);
   // With the default budget the same pair is decided: clear.
   vadop_ros::Predictor decided{vadop_ros::PredictorConfig{}};
   ASSERT_TRUE(decided.set(0, "bar", bar, predictor.motion(0), error));

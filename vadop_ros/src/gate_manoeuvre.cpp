@@ -71,13 +71,11 @@ std::vector<vadop::Motion> GateManoeuvre::motionsAt(double s) const {
 
 double GateManoeuvre::firstContactAt(double s) {
   pathsAt(s);
-  Predictor::MoverContact c;
-  if (!world_.firstContactAlong(movers_, paths_, t_now_, endAt(s) - t_now_, skip_, deviation_,
-                                question_.others_may_stop, c)) {
-    return std::numeric_limits<double>::infinity();
-  }
-  seen_.push_back({s, c});
-  return c.time;
+  std::optional<vadop::World::MoverContact> c =
+      world_.firstContactAlong(movers_, paths_, t_now_, endAt(s) - t_now_, skip_, deviation_, question_.others_may_stop);
+  if (!c) return std::numeric_limits<double>::infinity();
+  seen_.push_back({s, std::move(*c)});
+  return seen_.back().contact.impact.time;
 }
 
 vadop::GateScale GateManoeuvre::search() {
@@ -120,7 +118,7 @@ vadop::GateScale GateManoeuvre::search() {
   return vadop::searchGateScale([&](double s) { return ++evaluations == 1 ? at_one : firstContactAt(s); });
 }
 
-const Predictor::MoverContact* GateManoeuvre::limit(const vadop::GateScale& scale) const {
+const vadop::World::MoverContact* GateManoeuvre::limit(const vadop::GateScale& scale) const {
   const Seen* found = nullptr;
   for (const Seen& x : seen_) {
     if (scale.clear ? (!found || x.s < found->s) : x.s == scale.scale) found = &x;

@@ -46,7 +46,7 @@ class GateManoeuvre {
   // them: what other gates see of this body).
   std::vector<vadop::Motion> motionsAt(double s) const;
   // The contact limiting `scale` (as CommandedSweep::limit); null when nothing does.
-  const Predictor::MoverContact* limit(const vadop::GateScale& scale) const;
+  const vadop::World::MoverContact* limit(const vadop::GateScale& scale) const;
   const std::vector<size_t>& movers() const { return movers_; }
   // How long the body brakes from the command scaled by s (0 without the braking model).
   double brakingDuration(double s) const;
@@ -74,7 +74,7 @@ class GateManoeuvre {
   double deviation_ = 0.0;  // of the last pathsAt
   struct Seen {
     double s;
-    Predictor::MoverContact contact;
+    vadop::World::MoverContact contact;  // mover: a position in movers_
   };
   std::vector<Seen> seen_;
 };

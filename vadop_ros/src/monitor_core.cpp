@@ -113,21 +113,21 @@ void MonitorCore::elementNames(size_t element, std::string& body, std::string& l
   link = e.link;
 }
 
-void MonitorCore::writeImpact(const RawImpact& hit, const ros::Time& now, vadop::Impact& msg) const {
-  elementNames(hit.a, msg.body_a, msg.link_a);
-  elementNames(hit.b, msg.body_b, msg.link_b);
+void MonitorCore::writeImpact(const vadop::Contact& hit, const ros::Time& now, vadop::Impact& msg) const {
+  elementNames(hit.a_user, msg.body_a, msg.link_a);
+  elementNames(hit.b_user, msg.body_b, msg.link_b);
   // In [0, horizon] (the one the world predicted over): t0 + horizon - t0 may differ from the
   // horizon by a rounding.
-  msg.time_to_impact = std::min(cycle_horizon_, std::max(0.0, hit.time - t0_));
+  msg.time_to_impact = std::min(cycle_horizon_, std::max(0.0, hit.impact.time - t0_));
   msg.time_of_impact = addSeconds(now, msg.time_to_impact);  // saturates: now may be near 2^32 s
-  msg.point.x = hit.point.x();
-  msg.point.y = hit.point.y();
-  msg.point.z = hit.point.z();
-  msg.normal.x = hit.normal.x();
-  msg.normal.y = hit.normal.y();
-  msg.normal.z = hit.normal.z();
+  msg.point.x = hit.impact.point.x();
+  msg.point.y = hit.impact.point.y();
+  msg.point.z = hit.impact.point.z();
+  msg.normal.x = hit.impact.normal.x();
+  msg.normal.y = hit.impact.normal.y();
+  msg.normal.z = hit.impact.normal.z();
   msg.closing_speed = hit.closing_speed;
-  msg.in_contact = hit.initially_touching;
+  msg.in_contact = hit.impact.initially_touching;
 }
 
 void MonitorCore::syncGateWorld() {
@@ -251,12 +251,10 @@ class CommandedSweep {
   // The time of the first contact at scale s (+inf when clear over the window).
   double firstContactAt(double s) {
     motionsAt(s);
-    Predictor::MoverContact c;
-    if (!world_.firstContact(movers_, motions_, t_now_, window_, skip_, c)) {
-      return std::numeric_limits<double>::infinity();
-    }
-    seen_.push_back({s, c});
-    return c.time;
+    std::optional<vadop::World::MoverContact> c = world_.firstContact(movers_, motions_, t_now_, window_, skip_);
+    if (!c) return std::numeric_limits<double>::infinity();
+    seen_.push_back({s, std::move(*c)});
+    return seen_.back().contact.impact.time;
   }
 
   // The largest clear scale on searchGateScale's grid. One candidate query for all the scales
@@ -279,7 +277,7 @@ class CommandedSweep {
 
   // The contact that limits `scale`: when clear, that of the smallest blocked scale (just
   // above); else the chosen scale's own. Null when nothing limits it.
-  const Predictor::MoverContact* limit(const vadop::GateScale& scale) const {
+  const vadop::World::MoverContact* limit(const vadop::GateScale& scale) const {
     const Seen* found = nullptr;
     for (const Seen& x : seen_) {
       if (scale.clear ? (!found || x.s < found->s) : x.s == scale.scale) found = &x;
@@ -292,7 +290,7 @@ class CommandedSweep {
  private:
   struct Seen {
     double s;
-    Predictor::MoverContact contact;
+    vadop::World::MoverContact contact;  // mover: a position in movers_
   };
   Predictor& world_;
   const double t_now_, window_;
@@ -450,12 +448,12 @@ CommandCheck MonitorCore::checkCommand(size_t body, const CommandQuestion& quest
   return out;
 }
 
-void MonitorCore::noteLimit(const Predictor::MoverContact* limit, double t_now, CommandCheck& out) {
+void MonitorCore::noteLimit(const vadop::World::MoverContact* limit, double t_now, CommandCheck& out) {
   if (!limit) return;
   out.limited = true;
-  out.element = limit->mover;
-  out.other = limit->other;
-  out.time_to_contact = limit->time - t_now;
+  out.element = out.elements[limit->mover];  // the query's movers are out.elements
+  out.other = limit->other_user;
+  out.time_to_contact = limit->impact.time - t_now;
   out.undecided = limit->undecided;
   out.others_stopping = limit->others_stopping;
 }
@@ -735,13 +733,13 @@ void MonitorCore::logPredictionOutcome() {
 }
 
 void MonitorCore::writeImpacts(const ros::Time& now) {
-  const std::vector<RawImpact>& raw = raw_impacts_;
+  const std::vector<vadop::Contact>& raw = raw_impacts_;
   // The impacts the pair rules keep (the world applies the same rules: syncWorld's groups and,
   // when pair_rules_needed_, this predicate; without those rules it reports no ignored pair).
   std::vector<uint32_t>& kept = kept_impacts_;
   kept.clear();
   for (size_t k = 0; k < raw.size(); ++k) {
-    if (pair_rules_needed_ && pairIgnored(raw[k].a, raw[k].b)) {
+    if (pair_rules_needed_ && pairIgnored(raw[k].a_user, raw[k].b_user)) {
       ++stats_.ignored_tested;
       continue;
     }
@@ -761,15 +759,15 @@ void MonitorCore::writeImpacts(const ros::Time& now) {
     return isSourced(element) ? sourced_soonest_[element - setBase()] : soonest_[elements[element].body];
   };
   for (size_t i = 0; i < kept.size(); ++i) {
-    const RawImpact& hit = raw[kept[i]];
-    soonest(hit.a) = std::min(soonest(hit.a), out[i].time_to_impact);
-    soonest(hit.b) = std::min(soonest(hit.b), out[i].time_to_impact);
+    const vadop::Contact& hit = raw[kept[i]];
+    soonest(hit.a_user) = std::min(soonest(hit.a_user), out[i].time_to_impact);
+    soonest(hit.b_user) = std::min(soonest(hit.b_user), out[i].time_to_impact);
   }
 }
 
 void MonitorCore::noteUndecided() {
-  for (const RawImpact& u : predictor_.lastUndecided()) {
-    if (pair_rules_needed_ && pairIgnored(u.a, u.b)) {
+  for (const vadop::Contact& u : predictor_.lastUndecided()) {
+    if (pair_rules_needed_ && pairIgnored(u.a_user, u.b_user)) {
       ++stats_.ignored_tested;
       continue;
     }
@@ -779,8 +777,8 @@ void MonitorCore::noteUndecided() {
       return k.link.empty() ? k.body : k.body + "/" + k.link;
     };
     char after[64];
-    std::snprintf(after, sizeof after, " after %.3f s", std::max(0.0, u.time - t0_));
-    stats_.undecided_first = label(u.a) + " <-> " + label(u.b) + after;
+    std::snprintf(after, sizeof after, " after %.3f s", std::max(0.0, u.impact.time - t0_));
+    stats_.undecided_first = label(u.a_user) + " <-> " + label(u.b_user) + after;
   }
   if (stats_.undecided > 0 && throttleOk(last_undecided_log_)) {
     ROS_WARN_NAMED("vadop_monitor", "%zu pair(s) not decided within the narrow phase's budget, the first %s: "

@@ -9,11 +9,6 @@
 namespace vadop_ros {
 namespace {
 
-// Velocity of the material point x of a body moving with m, at time t.
-Eigen::Vector3d pointVelocity(const vadop::Motion& m, const Eigen::Vector3d& x, double t) {
-  return m.velocityOfPoint(x, t);
-}
-
 vadop::WorldConfig worldConfig(const PredictorConfig& c) {
   vadop::WorldConfig w;
   w.broad_phase = c.queries_only ? vadop::BroadPhaseKind::kBrute : vadop::parseBroadPhaseKind(c.broad_phase);
@@ -36,7 +31,7 @@ bool sameMotion(const vadop::Motion& a, const vadop::Motion& b) {
 }
 
 struct Predictor::Impl {
-  explicit Impl(const PredictorConfig& c) : world(worldConfig(c)), threads(vadop::threadCount(c.threads)) {}
+  explicit Impl(const PredictorConfig& c) : world(worldConfig(c)) {}
   struct Slot {
     bool in = false;
     std::string id;
@@ -45,12 +40,23 @@ struct Predictor::Impl {
     std::shared_ptr<const vadop::LinkChain> chain;  // null: motion alone
   };
   vadop::World world;
-  int threads;  // of the impacts' conversion, as the world's
   std::vector<Slot> slots;
   vadop::World::PairPredicate ignored;  // setIgnored's, as the world's pair filter
   bool ignored_on = true;               // enableIgnored
-  std::vector<RawImpact> undecided;  // of the last predict
   std::optional<vadop::World::Reachable> reach;  // beginReach .. endReach
+
+  // The world's ids of elements `movers`; throws, naming `operation`, for one not in the world.
+  std::vector<std::string> idsOf(const std::vector<size_t>& movers, const char* operation) const {
+    std::vector<std::string> ids;
+    ids.reserve(movers.size());
+    for (size_t i : movers) {
+      if (i >= slots.size() || !slots[i].in) {
+        throw vadop::InvalidArgument(std::string(operation) + ": element " + std::to_string(i) + " is not in the world");
+      }
+      ids.push_back(slots[i].id);
+    }
+    return ids;
+  }
 };
 
 Predictor::Predictor(const PredictorConfig& config) : impl_(std::make_unique<Impl>(config)) {}
@@ -140,50 +146,26 @@ size_t Predictor::size() const { return impl_->world.size(); }
 size_t Predictor::lastCandidateCount() const { return impl_->world.lastCandidateCount(); }
 size_t Predictor::lastSliceCulledCount() const { return impl_->world.lastSliceCulledCount(); }
 size_t Predictor::lastReusedCount() const { return impl_->world.lastReusedCount(); }
-const std::vector<RawImpact>& Predictor::lastUndecided() const { return impl_->undecided; }
+const std::vector<vadop::Contact>& Predictor::lastUndecided() const { return impl_->world.lastUndecided(); }
 
-bool Predictor::firstContact(const std::vector<size_t>& movers, const std::vector<vadop::Motion>& motions, double t0,
-                             double horizon, const std::function<bool(size_t element)>& skip, MoverContact& contact) {
-  std::vector<std::string> ids;
-  ids.reserve(movers.size());
-  for (size_t i : movers) {
-    if (!contains(i)) throw vadop::InvalidArgument("firstContact: element " + std::to_string(i) + " is not in the world");
-    ids.push_back(impl_->slots[i].id);
-  }
-  const std::optional<vadop::World::MoverContact> hit =
-      impl_->world.firstContactIf(ids, motions, t0, horizon, skip, impl_->reach ? &*impl_->reach : nullptr);
-  if (!hit) return false;
-  contact.mover = movers[hit->mover];
-  contact.other = hit->other_user;
-  contact.time = hit->impact.time;
-  contact.undecided = hit->undecided;
-  return true;
+std::optional<vadop::World::MoverContact> Predictor::firstContact(const std::vector<size_t>& movers,
+                                                                  const std::vector<vadop::Motion>& motions, double t0,
+                                                                  double horizon,
+                                                                  const std::function<bool(uint64_t element)>& skip) {
+  const std::vector<std::string> ids = impl_->idsOf(movers, "firstContact");
+  return impl_->world.firstContactIf(ids, motions, t0, horizon, skip, impl_->reach ? &*impl_->reach : nullptr);
 }
 
-bool Predictor::firstContactAlong(const std::vector<size_t>& movers, const std::vector<vadop::TimedPath>& paths,
-                                  double t0, double horizon, const std::function<bool(size_t element)>& skip,
-                                  double deviation, bool others_stop, MoverContact& contact) {
-  std::vector<std::string> ids;
-  ids.reserve(movers.size());
-  for (size_t i : movers) {
-    if (!contains(i)) {
-      throw vadop::InvalidArgument("firstContactAlong: element " + std::to_string(i) + " is not in the world");
-    }
-    ids.push_back(impl_->slots[i].id);
-  }
+std::optional<vadop::World::MoverContact> Predictor::firstContactAlong(
+    const std::vector<size_t>& movers, const std::vector<vadop::TimedPath>& paths, double t0, double horizon,
+    const std::function<bool(uint64_t element)>& skip, double deviation, bool others_stop) {
+  const std::vector<std::string> ids = impl_->idsOf(movers, "firstContactAlong");
   vadop::World::PathQuery query;
   query.skip = skip;
   query.among = impl_->reach ? &*impl_->reach : nullptr;
   query.deviation = deviation;
   query.others_stop = others_stop;
-  const std::optional<vadop::World::MoverContact> hit = impl_->world.firstContactAlong(ids, paths, t0, horizon, query);
-  if (!hit) return false;
-  contact.mover = movers[hit->mover];
-  contact.other = hit->other_user;
-  contact.time = hit->impact.time;
-  contact.undecided = hit->undecided;
-  contact.others_stopping = hit->others_stopping;
-  return true;
+  return impl_->world.firstContactAlong(ids, paths, t0, horizon, query);
 }
 
 void Predictor::setStopDuration(size_t i, double seconds) {
@@ -192,53 +174,19 @@ void Predictor::setStopDuration(size_t i, double seconds) {
 
 void Predictor::beginReach(const std::vector<size_t>& movers, const std::vector<Eigen::Vector3d>& origins,
                            const std::vector<double>& reach, double t0, double horizon) {
-  std::vector<std::string> ids;
-  for (size_t i : movers) {
-    if (!contains(i)) throw vadop::InvalidArgument("beginReach: element " + std::to_string(i) + " is not in the world");
-    ids.push_back(impl_->slots[i].id);
-  }
-  impl_->reach = impl_->world.reachable(ids, origins, reach, t0, horizon);
+  impl_->reach = impl_->world.reachable(impl_->idsOf(movers, "beginReach"), origins, reach, t0, horizon);
 }
 
 void Predictor::endReach() { impl_->reach.reset(); }
 
-std::vector<RawImpact> Predictor::predict(double t0, double horizon) {
+std::vector<vadop::Contact> Predictor::predict(double t0, double horizon) {
   if (before_predict_for_testing) {
     for (size_t i = 0; i < impl_->slots.size(); ++i) {
       if (impl_->slots[i].in) before_predict_for_testing(i, impl_->slots[i].id);
     }
   }
-  impl_->undecided.clear();
-  const std::vector<vadop::Contact> hits = impl_->world.predict(t0, horizon);
   // Every body of the world is an element, added with its index as the caller's key.
-  auto elementsOf = [](const vadop::Contact& w, RawImpact& r) {
-    r.a = w.a_user;
-    r.b = w.b_user;
-    r.time = w.impact.time;
-  };
-  for (const vadop::Contact& w : impl_->world.lastUndecided()) {
-    RawImpact r;
-    elementsOf(w, r);
-    impl_->undecided.push_back(r);
-  }
-  // Thousands of impacts a cycle in a large fleet (two point velocities each): on the threads.
-  std::vector<RawImpact> out(hits.size());
-  constexpr size_t kImpactsPerThread = 128, kImpactChunk = 32;
-  vadop::parallelFor(impl_->threads, hits.size(), kImpactsPerThread, kImpactChunk, [&](size_t k) {
-    const vadop::Contact& w = hits[k];
-    RawImpact& r = out[k];
-    elementsOf(w, r);
-    r.point = w.impact.point;
-    r.normal = w.impact.normal;
-    r.initially_touching = w.impact.initially_touching;
-    const Impl::Slot& sa = impl_->slots[r.a];
-    const Impl::Slot& sb = impl_->slots[r.b];
-    auto velocity = [&](const Impl::Slot& x) {
-      return x.chain ? x.chain->velocityOfPoint(r.point, r.time) : pointVelocity(x.motion, r.point, r.time);
-    };
-    r.closing_speed = (velocity(sa) - velocity(sb)).dot(r.normal);
-  });
-  return out;
+  return impl_->world.predict(t0, horizon);
 }
 
 }  // namespace vadop_ros

@@ -245,7 +245,7 @@ class MonitorCore {
   static constexpr uint32_t kStaticGroup = 2u;
   void syncWorld(const ros::Time& now);
   // One entry of the ImpactArray from the world's impact (thread-safe: reads only).
-  void writeImpact(const RawImpact& hit, const ros::Time& now, vadop::Impact& msg) const;
+  void writeImpact(const vadop::Contact& hit, const ros::Time& now, vadop::Impact& msg) const;
   // World::predict threw `error`: leaves out of the world every element whose motion is out of
   // range over the window or that the message names; false when none could be found.
   bool leaveOutOffenders(const std::string& error, const ros::Time& now);
@@ -301,7 +301,7 @@ class MonitorCore {
   int predict_attempts_ = 0;
   bool predicting_ = false;
   bool worlds_stale_ = false;  // a new padding came while predicting: clear both worlds at the next start
-  std::vector<RawImpact> raw_impacts_;
+  std::vector<vadop::Contact> raw_impacts_;
   // The body can be checked: a moving body with a fresh state and its elements in the gates'
   // world; false, with out's status and why, when not.
   bool commandCheckable(size_t body, const ros::Time& now, double state_timeout, CommandCheck& out) const;
@@ -309,7 +309,7 @@ class MonitorCore {
   // false, with out's status and why, when not.
   bool prepareCheck(size_t body, const ros::Time& now, TransformSource& tf, double state_timeout, CommandCheck& out);
   // The limiting contact (none: null) into out.
-  static void noteLimit(const Predictor::MoverContact* limit, double t_now, CommandCheck& out);
+  static void noteLimit(const vadop::World::MoverContact* limit, double t_now, CommandCheck& out);
   void logPredictionOutcome();  // the recovered / failed lines (throttled)
   // The kept impacts (pair rules) into impacts_, and each body's soonest time to impact.
   void writeImpacts(const ros::Time& now);

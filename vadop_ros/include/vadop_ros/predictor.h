@@ -4,11 +4,14 @@
 // VADOP broad phase and the continuous narrow phase.
 //
 // The wrapper keeps the node in element indices: each element enters the world with its index
-// as the caller's key (vadop::World::add's `user`), which every vadop::Contact carries back.
+// as the caller's key (vadop::World::add's `user`), which every vadop::Contact and
+// vadop::World::MoverContact carries back (a_user, b_user, other_user) and which the pair
+// predicate (setIgnored) and the queries' skip are asked with: no table from the world's keys.
 #pragma once
 
 #include <vadop/motion.h>
 #include <vadop/shapes.h>
+#include <vadop/world.h>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -17,13 +20,9 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
-
-namespace vadop {
-class LinkChain;  // vadop/joint_chain.h
-class TimedPath;  // vadop/timed_path.h
-}
 
 namespace vadop_ros {
 
@@ -40,17 +39,6 @@ struct PredictorConfig {
   // A world that is never predicted, only asked (the gates' copy): a broad phase whose
   // single-body queries scan every body, with nothing to maintain per setMotion.
   bool queries_only = false;
-};
-
-// One contact predicted by the world, between two elements (indices given to sync()).
-struct RawImpact {
-  size_t a = 0;  // element added to the world first
-  size_t b = 0;
-  double time = 0.0;  // in the motions' time base
-  Eigen::Vector3d point = Eigen::Vector3d::Zero();
-  Eigen::Vector3d normal = Eigen::Vector3d::UnitX();  // unit, from a to b
-  bool initially_touching = false;
-  double closing_speed = 0.0;  // (v_a - v_b) . normal at the point, at `time`
 };
 
 // Bit-identical motions (the world is only told about a change).
@@ -96,34 +84,35 @@ class Predictor {
   // per candidate pair.
   void enableIgnored(bool on);
 
-  // Contacts over [t0, t0 + horizon], sorted by time. Throws vadop::InvalidArgument.
-  std::vector<RawImpact> predict(double t0, double horizon);
+  // Contacts over [t0, t0 + horizon], sorted by time (vadop::World::predict): a_user and b_user
+  // are the two elements' indices (a added to the world first), impact.time in the motions'
+  // time base. Throws vadop::InvalidArgument.
+  std::vector<vadop::Contact> predict(double t0, double horizon);
   // The pairs of the last predict that the narrow phase could not decide within its budget
-  // (vadop::World::lastUndecided): `time` is the end of the interval certified clear; point,
-  // normal and closing_speed are not set. Not contacts: predict does not return them.
-  const std::vector<RawImpact>& lastUndecided() const;
+  // (vadop::World::lastUndecided): impact.time is the end of the interval certified clear.
+  // Not contacts: predict does not return them.
+  const std::vector<vadop::Contact>& lastUndecided() const;
 
   // The first contact of elements `movers` (all in the world) if they moved with `motions`
   // instead of their own, against every other element as it moves, over [t0, t0 + horizon]:
   // the world is not changed. The pair filters apply (setIgnored, groups), and `skip` (an
   // element index; empty: none) leaves out more. A pair the narrow phase cannot decide counts
-  // as a contact at the time it is certified clear to (undecided). Throws
-  // vadop::InvalidArgument for a mover not in the world, a size mismatch or a bad motion.
-  struct MoverContact {
-    size_t mover = 0;  // element index (of movers)
-    size_t other = 0;  // element index
-    double time = 0.0;
-    bool undecided = false;
-    bool others_stopping = false;  // found in the future where the other brakes (firstContactAlong)
-  };
-  bool firstContact(const std::vector<size_t>& movers, const std::vector<vadop::Motion>& motions, double t0,
-                    double horizon, const std::function<bool(size_t element)>& skip, MoverContact& contact);
+  // as a contact at the time it is certified clear to (undecided). The contact's `mover` is a
+  // position in `movers`, its other_user the element touched. Throws vadop::InvalidArgument
+  // for a mover not in the world, a size mismatch or a bad motion.
+  std::optional<vadop::World::MoverContact> firstContact(const std::vector<size_t>& movers,
+                                                         const std::vector<vadop::Motion>& motions, double t0,
+                                                         double horizon,
+                                                         const std::function<bool(uint64_t element)>& skip);
   // The same for movers on paths (vadop::World::firstContactAlong): `deviation` (m) how far the
   // paths may lie from the motions they stand for; with `others_stop`, also the future in which
-  // every other element brakes to standstill (setStopDuration). Uses beginReach's candidates.
-  bool firstContactAlong(const std::vector<size_t>& movers, const std::vector<vadop::TimedPath>& paths, double t0,
-                         double horizon, const std::function<bool(size_t element)>& skip, double deviation,
-                         bool others_stop, MoverContact& contact);
+  // every other element brakes to standstill (setStopDuration; the contact's others_stopping
+  // says which). Uses beginReach's candidates.
+  std::optional<vadop::World::MoverContact> firstContactAlong(const std::vector<size_t>& movers,
+                                                              const std::vector<vadop::TimedPath>& paths, double t0,
+                                                              double horizon,
+                                                              const std::function<bool(uint64_t element)>& skip,
+                                                              double deviation, bool others_stop);
   // How long element i takes to brake to standstill from its motion (vadop::World::
   // setStopDuration; +inf: never). Ignored for an element not in the world.
   void setStopDuration(size_t i, double seconds);
