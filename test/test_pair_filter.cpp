@@ -87,3 +87,19 @@ TEST(PairFilter, PrecomputedMatchesAgreeWithIgnored) {
   EXPECT_FALSE(vadop_ros::PairFilter::ignored(ms[7], ms[9]));
 }
 
+// The one matching of an element against a glob list (~ignore_pairs' sides, a gate's ignore):
+// bit k for globs[k], over more than one word.
+TEST(Glob, MatchingGlobsSetsOneBitPerMatchingGlob) {
+  std::vector<std::string> globs = {"robot_1/*", "shelf", "*/mast"};
+  for (int k = 0; k < 64; ++k) globs.push_back("x" + std::to_string(k));
+  globs.push_back("robot_*");  // k = 67: the second word
+  const vadop_ros::GlobBits bits = vadop_ros::matchingGlobs(globs, {"robot_1", "mast"});
+  ASSERT_EQ(bits.size(), 2u);
+  EXPECT_EQ(bits[0], (uint64_t{1} << 0) | (uint64_t{1} << 2));
+  EXPECT_EQ(bits[1], uint64_t{1} << 3);
+  EXPECT_TRUE(vadop_ros::anyMatched(bits));
+  EXPECT_FALSE(vadop_ros::anyMatched(vadop_ros::matchingGlobs(globs, {"shelves", ""})));
+  EXPECT_EQ(vadop_ros::matchingGlobs(globs, {"x60", ""})[0], uint64_t{1} << 63);  // globs[63]
+  EXPECT_TRUE(vadop_ros::matchingGlobs({}, {"a", ""}).empty());
+  EXPECT_FALSE(vadop_ros::anyMatched(vadop_ros::matchingGlobs({}, {"a", ""})));
+}

@@ -30,6 +30,26 @@ bool patternMatches(const std::string& pattern, const ElementKey& e) {
   return globMatch(pattern, e.body + "/" + e.link);
 }
 
+GlobBits matchingGlobs(const std::vector<std::string>& globs, const ElementKey& e) {
+  GlobBits bits((globs.size() + 63) / 64, 0);
+  for (size_t k = 0; k < globs.size(); ++k) {
+    if (patternMatches(globs[k], e)) bits[k / 64] |= uint64_t{1} << (k % 64);
+  }
+  return bits;
+}
+
+bool anyMatched(const GlobBits& bits) {
+  return std::any_of(bits.begin(), bits.end(), [](uint64_t w) { return w != 0; });
+}
+
+PairFilter::PairFilter(std::vector<std::pair<std::string, std::string>> ignore_pairs)
+    : patterns_(std::move(ignore_pairs)) {
+  for (const auto& pq : patterns_) {
+    firsts_.push_back(pq.first);
+    seconds_.push_back(pq.second);
+  }
+}
+
 bool PairFilter::ignored(const ElementKey& a, const ElementKey& b) const {
   for (const auto& pq : patterns_) {
     if (patternMatches(pq.first, a) && patternMatches(pq.second, b)) return true;
@@ -39,16 +59,7 @@ bool PairFilter::ignored(const ElementKey& a, const ElementKey& b) const {
 }
 
 PairFilter::Matches PairFilter::matches(const ElementKey& e) const {
-  Matches m;
-  const size_t words = (patterns_.size() + 63) / 64;
-  m.first.assign(words, 0);
-  m.second.assign(words, 0);
-  for (size_t k = 0; k < patterns_.size(); ++k) {
-    const uint64_t bit = uint64_t{1} << (k % 64);
-    if (patternMatches(patterns_[k].first, e)) m.first[k / 64] |= bit;
-    if (patternMatches(patterns_[k].second, e)) m.second[k / 64] |= bit;
-  }
-  return m;
+  return Matches{matchingGlobs(firsts_, e), matchingGlobs(seconds_, e)};
 }
 
 bool PairFilter::ignored(const Matches& a, const Matches& b) {

@@ -51,10 +51,7 @@ VelocityGate::VelocityGate(size_t body, const BodyRegistry& registry)
   linear_decel_ = bp.max_linear_decel;
   angular_decel_ = bp.max_angular_decel;
   for (const Element& e : registry.elements()) {
-    const ElementKey key{bodies[e.body].name, e.link};
-    bool ignored = false;
-    for (const std::string& pattern : params_.ignore) ignored = ignored || patternMatches(pattern, key);
-    ignored_.push_back(ignored ? 1 : 0);
+    ignored_.push_back(anyMatched(matchingGlobs(params_.ignore, {bodies[e.body].name, e.link})) ? 1 : 0);
   }
   state_.body = bodies[body].name;
   state_.reason = vadop::GateState::REASON_STALE;
@@ -114,12 +111,8 @@ geometry_msgs::Twist VelocityGate::onCommand(MonitorCore& core, const geometry_m
   check_ = core.checkCommand(body_, q, now, tf,
                              [this, &core](size_t e) {
                                if (e < ignored_.size()) return ignored_[e] != 0;
-                               if (params_.ignore.empty()) return false;
-                               const ElementKey key = core.elementKey(e);
-                               for (const std::string& pattern : params_.ignore) {
-                                 if (patternMatches(pattern, key)) return true;
-                               }
-                               return false;
+                               return !params_.ignore.empty() &&
+                                      anyMatched(matchingGlobs(params_.ignore, core.elementKey(e)));
                              });
   if (check_.status != CommandCheck::Status::kChecked) {
     ++counts_.unchecked;

@@ -233,8 +233,10 @@ class MonitorCore {
 
  private:
   // The one definition of the pairs never reported (static-static, links of one body rigid
-  // with each other, self-collision rules, adjacent links, ~ignore_pairs). The world calls it
-  // before the narrow phase (Predictor::setIgnored); static elements also get a group of their
+  // with each other, self-collision rules, adjacent links, ~ignore_pairs). Both worlds call it
+  // before the narrow phase, with the elements' indices (Predictor::setIgnored): the cycle's
+  // predict and the gates' queries (a gate's own ignore list is its query's skip, matched by
+  // the same matchingGlobs as ~ignore_pairs); static elements also get a group of their
   // own that does not collide with itself (kStaticGroup), which leaves static-static pairs out
   // before even this call. Asked only while it can ignore a pair the groups do not
   // (pair_rules_needed_: ~ignore_pairs set, or some body with two elements in the world).

@@ -1,5 +1,8 @@
-// Which pairs of monitored elements are never reported: ~ignore_pairs (glob patterns on
-// "body/link"), self-collisions of a body (~self_collision) and static-static pairs.
+// How the node matches its elements against glob lists: the patterns of ~ignore_pairs
+// (PairFilter, one list per side of the pairs) and a gate's ignore list (GateParams::ignore)
+// both go through matchingGlobs. The rule of which pairs are tested (these globs, the
+// self-collisions of a body, static-static pairs) is MonitorCore::pairIgnored's; this file
+// only matches names.
 //
 // Glob syntax: '*' matches any sequence of characters, '/' included; every other character
 // matches itself (case-sensitive). A pattern is matched against "body/link", the configured
@@ -29,10 +32,17 @@ struct ElementKey {
 // Whether `pattern` matches the element (see above).
 bool patternMatches(const std::string& pattern, const ElementKey& e);
 
+// Which of `globs` match the element (patternMatches): bit k % 64 of word k / 64 set when
+// globs[k] does (ceil(globs.size() / 64) words). Matched once per element, so that a rule
+// asked for many pairs or queries does no string work (PairFilter::matches, a gate's ignore).
+using GlobBits = std::vector<uint64_t>;
+GlobBits matchingGlobs(const std::vector<std::string>& globs, const ElementKey& e);
+// Some glob matched.
+bool anyMatched(const GlobBits& bits);
+
 class PairFilter {
  public:
-  explicit PairFilter(std::vector<std::pair<std::string, std::string>> ignore_pairs = {})
-      : patterns_(std::move(ignore_pairs)) {}
+  explicit PairFilter(std::vector<std::pair<std::string, std::string>> ignore_pairs = {});
 
   // True when ~ignore_pairs ignores the pair (in either order).
   bool ignored(const ElementKey& a, const ElementKey& b) const;
@@ -42,13 +52,14 @@ class PairFilter {
   // `first` (`second`) is set when the first (second) pattern of pair k matches the element.
   // ignored(matches(a), matches(b)) == ignored(a, b).
   struct Matches {
-    std::vector<uint64_t> first, second;  // ceil(pairs / 64) words each
+    GlobBits first, second;  // matchingGlobs of the pairs' first (second) patterns
   };
   Matches matches(const ElementKey& e) const;
   static bool ignored(const Matches& a, const Matches& b);
 
  private:
   std::vector<std::pair<std::string, std::string>> patterns_;
+  std::vector<std::string> firsts_, seconds_;  // the pairs' sides, in order
 };
 
 }  // namespace vadop_ros

@@ -76,12 +76,13 @@ class Predictor {
   const vadop::Shape& shape(size_t i) const;    // as given to the world (padded)
 
   // Pairs of elements (a added to the world first) never given to the narrow phase: called on
-  // each candidate pair that passes the groups and masks, before the narrow phase
-  // (vadop::World::setPairFilter). Must depend only on its arguments. Empty: none.
+  // each candidate pair that passes the groups and masks, before the narrow phase, in predict
+  // and in the gate queries (vadop::World::setPairFilter, which asks with the elements'
+  // indices). Must depend only on its arguments. Empty: none.
   void setIgnored(std::function<bool(size_t a, size_t b)> ignored);
   // Whether that predicate is asked at all (default true). Off where it could only answer "test"
-  // (no pair filter, no two elements of one body in the world): it costs two lookups and a call
-  // per candidate pair.
+  // (no pair filter, no two elements of one body in the world): it costs two calls per
+  // candidate pair.
   void enableIgnored(bool on);
 
   // Contacts over [t0, t0 + horizon], sorted by time (vadop::World::predict): a_user and b_user
