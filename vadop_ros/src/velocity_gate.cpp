@@ -30,10 +30,7 @@ geometry_msgs::Twist scaled(const geometry_msgs::Twist& t, double s) {
 // the gate's ignore globs match it ("<sensor>" or "<sensor>/*"); `why` names it.
 bool staleSensor(const MonitorCore& core, const GateParams& gate, const ros::Time& now, std::string& why) {
   const auto ignored = [&gate](const std::string& name) {
-    for (const std::string& pattern : gate.ignore) {
-      if (patternMatches(pattern, ElementKey{name, ""})) return true;
-    }
-    return false;
+    return anyMatched(matchingGlobs(gate.ignore, ElementKey{name, ""}));
   };
   for (const auto& source : core.bodiesSources()) {
     if (source->staleInput(now, ignored, why)) return true;
