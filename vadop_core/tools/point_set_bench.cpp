@@ -153,58 +153,46 @@ vadop::TimedPath manoeuvre(const vadop::Motion& m, double t, double radius, doub
   return vadop::TimedPath(keys, vadop::AfterPath::kHold);
 }
 
-}  // namespace
 
-int main(int argc, char** argv) {
-  const int rounds = argc > 1 ? std::max(1, std::atoi(argv[1])) : 5;
-  const int cycles = argc > 2 ? std::max(1, std::atoi(argv[2])) : 20;
-  Fleet fleet(1000);
-  const Vector3d robot0(fleet.bodies[0].x, fleet.bodies[0].y, 0.0), robot1(fleet.bodies[1].x, fleet.bodies[1].y, 0.0);
-  const std::vector<Vector3d> scan_points = scan(robot0);
-  const std::vector<Vector3d> raw = cloud(robot1, 30000);
-  const std::vector<Vector3d> filtered = voxelFilter(raw, 0.05);
-  std::printf("scan %zu points, cloud %zu points, voxel-filtered (5 cm) %zu points\n", scan_points.size(), raw.size(),
-              filtered.size());
-
-  // build: a sensor body replaced (remove + makePointSet + add), per size.
-  {
-    std::vector<Series> series;
-    const std::vector<std::pair<std::string, const std::vector<Vector3d>*>> sets = {
-        {"scan 1,081", &scan_points}, {"cloud 5 cm voxels", &filtered}, {"cloud 30,000 raw", &raw}};
-    std::vector<Vector3d> five(raw.begin(), raw.begin() + 5000);
-    series.resize(sets.size() + 1);
-    for (size_t k = 0; k < sets.size(); ++k) series[k].name = "build " + sets[k].first;
-    series.back().name = "build cloud 5,000 (first of the raw)";
-    vadop::World world;
-    world.add("sensor", vadop::makeSphere(1.0), vadop::Motion());
-    for (int r = 0; r < rounds; ++r) {
-      for (size_t k = 0; k <= sets.size(); ++k) {
-        const std::vector<Vector3d>& pts = k < sets.size() ? *sets[k].second : five;
-        const double t0 = cpuSeconds();
-        for (int c = 0; c < cycles; ++c) {
-          world.remove("sensor");
-          const SensorBody b = sensorBody(pts);
-          world.add("sensor", b.shape, b.motion);
-        }
-        series[k].ms.push_back(1e3 * (cpuSeconds() - t0) / cycles);
+// A sensor body replaced (remove + makePointSet + add) for each size of point set.
+void timeRebuilds(const std::vector<Vector3d>& scan_points, const std::vector<Vector3d>& filtered,
+                  const std::vector<Vector3d>& raw, int rounds, int cycles) {
+  std::vector<Series> series;
+  const std::vector<std::pair<std::string, const std::vector<Vector3d>*>> sets = {
+      {"scan 1,081", &scan_points}, {"cloud 5 cm voxels", &filtered}, {"cloud 30,000 raw", &raw}};
+  std::vector<Vector3d> five(raw.begin(), raw.begin() + 5000);
+  series.resize(sets.size() + 1);
+  for (size_t k = 0; k < sets.size(); ++k) series[k].name = "build " + sets[k].first;
+  series.back().name = "build cloud 5,000 (first of the raw)";
+  vadop::World world;
+  world.add("sensor", vadop::makeSphere(1.0), vadop::Motion());
+  for (int r = 0; r < rounds; ++r) {
+    for (size_t k = 0; k <= sets.size(); ++k) {
+      const std::vector<Vector3d>& pts = k < sets.size() ? *sets[k].second : five;
+      const double t0 = cpuSeconds();
+      for (int c = 0; c < cycles; ++c) {
+        world.remove("sensor");
+        const SensorBody b = sensorBody(pts);
+        world.add("sensor", b.shape, b.motion);
       }
+      series[k].ms.push_back(1e3 * (cpuSeconds() - t0) / cycles);
     }
-    std::printf("sensor body replaced (makePointSet + World::add + remove), %d rounds x %d:\n", rounds, cycles);
-    for (const Series& s : series) s.print();
   }
+  std::printf("sensor body replaced (makePointSet + World::add + remove), %d rounds x %d:\n", rounds, cycles);
+  for (const Series& s : series) s.print();
+}
 
-  // predict and gate: four worlds (none, scan, cloud, both; raw cloud) stepped together.
-  struct Config {
-    std::string name;
-    bool scan, cloud, raw;
-  };
-  const std::vector<Config> configs = {{"fleet only", false, false, false},
-                                       {"fleet + scan", true, false, false},
-                                       {"fleet + cloud (voxels)", false, true, false},
-                                       {"fleet + scan + cloud (voxels)", true, true, false},
-                                       {"fleet + cloud (30,000 raw)", false, false, true}};
+// The worlds stepped together: the fleet alone, with a scan, a voxelised cloud, both, a raw cloud.
+struct Config {
+  std::string name;
+  bool scan, cloud, raw;
+};
+
+std::vector<std::unique_ptr<vadop::World>> makeWorlds(const std::vector<Config>& configs, const Fleet& fleet,
+                                                      const vadop::Shape& robot, const std::vector<Vector3d>& scan_points,
+                                                      const std::vector<Vector3d>& filtered,
+                                                      const std::vector<Vector3d>& raw) {
   std::vector<std::unique_ptr<vadop::World>> worlds;
-  const vadop::Shape robot = vadop::makeBox(Vector3d(0.6, 0.4, 0.5));
   for (const Config& c : configs) {
     worlds.push_back(std::make_unique<vadop::World>());
     vadop::World& w = *worlds.back();
@@ -218,6 +206,33 @@ int main(int argc, char** argv) {
       w.add("cloud", b.shape, b.motion);
     }
   }
+  return worlds;
+}
+
+// The gate of robot 0 (in the scan): 20 candidate commands, as a scale search's worst case; the
+// commands that meet a contact are counted in `hits`. Returns the CPU seconds per command.
+double timeGate(vadop::World& w, const Fleet& fleet, const vadop::Shape& robot, double t, size_t& hits) {
+  const double t0 = cpuSeconds();
+  for (int s = 1; s <= 20; ++s) {
+    const vadop::Motion m = fleet.motion(0, t, s / 20.0);
+    double deviation = 0.0;
+    const vadop::TimedPath path = manoeuvre(m, t, robot.bounding_radius, &deviation);
+    vadop::World::PathQuery q;
+    q.deviation = deviation;
+    if (w.firstContactAlong({"r0"}, {path}, t, 0.4 + vadop::originSpeed(m) + 0.1, q)) ++hits;
+  }
+  return (cpuSeconds() - t0) / 20.0;
+}
+
+void timePredictAndGates(Fleet& fleet, const std::vector<Vector3d>& scan_points, const std::vector<Vector3d>& filtered,
+                         const std::vector<Vector3d>& raw, int rounds, int cycles) {
+  const std::vector<Config> configs = {{"fleet only", false, false, false},
+                                       {"fleet + scan", true, false, false},
+                                       {"fleet + cloud (voxels)", false, true, false},
+                                       {"fleet + scan + cloud (voxels)", true, true, false},
+                                       {"fleet + cloud (30,000 raw)", false, false, true}};
+  const vadop::Shape robot = vadop::makeBox(Vector3d(0.6, 0.4, 0.5));
+  std::vector<std::unique_ptr<vadop::World>> worlds = makeWorlds(configs, fleet, robot, scan_points, filtered, raw);
   std::vector<Series> predict(configs.size()), gate(configs.size());
   std::vector<size_t> contacts(configs.size(), 0), gate_hits(configs.size(), 0);
   for (size_t k = 0; k < configs.size(); ++k) {
@@ -234,20 +249,10 @@ int main(int argc, char** argv) {
       for (size_t k = 0; k < configs.size(); ++k) {
         vadop::World& w = *worlds[k];
         for (size_t i = 0; i < fleet.bodies.size(); ++i) w.setMotion("r" + std::to_string(i), fleet.motion(i, t));
-        double t0 = cpuSeconds();
+        const double t0 = cpuSeconds();
         contacts[k] += w.predict(t, 2.0).size();
         predict_s[k] += cpuSeconds() - t0;
-        // The gate of robot 0 (in the scan): 20 candidate commands, as a scale search's worst case.
-        t0 = cpuSeconds();
-        for (int s = 1; s <= 20; ++s) {
-          const vadop::Motion m = fleet.motion(0, t, s / 20.0);
-          double deviation = 0.0;
-          const vadop::TimedPath path = manoeuvre(m, t, robot.bounding_radius, &deviation);
-          vadop::World::PathQuery q;
-          q.deviation = deviation;
-          if (w.firstContactAlong({"r0"}, {path}, t, 0.4 + vadop::originSpeed(m) + 0.1, q)) ++gate_hits[k];
-        }
-        gate_s[k] += (cpuSeconds() - t0) / 20.0;
+        gate_s[k] += timeGate(w, fleet, robot, t, gate_hits[k]);
       }
     }
     for (size_t k = 0; k < configs.size(); ++k) {
@@ -265,5 +270,21 @@ int main(int argc, char** argv) {
     gate[k].print();
     std::printf("    commands meeting a contact %zu\n", gate_hits[k]);
   }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int rounds = argc > 1 ? std::max(1, std::atoi(argv[1])) : 5;
+  const int cycles = argc > 2 ? std::max(1, std::atoi(argv[2])) : 20;
+  Fleet fleet(1000);
+  const Vector3d robot0(fleet.bodies[0].x, fleet.bodies[0].y, 0.0), robot1(fleet.bodies[1].x, fleet.bodies[1].y, 0.0);
+  const std::vector<Vector3d> scan_points = scan(robot0);
+  const std::vector<Vector3d> raw = cloud(robot1, 30000);
+  const std::vector<Vector3d> filtered = voxelFilter(raw, 0.05);
+  std::printf("scan %zu points, cloud %zu points, voxel-filtered (5 cm) %zu points\n", scan_points.size(), raw.size(),
+              filtered.size());
+  timeRebuilds(scan_points, filtered, raw, rounds, cycles);
+  timePredictAndGates(fleet, scan_points, filtered, raw, rounds, cycles);
   return 0;
 }
