@@ -1,6 +1,7 @@
 #include "world_engine.h"
 
 #include "name_index.h"
+#include "pressed_together.h"
 #include "pair_certificates.h"
 
 #include "vadop/detail/parallel_for.h"
@@ -952,12 +953,12 @@ TimeOfImpact WorldEngine::moverImpact(const Record& rm, const Motion& motion, Bo
                : oc->joints().empty()
                    ? timeOfImpact(*rm.prepared, mc->base(), *ro.prepared, oc->base(), t0, t1, config_.toi)
                    : timeOfImpact(*rm.prepared, *mc, *ro.prepared, *oc, t0, t1, config_.toi);
+  // Separating or sliding: not blocked (no contact).
   if (hit.hit && hit.initially_touching) {
-    const Eigen::Vector3d other_velocity =
-        oc ? oc->velocityOfPoint(hit.point, t0) : broad_phase_->motion(other).velocityOfPoint(hit.point, t0);
-    const Eigen::Vector3d closing = motion.velocityOfPoint(hit.point, t0) - other_velocity;
-    // Separating or sliding: not blocked (no contact).
-    if (closing.dot(hit.normal) <= 0.0) return TimeOfImpact{};
+    const bool pressed = oc ? pressedTogether(hit, *rm.prepared, motion, *ro.prepared, *oc, t0, t1, config_.toi.tolerance)
+                            : pressedTogether(hit, *rm.prepared, motion, *ro.prepared, broad_phase_->motion(other), t0,
+                                              t1, config_.toi.tolerance);
+    if (!pressed) return TimeOfImpact{};
   }
   return hit;
 }

@@ -3,6 +3,8 @@
 // other bodies in their own future and, when asked, in the one where each brakes.
 #include "world_engine.h"
 
+#include "pressed_together.h"
+
 #include "vadop/error.h"
 
 #include <algorithm>
@@ -17,24 +19,10 @@ namespace {
 // m: how far the others' braking paths (PathQuery::others_stop) may lie from the exact braking.
 constexpr double kOthersDeviation = 5e-4;
 
-// Whether a pair found touching at s but not pressed together there (the closing speed at the
-// witness point <= 0) still digs in over [s, e]: the witness of a face contact is one point of
-// the face, and another corner may press (a box turning in place against a wall). The gap at
-// four times of the stretch, against the gap at s less the tolerance. A guard of the exemption
-// only (sampled): a pair that presses at the witness is a contact whatever this says.
-bool digsIn(const PreparedShape& a, const Motion& ma, const PreparedShape& b, const Motion& mb, double s, double e,
-            double start_gap, double tolerance) {
-  for (int k = 1; k <= 4; ++k) {
-    const double t = s + (e - s) * k / 4.0;
-    if (distance(a, ma.poseAt(t), b, mb.poseAt(t)).distance < std::min(start_gap, 0.0) - tolerance) return true;
-  }
-  return false;
-}
-
 // The first contact of a along pa and b along pb over [t0, t1], stretch by stretch (each a pair of
 // constant twists, timeOfImpact's contract on each): a pair touching at the start of a stretch is
-// a contact only when the two pieces press it together at the touching point; else that stretch
-// is passed over (moving apart, sliding) and the search goes on with the next.
+// a contact only where the two pieces press it together (pressedTogether); else that stretch is
+// passed over (moving apart, sliding) and the search goes on with the next.
 // `radius`: the sum of the two shapes' bounding radii: a stretch whose bounding balls stay
 // apart by more than the tolerance is clear without the narrow phase.
 TimeOfImpact pressingImpact(const PreparedShape& a, const TimedPath& pa, const PreparedShape& b, const TimedPath& pb,
@@ -60,11 +48,8 @@ TimeOfImpact pressingImpact(const PreparedShape& a, const TimedPath& pa, const P
       apart = -std::numeric_limits<double>::infinity();
     }
     iterations += out.iterations;
-    bool pressing = true;
-    if (out.hit && out.initially_touching) {
-      const Eigen::Vector3d closing = ma.velocityOfPoint(out.point, s) - mb.velocityOfPoint(out.point, s);
-      pressing = closing.dot(out.normal) > 0.0 || digsIn(a, ma, b, mb, s, e, out.distance, options.tolerance);
-    }
+    const bool pressing =
+        !(out.hit && out.initially_touching) || pressedTogether(out, a, ma, b, mb, s, e, options.tolerance);
     if (pressing && (out.hit || out.undecided)) {
       out.iterations = iterations;
       return out;
@@ -180,10 +165,9 @@ std::optional<WorldEngine::MoverContact> WorldEngine::pathImpact(const Record& r
       return out;
     }
     TimeOfImpact hit = timeOfImpact(*rm.prepared, LinkChain(path), *ro.prepared, oc, t0, t1, options);
-    if (hit.hit && hit.initially_touching) {
-      const Eigen::Vector3d closing =
-          path.motion(path.pieceAt(t0)).velocityOfPoint(hit.point, t0) - oc.velocityOfPoint(hit.point, t0);
-      if (closing.dot(hit.normal) <= 0.0) return out;  // separating or sliding: not blocked
+    if (hit.hit && hit.initially_touching &&
+        !pressedTogether(hit, *rm.prepared, path, *ro.prepared, oc, t0, t1, options.tolerance)) {
+      return out;
     }
     consider(hit, false);
     return out;

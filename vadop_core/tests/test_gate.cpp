@@ -264,6 +264,21 @@ TEST(WorldFirstContactIf, TouchingBlocksOnlyWhenPressedTogether) {
   EXPECT_NEAR(into->impact.time, 0.0, 1e-9);
   // Standing still against it: not pressed, not blocked.
   EXPECT_FALSE(w.firstContactIf({"robot"}, {moving({0, 0, 0})}, 0.0, 1.0));
+  // A box flush against the wall turning in place digs a corner in, whichever way it turns and
+  // wherever the witness of the face contact lies (its closing speed may be <= 0 there); a
+  // cylinder turning in place does not.
+  w.remove("robot");
+  w.add("robot", makeBox({1.0, 1.0, 1.0}), makeMotion({1.0, 0, 0}, Eigen::Quaterniond::Identity(), {0, 0, 0}, {0, 0, 0}, 0.0));
+  for (double turn : {1.0, -1.0}) {
+    const Motion turning = makeMotion({1.0, 0, 0}, Eigen::Quaterniond::Identity(), {0, 0, 0}, {0, 0, turn}, 0.0);
+    const auto dig = w.firstContactIf({"robot"}, {turning}, 0.0, 1.0);
+    ASSERT_TRUE(dig) << "turning at " << turn << " rad/s";
+    EXPECT_NEAR(dig->impact.time, 0.0, 1e-9);
+  }
+  w.remove("robot");
+  w.add("robot", makeCylinder(0.5, 1.0), makeMotion({1.0, 0, 0}, Eigen::Quaterniond::Identity(), {0, 0, 0}, {0, 0, 0}, 0.0));
+  EXPECT_FALSE(w.firstContactIf(
+      {"robot"}, {makeMotion({1.0, 0, 0}, Eigen::Quaterniond::Identity(), {0, 0, 0}, {0, 0, 1.0}, 0.0)}, 0.0, 1.0));
 }
 
 }  // namespace

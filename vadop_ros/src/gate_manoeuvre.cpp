@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <utility>
 
 namespace vadop_ros {
@@ -73,9 +72,7 @@ double GateManoeuvre::firstContactAt(double s) {
   pathsAt(s);
   std::optional<vadop::World::MoverContact> c =
       world_.firstContactAlong(movers_, paths_, t_now_, endAt(s) - t_now_, skip_, deviation_, question_.others_may_stop);
-  if (!c) return std::numeric_limits<double>::infinity();
-  seen_.push_back({s, std::move(*c)});
-  return seen_.back().contact.impact.time;
+  return seen_.note(s, std::move(c));
 }
 
 vadop::GateScale GateManoeuvre::search() {
@@ -95,11 +92,7 @@ vadop::GateScale GateManoeuvre::search() {
     // The queries count contacts within a tolerance of 2 (kDeviation + the others' 0.5 mm).
     reach.push_back(fastest[k].travel(t_now_, t_react) + speed * (hold + brakingDuration(1.0)) + 4.0 * kDeviation);
   }
-  struct EndReach {
-    Predictor& p;
-    ~EndReach() { p.endReach(); }
-  } end_reach{world_};
-  world_.beginReach(movers_, origins, reach, t_now_, t_end - t_now_);
+  const Predictor::ReachScope reach_scope(world_, movers_, origins, reach, t_now_, t_end - t_now_);
   // A contact within the reaction time comes before any command takes effect: every scale meets
   // it, and s = 0 last (its query has the smallest tolerance, no braking keyframes), so the
   // scan would end at s = 0: answered at once (blocked commands try every scale otherwise).
@@ -116,14 +109,6 @@ vadop::GateScale GateManoeuvre::search() {
   }
   size_t evaluations = 0;
   return vadop::searchGateScale([&](double s) { return ++evaluations == 1 ? at_one : firstContactAt(s); });
-}
-
-const vadop::World::MoverContact* GateManoeuvre::limit(const vadop::GateScale& scale) const {
-  const Seen* found = nullptr;
-  for (const Seen& x : seen_) {
-    if (scale.clear ? (!found || x.s < found->s) : x.s == scale.scale) found = &x;
-  }
-  return found ? &found->contact : nullptr;
 }
 
 }  // namespace vadop_ros

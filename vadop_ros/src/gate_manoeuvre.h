@@ -10,6 +10,7 @@
 
 #include "vadop_ros/monitor_core.h"
 #include "vadop_ros/predictor.h"
+#include "scale_contacts.h"
 
 #include <vadop/timed_path.h>
 #include <vadop/world.h>
@@ -45,8 +46,8 @@ class GateManoeuvre {
   // The constant-twist motions of the command scaled by s from t_now (the gates' world adopts
   // them: what other gates see of this body).
   std::vector<vadop::Motion> motionsAt(double s) const;
-  // The contact limiting `scale` (as CommandedSweep::limit); null when nothing does.
-  const vadop::World::MoverContact* limit(const vadop::GateScale& scale) const;
+  // The contact limiting `scale` (ScaleContacts::limit); null when nothing does.
+  const vadop::World::MoverContact* limit(const vadop::GateScale& scale) const { return seen_.limit(scale); }
   const std::vector<size_t>& movers() const { return movers_; }
   // How long the body brakes from the command scaled by s (0 without the braking model).
   double brakingDuration(double s) const;
@@ -72,11 +73,7 @@ class GateManoeuvre {
   std::vector<Part> parts_;
   std::vector<vadop::TimedPath> paths_;
   double deviation_ = 0.0;  // of the last pathsAt
-  struct Seen {
-    double s;
-    vadop::World::MoverContact contact;  // mover: a position in movers_
-  };
-  std::vector<Seen> seen_;
+  ScaleContacts seen_;
 };
 
 }  // namespace vadop_ros

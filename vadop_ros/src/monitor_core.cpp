@@ -1,6 +1,7 @@
 #include "vadop_ros/monitor_core.h"
 
 #include "gate_manoeuvre.h"
+#include "scale_contacts.h"
 
 #include <vadop/error.h>
 #include <vadop/world.h>
@@ -251,10 +252,7 @@ class CommandedSweep {
   // The time of the first contact at scale s (+inf when clear over the window).
   double firstContactAt(double s) {
     motionsAt(s);
-    std::optional<vadop::World::MoverContact> c = world_.firstContact(movers_, motions_, t_now_, window_, skip_);
-    if (!c) return std::numeric_limits<double>::infinity();
-    seen_.push_back({s, std::move(*c)});
-    return seen_.back().contact.impact.time;
+    return seen_.note(s, world_.firstContact(movers_, motions_, t_now_, window_, skip_));
   }
 
   // The largest clear scale on searchGateScale's grid. One candidate query for all the scales
@@ -267,38 +265,23 @@ class CommandedSweep {
       origins.push_back(m.pose.translation());
       reach.push_back(window_ * std::max(m.own_v.norm(), (m.own_v + m.cmd_v).norm()));
     }
-    struct EndReach {
-      Predictor& p;
-      ~EndReach() { p.endReach(); }
-    } end_reach{world_};
-    world_.beginReach(movers_, origins, reach, t_now_, window_);
+    const Predictor::ReachScope reach_scope(world_, movers_, origins, reach, t_now_, window_);
     return vadop::searchGateScale([this](double s) { return firstContactAt(s); });
   }
 
-  // The contact that limits `scale`: when clear, that of the smallest blocked scale (just
-  // above); else the chosen scale's own. Null when nothing limits it.
-  const vadop::World::MoverContact* limit(const vadop::GateScale& scale) const {
-    const Seen* found = nullptr;
-    for (const Seen& x : seen_) {
-      if (scale.clear ? (!found || x.s < found->s) : x.s == scale.scale) found = &x;
-    }
-    return found ? &found->contact : nullptr;
-  }
+  // The contact that limits `scale` (ScaleContacts::limit).
+  const vadop::World::MoverContact* limit(const vadop::GateScale& scale) const { return seen_.limit(scale); }
 
   const std::vector<size_t>& movers() const { return movers_; }
 
  private:
-  struct Seen {
-    double s;
-    vadop::World::MoverContact contact;  // mover: a position in movers_
-  };
   Predictor& world_;
   const double t_now_, window_;
   const std::function<bool(size_t element)>& skip_;
   std::vector<size_t> movers_;
   std::vector<CommandedElement> parts_;
   std::vector<vadop::Motion> motions_;
-  std::vector<Seen> seen_;
+  ScaleContacts seen_;
 };
 
 // The gated body's elements at t_now under the body-frame command (v, w) (the command's

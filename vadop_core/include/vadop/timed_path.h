@@ -56,6 +56,10 @@ class TimedPath {
     }
   }
   Eigen::Isometry3d poseAt(double t) const { return motion_[pieceAt(t)].poseAt(t); }
+  // The fixed-frame velocity at t of the body point at fixed-frame x (the piece in effect at t).
+  Eigen::Vector3d velocityOfPoint(const Eigen::Vector3d& x, double t) const {
+    return motion_[pieceAt(t)].velocityOfPoint(x, t);
+  }
   // How far the body origin travels along the path over [t0, t1] (t0 <= t1): the length of its
   // trajectory, each piece's origin speed (originSpeed) times its stretch.
   double travel(double t0, double t1) const;

@@ -251,14 +251,15 @@ class World {
   // other body moving as set: the question of a velocity gate about a candidate command. Pairs
   // among the movers are not tested; the pair filters apply as in predict, and `skip` (when
   // set) drops the other bodies whose caller's key (add's `user`) it accepts (a gate's ignore
-  // list). Answered by the
-  // broad phase's queries; the world is not changed. nullopt: no contact (an undecided pair
-  // counts as a contact at the time it is certified clear to). A pair already touching at t0
-  // (gap within the tolerance) is a contact only when the motions press it together there
-  // (closing speed > 0 at the contact point along its normal): moving apart from, or sliding
-  // along, what a body touches is not blocked; the pair is then not tested further in this
-  // window (a later call, from a later t0, tests it again). Throws on unknown or
-  // repeated movers, a size mismatch, an invalid motion or window (nothing changed).
+  // list). Answered by the broad phase's queries; the world is not changed. nullopt: no
+  // contact (an undecided pair counts as a contact at the time it is certified clear to). A pair
+  // already touching at t0 (gap within the tolerance) is a contact only when the motions press
+  // it together there (closing speed > 0 at the contact point along its normal) or dig in over
+  // the window (the gap, sampled at four times, deeper than at t0: a box turning in place
+  // against a wall): moving apart from, or sliding along, what a body touches is not blocked;
+  // the pair is then not tested further in this window (a later call, from a later t0, tests it
+  // again). Throws on unknown or repeated movers, a size mismatch, an invalid motion or window
+  // (nothing changed).
   struct MoverContact {
     size_t mover = 0;      // index into movers
     std::string other;     // the body touched

@@ -125,6 +125,21 @@ class Predictor {
   void beginReach(const std::vector<size_t>& movers, const std::vector<Eigen::Vector3d>& origins,
                   const std::vector<double>& reach, double t0, double horizon);
   void endReach();
+  // beginReach for the scope's life: endReach when it ends, by a return or an exception.
+  class ReachScope {
+   public:
+    ReachScope(Predictor& p, const std::vector<size_t>& movers, const std::vector<Eigen::Vector3d>& origins,
+               const std::vector<double>& reach, double t0, double horizon)
+        : p_(p) {
+      p_.beginReach(movers, origins, reach, t0, horizon);
+    }
+    ~ReachScope() { p_.endReach(); }
+    ReachScope(const ReachScope&) = delete;
+    ReachScope& operator=(const ReachScope&) = delete;
+
+   private:
+    Predictor& p_;
+  };
 
   // Tests only: called before every predict with each element in the world (index, id); it
   // may throw to simulate a world that refuses one element (MonitorCore's recovery).
