@@ -44,6 +44,10 @@ CASES = [
     ({"bodies": [{"name": "a", "odom_topic": "/a/odom", "shape": {"type": "sphere", "radius": 1.0},
                   "gate": {"cmd_vel_in": "/a/nav_vel", "cmd_vel_out": "/a/cmd_vel", "reaction_time": 5.0}}]},
      '~bodies[0] ("a").gate.reaction_time: must be in [0, 2], got 5'),
+    # Issue 51: a typo at any level stops the node, naming the nearest valid key.
+    ({"pading": 0.1}, '~pading: unknown key; did you mean "padding"?'),
+    ({"bodies": [{"name": "a", "odom_topc": "/a/odom", "shape": {"type": "sphere", "radius": 1.0}}]},
+     '~bodies[0] ("a").odom_topc: unknown key; did you mean "odom_topic"?'),
 ]
 
 

@@ -213,11 +213,30 @@ bodies:
   EXPECT_EQ(p.bodies[2].tf_prefix, "agent_2");  // trailing '/' dropped
 }
 
-TEST(Params, UnknownTopLevelKeysAreListed) {
-  const auto root = yaml("rate: 10\nhorizn: 3\n");
-  const auto unknown = vadop_ros::unknownTopLevelKeys(root);
-  ASSERT_EQ(unknown.size(), 1u);
-  EXPECT_EQ(unknown[0], "horizn");
+// An unknown key at any level stops the node naming it and, when it looks like a typo of a
+// valid key, that key; a word that is no typo gets the list alone.
+TEST(Params, UnknownKeysAtAnyLevelNameTheNearestValidKey) {
+  EXPECT_EQ(errorOf("rate: 10\npading: 0.1\n").rfind("~pading: unknown key; did you mean \"padding\"? (expected one of: ", 0),
+            0u)
+      << errorOf("pading: 0.1");
+  EXPECT_NE(errorOf("horizn: 3").find("did you mean \"horizon\"?"), std::string::npos);
+  EXPECT_NE(errorOf("publish_makers: true").find("did you mean \"publish_markers\"?"), std::string::npos);
+  const std::string far = errorOf("colour: red");
+  EXPECT_EQ(far.rfind("~colour: unknown key (expected one of: ", 0), 0u) << far;
+  EXPECT_EQ(far.find("did you mean"), std::string::npos) << far;
+  // Inside a body and a shape.
+  EXPECT_NE(errorOf("bodies: [{name: a, odom_topic: /a, shape: {type: sphere, radius: 1}, paddin: 1}]")
+                .find("~bodies[0] (\"a\").paddin: unknown key"),
+            std::string::npos);
+  const std::string shape = errorOf("bodies: [{name: a, odom_topic: /a, shape: {type: sphere, radus: 1}}]");
+  EXPECT_NE(shape.find("did you mean \"radius\"?"), std::string::npos) << shape;
+  const std::string odom = errorOf("bodies: [{name: a, odom_topc: /a, shape: {type: sphere, radius: 1}}]");
+  EXPECT_NE(odom.find("did you mean \"odom_topic\"?"), std::string::npos) << odom;
+  // Transposed neighbours are one edit; a key of 3 characters or fewer allows one edit.
+  EXPECT_NE(errorOf("raet: 10").find("did you mean \"rate\"?"), std::string::npos);
+  const std::string gat = errorOf("bodies: [{name: a, odom_topic: /a, shape: {type: sphere, radius: 1}, gat: {}}]");
+  EXPECT_NE(gat.find("did you mean \"gate\"?"), std::string::npos) << gat;
+  EXPECT_EQ(errorOf("xyz: 1").find("did you mean"), std::string::npos);
 }
 
 // Issue 13, item 2: the start-up range of ~rate is cfg/Monitor.cfg's, [0.1, 1000] Hz (1e-10

@@ -51,7 +51,10 @@ std::string num(double v);
 double toDouble(const XmlRpcValue& v, const std::string& path);
 void requireStruct(const XmlRpcValue& v, const std::string& path);
 void requireArray(const XmlRpcValue& v, const std::string& path);
-// Throws naming "<path>.<key>" for the first key of `s` not in `known`.
+// Throws naming "<path>.<key>" for the first key of `s` not in `known`, with the nearest known
+// key when the unknown one looks like its typo (nearestKey).
+// The key of `known` a few edits from `key` (a typo of it), else "".
+std::string nearestKey(const std::string& key, const std::set<std::string>& known);
 void rejectUnknown(const XmlRpcValue& s, const std::set<std::string>& known, const std::string& path);
 // A topic or parameter name the node's NodeHandle takes; `what`: "topic", "parameter name".
 void checkRosName(const std::string& name, const std::string& path, const char* what);

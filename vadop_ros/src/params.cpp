@@ -42,12 +42,44 @@ void requireArray(const XmlRpcValue& v, const std::string& path) {
   if (v.getType() != XmlRpcValue::TypeArray) fail(path, std::string("must be a list, got ") + typeName(v));
 }
 
+std::string nearestKey(const std::string& key, const std::set<std::string>& known) {
+  // Edit distance (insert, delete, substitute one character; swapping two neighbours counts as
+  // one edit, the commonest typo), row by row.
+  const auto edits = [](const std::string& a, const std::string& b) {
+    std::vector<std::vector<size_t>> d(a.size() + 1, std::vector<size_t>(b.size() + 1));
+    for (size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
+    for (size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
+    for (size_t i = 1; i <= a.size(); ++i) {
+      for (size_t j = 1; j <= b.size(); ++j) {
+        d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+        if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+      }
+    }
+    return d[a.size()][b.size()];
+  };
+  // A typo, not another word: at most a third of the key's characters (1 to 3 edits).
+  const size_t limit = std::clamp<size_t>(key.size() / 3, 1, 3);
+  std::string best;
+  size_t best_edits = limit + 1;
+  for (const std::string& k : known) {
+    const size_t e = edits(key, k);
+    if (e < best_edits) {
+      best = k;
+      best_edits = e;
+    }
+  }
+  return best;
+}
+
 void rejectUnknown(const XmlRpcValue& s, const std::set<std::string>& known, const std::string& path) {
   for (auto it = s.begin(); it != s.end(); ++it) {
     if (!known.count(it->first)) {
       std::string list;
       for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
-      fail(path + "." + it->first, "unknown key (expected one of: " + list + ")");
+      const std::string near = nearestKey(it->first, known);
+      fail((path == "~" ? path : path + ".") + it->first,
+           "unknown key" + (near.empty() ? std::string() : "; did you mean \"" + near + "\"?") +
+               " (expected one of: " + list + ")");
     }
   }
 }
@@ -511,6 +543,7 @@ MonitorParams parseParams(const XmlRpcValue& root) {
   MonitorParams p;
   if (root.getType() == XmlRpcValue::TypeInvalid) return p;
   requireStruct(root, "~");
+  rejectUnknown(root, topLevelKeys(), "~");
   if (const XmlRpcValue* v = member(root, "fixed_frame")) {
     p.fixed_frame = toString(*v, "~fixed_frame");
     p.fixed_frame = stripLeadingSlashes(p.fixed_frame);  // tf2 frames have no leading '/'
@@ -573,15 +606,6 @@ std::vector<std::string> paramWarnings(const MonitorParams& params) {
                     "\": no braking model (max_linear_decel / max_angular_decel not given): commands are checked as "
                     "held over time_before_collision, starting after reaction_time");
     }
-  }
-  return out;
-}
-
-std::vector<std::string> unknownTopLevelKeys(const XmlRpcValue& root) {
-  std::vector<std::string> out;
-  if (root.getType() != XmlRpcValue::TypeStruct) return out;
-  for (auto it = root.begin(); it != root.end(); ++it) {
-    if (!topLevelKeys().count(it->first)) out.push_back(it->first);
   }
   return out;
 }

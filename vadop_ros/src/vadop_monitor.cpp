@@ -414,9 +414,6 @@ int main(int argc, char** argv) {
     XmlRpc::XmlRpcValue root;
     if (!pnh.getParam(pnh.getNamespace(), root)) root = XmlRpc::XmlRpcValue();
     const vadop_ros::MonitorParams params = vadop_ros::parseParams(root);
-    for (const std::string& key : vadop_ros::unknownTopLevelKeys(root)) {
-      ROS_WARN("vadop_monitor: unknown parameter ~%s ignored", key.c_str());
-    }
     for (const std::string& warning : vadop_ros::paramWarnings(params)) ROS_WARN("vadop_monitor: %s", warning.c_str());
     if (params.bodies.size() + params.static_obstacles.size() >= vadop_ros::kProgressEvery) {
       ROS_INFO("vadop_monitor: parameters of %zu bodies and obstacles read in %.1f s; setting up",

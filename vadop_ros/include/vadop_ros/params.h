@@ -9,9 +9,11 @@
 // tf2 frame ids (letters, digits, '_', '-', '.', '/' between segments; a leading '/' is removed).
 // Numbers: NaN and Inf are refused everywhere; static obstacle positions are within
 // vadop::kMaxCoordinate and shape dimensions within vadop::kMaxSize (vadop/error.h).
-// Unknown keys inside a body, an obstacle or a shape are errors (a typo would otherwise
-// silently mean a default); unknown top-level keys are reported by unknownTopLevelKeys() so
-// that the node can warn (other tools may keep their own parameters there).
+// Unknown keys at any level are errors naming the nearest valid key when the unknown one looks
+// like its typo ("~pading: unknown key; did you mean \"padding\"? ..."): a typo would
+// otherwise silently mean a default. Nothing else keeps parameters in the node's private
+// namespace (robot_description names resolve in the global one; dynamic_reconfigure and
+// diagnostic_updater write keys listed here).
 #pragma once
 
 #include <vadop/shapes.h>
@@ -204,9 +206,6 @@ void checkPredictorParams(const MonitorParams& params);
 // Start-up warnings about valid parameters that weaken a guarantee (the node logs each one):
 // a gated body without decelerations, whose commands are checked as held instead of braked.
 std::vector<std::string> paramWarnings(const MonitorParams& params);
-
-// Top-level keys parseParams does not know (to warn about).
-std::vector<std::string> unknownTopLevelKeys(const XmlRpc::XmlRpcValue& root);
 
 // Reads the node's private namespace from the parameter server and parses it.
 MonitorParams loadParams(const ros::NodeHandle& private_nh);
