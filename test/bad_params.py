@@ -48,6 +48,10 @@ CASES = [
     ({"pading": 0.1}, '~pading: unknown key; did you mean "padding"?'),
     ({"bodies": [{"name": "a", "odom_topc": "/a/odom", "shape": {"type": "sphere", "radius": 1.0}}]},
      '~bodies[0] ("a").odom_topc: unknown key; did you mean "odom_topic"?'),
+    # A robot_description that is missing: nothing of the body could be hit.
+    ({"bodies": [{"name": "a", "odom_topic": "/a/odom", "robot_description": "/no_such_description"}]},
+     '~bodies[0] ("a").robot_description: nothing to monitor: robot_description parameter "/no_such_description"'
+     ' does not exist'),
 ]
 
 

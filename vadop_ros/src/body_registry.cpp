@@ -93,6 +93,23 @@ std::string urdfElementId(const std::string& body, const std::string& link, int 
   return id;
 }
 
+// A body going stale, or coming back, is said once each time (WARN, then INFO): a robot whose
+// odometry stops would otherwise show only in the diagnostics.
+void announceLiveness(Body& b, bool stale, const ros::Time& now, double stale_timeout) {
+  if (stale == b.status.announced_stale) return;
+  b.status.announced_stale = stale;
+  const char* topic = b.sources.empty() ? "" : b.sources.front()->topic().c_str();
+  if (stale) {
+    ROS_WARN_NAMED("vadop_monitor",
+                   "body \"%s\": stale: no message on %s for %.2f s (stale_timeout %.2f s): predicted standing "
+                   "still at its last pose, its gate (if any) stops it",
+                   b.name.c_str(), topic, (now - b.status.last_receipt).toSec(), stale_timeout);
+  } else {
+    ROS_INFO_NAMED("vadop_monitor", "body \"%s\": messages on %s again: predicted from its motion", b.name.c_str(),
+                   topic);
+  }
+}
+
 }  // namespace
 
 // Parsed URDFs and kinematics by parameter name (a fleet usually shares one description), with
@@ -736,6 +753,7 @@ void BodyRegistry::update(const ros::Time& now, TransformSource& tf) {
     has_base_ = true;
     ++rebases_;
   }
+  if (first_update_.isZero()) first_update_ = now;
   const double t_now = seconds(now);
   const double t_check_end = t_now + kMotionCheckWindow;
   // A body writes only itself, its sources and its elements (its warnings too); the kinematics
@@ -827,6 +845,7 @@ void BodyRegistry::updateMoving(Body& b, const ros::Time& now, double t_now, dou
     }
   }
   const bool stale = !receiptFresh(b.status.last_receipt, now, stale_timeout_);
+  announceLiveness(b, stale, now, stale_timeout_);
   if (stale) {
     in.v.setZero();
     in.w.setZero();
@@ -970,12 +989,14 @@ const char* motionSource(const Body& b) {
 
 void BodyRegistry::reset() {
   has_base_ = false;
+  first_update_ = ros::Time();
   for (Body& b : bodies_) {
     if (b.is_static) continue;
     b.has_state = false;
     for (const auto& source : b.sources) source->reset();
     b.status.on_path = false;
     b.status.state = b.elements.empty() ? BodyState::kNoGeometry : BodyState::kWaiting;
+    b.status.announced_stale = false;
     b.status.last_receipt = ros::Time();
     b.status.last_invalid_receipt = ros::Time();
     b.tf_missing_since = ros::Time();

@@ -73,12 +73,20 @@ void CycleTimeWindow::report(diagnostic_updater::DiagnosticStatusWrapper& stat, 
   reused_ = 0;
 }
 
-std::string describeBody(const Body& b, const ros::Time& now, double stale_timeout, unsigned char* level) {
+std::string describeBody(const Body& b, const ros::Time& now, double stale_timeout, unsigned char* level,
+                         double waited) {
   unsigned char lvl = DiagnosticStatus::OK;
   std::string text;
   const BodyStatus& s = b.status;
   switch (s.state) {
-    case BodyState::kWaiting: text = "waiting for the first message"; break;
+    case BodyState::kWaiting:
+      text = "waiting for the first message";
+      if (!b.sources.empty()) text += " on " + b.sources.front()->topic();
+      if (waited > kFirstMessageWarnSeconds) {
+        lvl = DiagnosticStatus::WARN;
+        text += " (" + fmt("%.0f", waited) + " s since start-up)";
+      }
+      break;
     case BodyState::kOk: text = "ok"; break;
     case BodyState::kStatic: text = "static obstacle"; break;
     case BodyState::kStale:
@@ -104,7 +112,8 @@ std::string describeBody(const Body& b, const ros::Time& now, double stale_timeo
     text += ", last: " + s.last_invalid;
   }
   if (!s.geometry_errors.empty()) {
-    lvl = DiagnosticStatus::ERROR;
+    // Part of the body is monitored (a body with none stops the node at start-up).
+    lvl = std::max<unsigned char>(lvl, DiagnosticStatus::WARN);
     text += "; geometry error: " + s.geometry_errors.front();
     if (s.geometry_errors.size() > 1) text += " (+" + std::to_string(s.geometry_errors.size() - 1) + " more)";
   }
@@ -126,10 +135,13 @@ void reportBodies(diagnostic_updater::DiagnosticStatusWrapper& stat, const BodyR
   size_t counts[6] = {0, 0, 0, 0, 0, 0};
   size_t bad_input = 0;
   size_t on_path = 0;
+  size_t geometry_errors = 0;
+  const double waited = registry.firstUpdate().isZero() ? 0.0 : secondsBetween(now, registry.firstUpdate());
   for (const Body& b : registry.bodies()) {
     on_path += b.status.on_path ? 1 : 0;
+    geometry_errors += b.status.geometry_errors.empty() ? 0 : 1;
     unsigned char lvl = 0;
-    stat.add(b.name, describeBody(b, now, registry.staleTimeout(), &lvl));
+    stat.add(b.name, describeBody(b, now, registry.staleTimeout(), &lvl, waited));
     worst = std::max(worst, lvl);
     ++counts[static_cast<int>(b.status.state)];
     if (!b.status.last_invalid_receipt.isZero() &&
@@ -144,6 +156,7 @@ void reportBodies(diagnostic_updater::DiagnosticStatusWrapper& stat, const BodyR
                 counts[static_cast<int>(BodyState::kTfMissing)], counts[static_cast<int>(BodyState::kNoGeometry)],
                 bad_input);
   std::string summary = buf;
+  if (geometry_errors > 0) summary += ", " + std::to_string(geometry_errors) + " with geometry errors";
   if (on_path > 0) summary += ", " + std::to_string(on_path) + " following a path";
   stat.summary(worst, summary);
 }

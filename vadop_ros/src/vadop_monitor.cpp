@@ -30,6 +30,8 @@
 #include <exception>
 #include <memory>
 #include <mutex>
+#include <stdexcept>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -79,6 +81,7 @@ class MonitorNode {
       ROS_INFO("vadop_monitor: geometry of %zu bodies and obstacles built in %.1f s",
                params.bodies.size() + params.static_obstacles.size(), secondsSince(start));
     }
+    refuseBodiesWithoutGeometry(params);
     for (const std::string& e : core_->registry().geometryErrors()) {
       ROS_ERROR("vadop_monitor: %s (the rest is monitored)", e.c_str());
     }
@@ -93,6 +96,9 @@ class MonitorNode {
     setUpReconfigure(params);
 
     timer_ = nh_.createTimer(ros::Duration(1.0 / rate_), [this](const ros::TimerEvent&) { onTimer(); });
+    silent_topics_timer_ = nh_.createWallTimer(
+        ros::WallDuration(kFirstMessageWarnSeconds), [this](const ros::WallTimerEvent&) { warnSilentTopics(); },
+        /*oneshot=*/true);
     if (!gates_.empty()) {
       gate_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &gate_queue_);
       gate_spinner_->start();
@@ -130,6 +136,7 @@ class MonitorNode {
         ROS_INFO("vadop_monitor: set up %zu of %zu bodies (subscribing, %.0f s)", subs_.size(), moving,
                  secondsSince(subscribe_start));
       }
+      first_sub_of_.emplace_back(i, subs_.size());  // the velocity source's: the body's state
       for (const auto& source : b.sources) {
         subs_.push_back(source->subscribe({nh_, core_mutex_, core_->registry(), i, tf_source_}));
       }
@@ -139,6 +146,38 @@ class MonitorNode {
       for (ros::Subscriber& sub : source->subscribe({nh_, core_mutex_, tf_source_})) subs_.push_back(std::move(sub));
     }
     return moving;
+  }
+
+  // A body or obstacle with nothing to monitor (its robot_description missing, unparsable, or
+  // without a usable collision element) is a configuration mistake nothing could hit: refused,
+  // naming the parameter.
+  void refuseBodiesWithoutGeometry(const MonitorParams& params) const {
+    for (const Body& b : core_->registry().bodies()) {
+      if (!b.elements.empty()) continue;
+      const std::string why = b.status.geometry_errors.empty() ? "no collision element" : b.status.geometry_errors.front();
+      const char* list = b.is_static ? "static_obstacles" : "bodies";
+      size_t index = 0;
+      if (b.is_static) {
+        while (index < params.static_obstacles.size() && params.static_obstacles[index].name != b.name) ++index;
+      } else {
+        while (index < params.bodies.size() && params.bodies[index].name != b.name) ++index;
+      }
+      throw ParamError("~" + std::string(list) + "[" + std::to_string(index) + "] (\"" + b.name +
+                       "\").robot_description: nothing to monitor: " + why);
+    }
+  }
+
+  // kFirstMessageWarnSeconds after start-up: a WARN for each moving body still waiting whose
+  // topic no node publishes (a wrong odom_topic is otherwise silent; diagnostics warn too).
+  void warnSilentTopics() {
+    std::lock_guard<std::mutex> lock(core_mutex_);
+    const auto& bodies = core_->registry().bodies();
+    for (const auto& [body, sub] : first_sub_of_) {
+      if (bodies[body].status.state != BodyState::kWaiting || subs_[sub].getNumPublishers() > 0) continue;
+      ROS_WARN("vadop_monitor: body \"%s\": no node publishes %s %.0f s after start-up (waiting for its first "
+               "message; is the topic right?)",
+               bodies[body].name.c_str(), subs_[sub].getTopic().c_str(), kFirstMessageWarnSeconds);
+    }
   }
 
   // Velocity gates: each command is checked as it arrives (not at the cycle rate), on the gates'
@@ -377,6 +416,8 @@ class MonitorNode {
   std::unique_ptr<MonitorCore> core_;
   ros::Publisher impacts_pub_, markers_pub_;
   std::vector<ros::Subscriber> subs_;
+  std::vector<std::pair<size_t, size_t>> first_sub_of_;  // (moving body, its first subscription in subs_)
+  ros::WallTimer silent_topics_timer_;
   std::vector<VelocityGate> gates_;
   std::vector<ros::Publisher> gate_pubs_;  // by gate: cmd_vel_out
   std::vector<LatencyWindow> gate_latency_;  // by gate

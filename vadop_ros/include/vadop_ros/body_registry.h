@@ -167,6 +167,8 @@ struct BodyStatus {
   bool on_path = false;
   bool joints_moving = false;
   bool on_trajectory = false;
+  // Whether the node last said this body went stale (it says so once, and once when it is back).
+  bool announced_stale = false;
 };
 
 struct Element {
@@ -342,6 +344,8 @@ class BodyRegistry {
   void markElementBad(size_t element, const std::string& why, const ros::Time& now);
 
   double staleTimeout() const { return stale_timeout_; }
+  // The time of the first update since construction or reset() (zero before it).
+  const ros::Time& firstUpdate() const { return first_update_; }
   const std::string& fixedFrame() const { return fixed_frame_; }
   // Seconds during which a dropped message keeps its body marked in the diagnostics.
   static constexpr double kInvalidMarkSeconds = 5.0;
@@ -437,6 +441,7 @@ class BodyRegistry {
   std::vector<Element> elements_;
   ros::Time base_;
   bool has_base_ = false;
+  ros::Time first_update_;
   uint64_t rebases_ = 0;
   double max_stamp_skew_ = 5.0;  // MonitorParams' default until setMaxStampSkew
 };

@@ -46,8 +46,14 @@ class CycleTimeWindow {
   bool has_last_ = false;
 };
 
-// One line describing a body's state at `now` (ROS time).
-std::string describeBody(const Body& body, const ros::Time& now, double stale_timeout, unsigned char* level);
+// A moving body still waiting for its first message this long after start-up is a warning (its
+// topic is probably wrong, or nothing publishes it yet).
+constexpr double kFirstMessageWarnSeconds = 5.0;
+
+// One line describing a body's state at `now` (ROS time); `waited`: seconds since the node's
+// first cycle (a body waiting longer than kFirstMessageWarnSeconds is a warning).
+std::string describeBody(const Body& body, const ros::Time& now, double stale_timeout, unsigned char* level,
+                         double waited = 0.0);
 
 // Fills the "bodies" status.
 void reportBodies(diagnostic_updater::DiagnosticStatusWrapper& stat, const BodyRegistry& registry,
