@@ -57,8 +57,8 @@ TEST(Params, DefaultsWhenEmpty) {
 
 TEST(Params, ExampleConfigParses) {
   const MonitorParams p = parseParams(yaml(vadop_test::readFile(VADOP_CONFIG_DIR "/monitor.yaml")));
-  ASSERT_EQ(p.bodies.size(), 5u);  // robot_1, robot_2 and the agent_{i} template x 3
-  EXPECT_EQ(p.bodies[0].name, "robot_1");
+  ASSERT_EQ(p.bodies.size(), 5u);  // two robots and the agent template x 3, all named example_*
+  EXPECT_EQ(p.bodies[0].name, "example_robot_1");
   EXPECT_EQ(p.bodies[0].source, vadop_ros::VelocitySource::kOdometry);
   EXPECT_EQ(p.bodies[0].shape.type, vadop::ShapeType::kCylinder);
   EXPECT_DOUBLE_EQ(p.bodies[0].shape.half_length, 0.25);
@@ -68,18 +68,37 @@ TEST(Params, ExampleConfigParses) {
   EXPECT_TRUE(p.bodies[0].gate.others_may_stop);
   EXPECT_FALSE(p.bodies[1].hasBraking());  // stops at once in the others_may_stop future
   EXPECT_EQ(p.bodies[1].source, vadop_ros::VelocitySource::kTwist);
-  EXPECT_EQ(p.bodies[1].frame, "robot_2/base_link");
-  EXPECT_EQ(p.bodies[4].name, "agent_2");
-  EXPECT_EQ(p.bodies[4].topic, "/agent_2/odom");
-  EXPECT_EQ(p.bodies[4].tf_prefix, "agent_2");
+  EXPECT_EQ(p.bodies[1].frame, "example_robot_2/base_link");
+  EXPECT_EQ(p.bodies[4].name, "example_agent_2");
+  EXPECT_EQ(p.bodies[4].topic, "/example_agent_2/odom");
+  EXPECT_EQ(p.bodies[4].tf_prefix, "example_agent_2");
   EXPECT_TRUE(p.bodies[4].links_from_tf);
-  EXPECT_EQ(p.bodies[4].robot_description, "/agent_description");
+  EXPECT_EQ(p.bodies[4].robot_description, "/example_agent_description");
   ASSERT_EQ(p.static_obstacles.size(), 2u);
   EXPECT_NEAR(p.static_obstacles[0].pose.translation().x(), 2.0, 1e-12);
   ASSERT_EQ(p.ignore_pairs.size(), 2u);
-  EXPECT_EQ(p.ignore_pairs[1].first, "*/gripper*");
+  EXPECT_EQ(p.ignore_pairs[1].first, "*/example_gripper*");
   ASSERT_EQ(p.tracks.size(), 1u);
-  EXPECT_EQ(p.tracks[0].prefix, "people");
+  EXPECT_EQ(p.tracks[0].prefix, "example_people");
+}
+
+// The reference's examples cannot bite: every name it configures starts with "example_" (a
+// user whose robots are named robot_1 and robot_2 does not inherit its ignore_pairs); the file
+// monitor.launch loads by default is minimal and valid.
+TEST(Params, ReferenceExamplesAreNamedSoNoRealRobotMatchesThem) {
+  const MonitorParams p = parseParams(yaml(vadop_test::readFile(VADOP_CONFIG_DIR "/monitor.yaml")));
+  const auto example = [](const std::string& name) { return name.rfind("example_", 0) == 0; };
+  for (const auto& b : p.bodies) EXPECT_TRUE(example(b.name)) << b.name;
+  for (const auto& o : p.static_obstacles) EXPECT_TRUE(example(o.name)) << o.name;
+  for (const auto& t : p.tracks) EXPECT_TRUE(example(t.prefix)) << t.prefix;
+  for (const auto& pair : p.ignore_pairs) {
+    EXPECT_NE(pair.first.find("example_"), std::string::npos) << pair.first;
+    EXPECT_NE(pair.second.find("example_"), std::string::npos) << pair.second;
+  }
+  const MonitorParams minimal = parseParams(yaml(vadop_test::readFile(VADOP_CONFIG_DIR "/minimal.yaml")));
+  EXPECT_TRUE(minimal.bodies.empty());
+  EXPECT_TRUE(minimal.static_obstacles.empty());
+  EXPECT_TRUE(minimal.ignore_pairs.empty());
 }
 
 TEST(Params, ShapesAsInTheSceneFormat) {

@@ -111,6 +111,11 @@ class MonitorNode {
              "source(s); fixed frame \"%s\", %.1f Hz, horizon %.2f s, padding %.3f m",
              moving, core_->registry().bodies().size() - moving, core_->registry().elements().size(),
              params.tracks.size(), params.fixed_frame.c_str(), rate_, params.horizon, params.padding);
+    if (params.bodies.empty() && params.static_obstacles.empty() && params.tracks.empty() && params.sensors.empty()) {
+      ROS_WARN("vadop_monitor: nothing configured (no bodies, static_obstacles, tracks or sensors): nothing to "
+               "predict. Give the node a parameter file (roslaunch vadop monitor.launch config:=/path/to/your.yaml; "
+               "config/monitor.yaml is the reference)");
+    }
   }
 
  private:
