@@ -963,9 +963,12 @@ const char* motionSource(const Body& b) {
     return b.status.on_trajectory ? "path + joint trajectory" : b.status.joints_moving ? "path + joint states" : "path";
   }
   if (b.status.on_trajectory) return "joint trajectory";
-  const bool odometry = b.params.source == VelocitySource::kOdometry;
-  if (b.status.joints_moving) return odometry ? "odometry + joint states" : "twist + joint states";
-  return odometry ? "odometry" : "twist";
+  switch (b.params.source) {
+    case VelocitySource::kOdometry: return b.status.joints_moving ? "odometry + joint states" : "odometry";
+    case VelocitySource::kTwist: return b.status.joints_moving ? "twist + joint states" : "twist";
+    case VelocitySource::kStates: return b.status.joints_moving ? "body states + joint states" : "body states";
+  }
+  return "none";
 }
 
 void BodyRegistry::reset() {

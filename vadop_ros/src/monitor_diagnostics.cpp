@@ -145,6 +145,13 @@ void reportBodies(diagnostic_updater::DiagnosticStatusWrapper& stat, const BodyR
                 bad_input);
   std::string summary = buf;
   if (on_path > 0) summary += ", " + std::to_string(on_path) + " following a path";
+  for (const auto& [topic, c] : registry.bodyStatesTopics()) {
+    std::snprintf(buf, sizeof buf, "%llu arrays; entries: %llu accepted, %llu dropped, %llu out of order, %llu naming no body",
+                  static_cast<unsigned long long>(c.arrays), static_cast<unsigned long long>(c.accepted),
+                  static_cast<unsigned long long>(c.dropped), static_cast<unsigned long long>(c.out_of_order),
+                  static_cast<unsigned long long>(c.unknown));
+    stat.add("states_topic " + topic, buf);
+  }
   stat.summary(worst, summary);
 }
 
