@@ -19,6 +19,7 @@ PACKAGES=(
   libkdl-parser-dev liborocos-kdl-dev libsensor-msgs-dev python3-sensor-msgs
   libtrajectory-msgs-dev python3-trajectory-msgs libshape-msgs-dev python3-shape-msgs
   liblaser-geometry-dev
+  libnodeletlib-dev libnodeletlib-tools pluginlib-dev
   libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   librostest-dev python3-rostest python3-rosbag librosbag-dev rosbash
   python3-roslaunch python3-rosmaster

@@ -103,7 +103,7 @@ void announceLiveness(Body& b, bool stale, const ros::Time& now, double stale_ti
     ROS_WARN_NAMED("vadop_monitor",
                    "body \"%s\": stale: no message on %s for %.2f s (stale_timeout %.2f s): predicted standing "
                    "still at its last pose, its gate (if any) stops it",
-                   b.name.c_str(), topic, (now - b.status.last_receipt).toSec(), stale_timeout);
+                   b.name.c_str(), topic, secondsBetween(now, b.status.last_receipt), stale_timeout);
   } else {
     ROS_INFO_NAMED("vadop_monitor", "body \"%s\": messages on %s again: predicted from its motion", b.name.c_str(),
                    topic);
@@ -982,9 +982,12 @@ const char* motionSource(const Body& b) {
     return b.status.on_trajectory ? "path + joint trajectory" : b.status.joints_moving ? "path + joint states" : "path";
   }
   if (b.status.on_trajectory) return "joint trajectory";
-  const bool odometry = b.params.source == VelocitySource::kOdometry;
-  if (b.status.joints_moving) return odometry ? "odometry + joint states" : "twist + joint states";
-  return odometry ? "odometry" : "twist";
+  switch (b.params.source) {
+    case VelocitySource::kOdometry: return b.status.joints_moving ? "odometry + joint states" : "odometry";
+    case VelocitySource::kTwist: return b.status.joints_moving ? "twist + joint states" : "twist";
+    case VelocitySource::kStates: return b.status.joints_moving ? "body states + joint states" : "body states";
+  }
+  return "none";
 }
 
 void BodyRegistry::reset() {

@@ -158,6 +158,13 @@ void reportBodies(diagnostic_updater::DiagnosticStatusWrapper& stat, const BodyR
   std::string summary = buf;
   if (geometry_errors > 0) summary += ", " + std::to_string(geometry_errors) + " with geometry errors";
   if (on_path > 0) summary += ", " + std::to_string(on_path) + " following a path";
+  for (const auto& [topic, c] : registry.bodyStatesTopics()) {
+    std::snprintf(buf, sizeof buf, "%llu arrays; entries: %llu accepted, %llu dropped, %llu out of order, %llu naming no body",
+                  static_cast<unsigned long long>(c.arrays), static_cast<unsigned long long>(c.accepted),
+                  static_cast<unsigned long long>(c.dropped), static_cast<unsigned long long>(c.out_of_order),
+                  static_cast<unsigned long long>(c.unknown));
+    stat.add("states_topic " + topic, buf);
+  }
   stat.summary(worst, summary);
 }
 

@@ -247,7 +247,7 @@ std::string entryPath(const std::string& list, int i, const XmlRpcValue& entry) 
 // The names of one body (a template copy after substitution): topics and robot_description
 // parameter by roscpp's rules, frame and tf_prefix as tf2 frame ids. `suffix` marks a copy.
 void checkBodyNames(const BodyParams& b, const std::string& path, const std::string& suffix) {
-  checkFrame(b.frame, path + ".frame" + suffix, b.source == VelocitySource::kOdometry);
+  checkFrame(b.frame, path + ".frame" + suffix, b.source != VelocitySource::kTwist);
   if (!b.has_shape) checkRosName(b.robot_description, path + ".robot_description" + suffix, "parameter");
   if (b.links_from_tf) checkFrame(b.tf_prefix, path + ".tf_prefix" + suffix, true);
   for (const SourceKind& kind : sourceKinds()) {

@@ -1,5 +1,5 @@
 // The monitored bodies: their geometry (primitive shape or URDF collision elements), their
-// inputs (sources, source.h: odometry or twist, and a path, joint states, a joint trajectory;
+// inputs (sources, source.h: odometry, twist or a fleet's body states, and a path, joint states, a joint trajectory;
 // each keeps its latest message) and, each cycle, the motion of every collision element in the
 // fixed frame, composed from what the body's sources contribute. No ROS transport of its own:
 // the node has each source subscribe itself; tests and the benchmark feed messages through
@@ -79,6 +79,7 @@
 #include <nav_msgs/Path.h>
 #include <sensor_msgs/JointState.h>
 #include <trajectory_msgs/JointTrajectory.h>
+#include <vadop/BodyStateArray.h>
 #include <ros/time.h>
 
 #include <Eigen/Geometry>
@@ -225,6 +226,18 @@ struct FrameMotion {
   vadop::Motion motion;
 };
 
+// What one vadop/BodyStateArray brought (BodyRegistry::onBodyStates), or a states_topic's
+// totals (BodyRegistry::bodyStatesTopics; arrays counted there only).
+struct BodyStatesCounts {
+  uint64_t arrays = 0;
+  uint64_t accepted = 0;
+  uint64_t dropped = 0;       // bad entries: NaN/Inf, zero quaternion, out of range, stamp skew
+  uint64_t out_of_order = 0;  // not newer than the body's last state
+  uint64_t unknown = 0;       // entries naming no body of the topic: ignored
+};
+// The bodies of each states_topic by name (src/sources/body_states_source.cpp).
+class BodyStatesRoutes;
+
 // A monitored body: its geometry (elements, URDF links and kinematics), its inputs (sources:
 // the kinds of source.h its parameters ask for) and its status. Static obstacles have no source.
 struct Body {
@@ -283,6 +296,15 @@ class BodyRegistry {
   // in the header comment: beyond max_stamp_skew from `receipt` -> kInvalid.
   InputResult onOdometry(size_t body, const nav_msgs::Odometry& msg, const ros::Time& receipt);
   InputResult onTwist(size_t body, const geometry_msgs::TwistStamped& msg, const ros::Time& receipt);
+  // A fleet's states on the states_topic `topic`: each entry goes to the body of that topic it
+  // names, as an odometry message would (its pose in header.frame_id at header.stamp, its twist
+  // in the body frame; the same checks and stamp policy, per body). Entries naming no body of
+  // the topic are counted and ignored; a bad entry is dropped (counted, a throttled warning
+  // naming the entry and the field), the others kept. Returns what this array brought.
+  BodyStatesCounts onBodyStates(const std::string& topic, const vadop::BodyStateArray& msg, const ros::Time& receipt);
+  // Every states_topic with its totals so far (sorted by topic), for the diagnostics; empty
+  // before the first array or subscription.
+  std::vector<std::pair<std::string, BodyStatesCounts>> bodyStatesTopics() const;
   // A planned path of the body frame (path_topic): each pose stamped with the time the body is
   // there, in header.frame_id (transformed into the fixed frame with tf at header.stamp, else the
   // latest transform). Dropped as kInvalid, with a throttled warning naming the body and the
@@ -374,6 +396,8 @@ class BodyRegistry {
                      const ros::Time& time, Eigen::Isometry3d& pose, ros::Time& stamp, std::string& error);
   // A transform the body needs is missing: its status now, a throttled warning after kTfWarnAfter.
   void warnTf(Body& b, const std::string& error, const ros::Time& now);
+  // The bodies of each states_topic by name, built on first use (the body-states source).
+  BodyStatesRoutes& bodyStatesRoutes();
 
  private:
   class UrdfCache;
@@ -444,6 +468,7 @@ class BodyRegistry {
   ros::Time first_update_;
   uint64_t rebases_ = 0;
   double max_stamp_skew_ = 5.0;  // MonitorParams' default until setMaxStampSkew
+  std::shared_ptr<BodyStatesRoutes> states_routes_;  // null until bodyStatesRoutes()
 };
 
 template <class S>

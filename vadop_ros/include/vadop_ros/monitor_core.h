@@ -5,7 +5,7 @@
 // rebuilt), the World predicts with the VADOP broad phase and the continuous narrow phase, and
 // the impacts are filtered (static-static, self-collisions, ~ignore_pairs) and converted to
 // the message.
-// The node (vadop_monitor.cpp), the tests and the benchmark drive this class.
+// The node and the nodelet (monitor_node.cpp), the tests and the benchmark drive this class.
 #pragma once
 
 #include "vadop_ros/body_registry.h"

@@ -8,7 +8,9 @@
 //  - "bodies": one key per body with its state ("ok", "stale: no message for 1.3 s",
 //    "transform missing: ...", "dropped 3 bad messages, last: NaN/Inf in ...", "geometry
 //    error: ..."), the level being the worst of them (stale, tf missing and bad messages: WARN;
-//    a geometry error: ERROR; waiting for the first message: OK);
+//    a geometry error: ERROR; waiting for the first message: OK), and per states_topic T a key
+//    "states_topic T" with its arrays and entries accepted, dropped, out of order and naming no
+//    body;
 //  - "tracks" (with ~tracks; filled by the tracked objects' source, Tracks::report, as each
 //    body-set source fills its own entry): "N tracked objects from M source(s)", and per source (its prefix
 //    P) "P: objects" (in the world now), "P: arrays accepted", "P: arrays dropped", "P: arrays

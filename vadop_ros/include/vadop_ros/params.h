@@ -41,6 +41,7 @@ class ParamError : public std::runtime_error {
 enum class VelocitySource {
   kOdometry,  // nav_msgs/Odometry: pose in header.frame_id, twist in child_frame_id (REP 105)
   kTwist,     // geometry_msgs/TwistStamped; the pose comes from tf of `frame`
+  kStates,    // the body's entry (by name) of a vadop/BodyStateArray: as odometry, twist in `frame`
 };
 
 // A velocity gate on a moving body (~bodies[i].gate): each geometry_msgs/Twist on cmd_vel_in
@@ -63,7 +64,7 @@ struct GateParams {
 struct BodyParams {
   std::string name;  // unique among bodies and static obstacles; no '/'
   VelocitySource source = VelocitySource::kOdometry;
-  std::string topic;  // odom_topic or twist_topic
+  std::string topic;  // odom_topic, twist_topic or states_topic
   // The body's tf frame, the one its shape (or URDF reference link) is attached to.
   // Required with twist_topic; with odom_topic empty means the odometry's child_frame_id.
   std::string frame;

@@ -6,6 +6,7 @@ namespace vadop_ros {
 
 SourceKind odometrySourceKind();
 SourceKind twistSourceKind();
+SourceKind bodyStatesSourceKind();
 SourceKind jointStatesSourceKind();
 SourceKind jointTrajectorySourceKind();
 SourceKind pathSourceKind();
@@ -16,7 +17,8 @@ const std::vector<SourceKind>& sourceKinds() {
   // The velocity source first: the others start from the body frame it gives. The rest in the
   // order the diagnostics list their counts.
   static const std::vector<SourceKind> kinds = {
-      odometrySourceKind(), twistSourceKind(), jointStatesSourceKind(), jointTrajectorySourceKind(), pathSourceKind(),
+      odometrySourceKind(), twistSourceKind(), bodyStatesSourceKind(), jointStatesSourceKind(),
+      jointTrajectorySourceKind(), pathSourceKind(),
   };
   return kinds;
 }
