@@ -362,7 +362,8 @@ class SensorsScenarios(unittest.TestCase):
             self.assertIsNotNone(i, "%s: no impact of %s with %s in the array at %.3f s: %s" % (
                 label, body, sensor, a.header.stamp.to_sec() - self.s.t_go, [(x.body_a, x.body_b) for x in a.impacts]))
             self.assertEqual((i.link_a, i.link_b), ("", ""))
-            self.assertFalse(i.in_contact)
+            self.assertFalse(i.in_contact, "%s: %s in contact with %s's points at %.3f s" % (
+                label, body, sensor, a.header.stamp.to_sec() - self.s.t_go))
             truths = truth_of(a.header.stamp.to_sec())
             err = min(abs(i.time_of_impact.to_sec() - tt) for tt in truths)
             self.assertLess(err, TOLERANCE, "%s: impact at %.4f s, exact %s (s after the start; array at %.3f s)" % (
