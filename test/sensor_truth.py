@@ -18,9 +18,33 @@ def f32(v):
     return float(F32(v))
 
 
-def ray_cast(origin, angles, segments, range_max):
+def ray_cast(origin, angles, segments, range_max, circles=()):
     """Ranges (float32) from `origin` (x, y) along the world angles `angles` to the nearest of
-    `segments` [(x1, y1, x2, y2)]; +inf where none lies within range_max (REP 117)."""
+    `segments` [(x1, y1, x2, y2)] and `circles` [(x, y, radius)] (origin outside them); +inf
+    where none lies within range_max (REP 117)."""
+    r = np.minimum(ray_segments(origin, angles, segments), ray_circles(origin, angles, circles))
+    r[r >= range_max] = np.inf
+    return r.astype(F32)
+
+
+def ray_circles(origin, angles, circles):
+    """Distances from origin along angles to the nearest circle entry, +inf for none."""
+    if len(circles) == 0:
+        return np.full(len(angles), np.inf)
+    c = np.asarray(circles, dtype=float)
+    dx, dy = np.cos(angles)[:, None], np.sin(angles)[:, None]
+    fx, fy = origin[0] - c[None, :, 0], origin[1] - c[None, :, 1]
+    b = fx * dx + fy * dy
+    disc = b * b - (fx * fx + fy * fy - c[None, :, 2] ** 2)
+    with np.errstate(invalid="ignore"):
+        t = -b - np.sqrt(disc)
+    return np.where((disc >= 0) & (t > 0), t, np.inf).min(axis=1)
+
+
+def ray_segments(origin, angles, segments):
+    """Distances from origin along angles to the nearest segment, +inf for none."""
+    if len(segments) == 0:
+        return np.full(len(angles), np.inf)
     ox, oy = origin
     dx, dy = np.cos(angles)[:, None], np.sin(angles)[:, None]
     seg = np.asarray(segments, dtype=float)
@@ -33,9 +57,7 @@ def ray_cast(origin, angles, segments, range_max):
         r = (-px * ey + py * ex) / det
         s = (dx * py - dy * px) / det
     hit = (np.abs(det) > 1e-12) & (r > 0.0) & (s >= 0.0) & (s <= 1.0)
-    r = np.where(hit, r, np.inf).min(axis=1)
-    r[r >= range_max] = np.inf
-    return r.astype(F32)
+    return np.where(hit, r, np.inf).min(axis=1)
 
 
 def scan_points(angle_min, angle_increment, ranges, range_min, range_max, laser_pose):

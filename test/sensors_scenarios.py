@@ -15,8 +15,12 @@ in its own place or monitor:
      and the floor in front of it (z 0.025 m, below the sensor's min_z): tall_bot (a 1.5 m high
      box) hits the edge at the exact time, short_bot (0.5 m high) passes under with no impact;
   e. map wall (vadop_sensors): floor_map (timeout 0, published once) holds a wall of occupied
-     cells behind cells of value 50 and -1; map_bot hits the wall at the exact time.
-Scenes a, d and e lie 50 m apart, so that each sees only its own sensor's obstacles."""
+     cells behind cells of value 50 and -1; map_bot hits the wall at the exact time;
+  f. a robot moving away (vadop_sensors): watch_laser, on the standing watcher, sees leaver
+     (a monitored body) drive away from it towards a wall only the laser sees: leaver's own
+     points are dropped (filter_margin), so its impacts with watch_laser are with the wall, at
+     the exact time against the published points outside leaver's shape grown by the margin.
+Scenes a, d, e and f lie 50 m apart, so that each sees only its own sensor's obstacles."""
 import math
 import sys
 import threading
@@ -69,6 +73,11 @@ MAP_ORIGIN, MAP_RES, MAP_SIZE = (10.0, 98.0), 0.1, 40
 MAP_WALL_COLUMN, MAP_FIFTY_COLUMN, MAP_UNKNOWN_COLUMN = 25, 17, 20
 MAP_BOT_RADIUS, MAP_BOT_START = 0.4, (11.0, 100.03, 1.0)
 MAP_BAND = (0.0, 2.0)   # the sensor's default height band
+# f: the watcher (standing, its laser's base), leaver's start and radius, the wall, the margin.
+WATCHER = (0.0, 146.0)
+LEAVER_START, LEAVER_RADIUS = (2.0, 150.0), 0.4
+LEAVER_WALL = [(4.0, 148.5, 4.0, 151.5)]
+FILTER_MARGIN, WATCH_POINT_RADIUS = 0.1, 0.02   # watch_laser's defaults
 
 
 def stamp_of(t):
@@ -100,8 +109,8 @@ class Laser:
     """A level 360-beam laser ray-casting its scene's wall segments; keeps what it published:
     (stamp s, fixed-frame points of the published ranges)."""
 
-    def __init__(self, topic, frame, segments):
-        self.frame, self.segments = frame, segments
+    def __init__(self, topic, frame, segments, circles_at=None):
+        self.frame, self.segments, self.circles_at = frame, segments, circles_at
         self.pub = rospy.Publisher(topic, LaserScan, queue_size=10)
         self.inc = st.f32(2 * math.pi / BEAMS)
         self.amin = st.f32(-math.pi)
@@ -111,7 +120,8 @@ class Laser:
         """One scan stamped t, taken from the laser pose (x, y, z, yaw) at t."""
         x, y, z, yaw = pose
         angles = yaw + self.amin + np.arange(BEAMS) * self.inc
-        ranges = st.ray_cast((x, y), angles, self.segments, RANGE_MAX) if self.segments else \
+        circles = self.circles_at(t) if self.circles_at else []
+        ranges = st.ray_cast((x, y), angles, self.segments, RANGE_MAX, circles) if self.segments else \
             np.full(BEAMS, STALE_LASER[1], dtype=st.F32)
         m = LaserScan()
         m.header.stamp = stamp_of(t)
@@ -157,7 +167,7 @@ class Scenes:
         self.lock = threading.Lock()
         self.tfb = tf2_ros.TransformBroadcaster()
         self.static_tfb = tf2_ros.StaticTransformBroadcaster()
-        names = ["scan_bot", TALL[0], SHORT[0], "map_bot"]
+        names = ["scan_bot", TALL[0], SHORT[0], "map_bot", "watcher", "leaver"]
         self.odom = {n: rospy.Publisher("/a/%s/odom" % n, Odometry, queue_size=10) for n in names}
         self.odom.update({n: rospy.Publisher("/%s/odom" % n, Odometry, queue_size=10)
                           for n in ("gs/gbot", "st/s1", "st/s2")})
@@ -165,6 +175,8 @@ class Scenes:
         self.front_laser = Laser("/a/scan", "scan_bot/laser", OBLIQUE_WALL)
         self.gate_laser = Laser("/gs/scan", "gbot/laser", GATE_WALL)
         self.stale_laser = Laser("/st/scan", "st_laser", [])
+        self.watch_laser = Laser("/a/watch_scan", "watcher/laser", LEAVER_WALL,
+                                 lambda t: [(self.leaver_x(t), LEAVER_START[1], LEAVER_RADIUS)])
         self.cloud_pub = rospy.Publisher("/a/points", point_cloud2.PointCloud2, queue_size=5)
         self.map_pub = rospy.Publisher("/a/map", OccupancyGrid, queue_size=1, latch=True)
         self.impacts, self.gate_states, self.outputs = [], [], {n: [] for n in ("gs/gbot", "st/s1", "st/s2")}
@@ -242,18 +254,23 @@ class Scenes:
     def scan_bot_x(self, t):
         return self.scripted_x(-0.3, t)
 
+    def leaver_x(self, t):
+        return self.scripted_x(LEAVER_START[0], t)
+
     # --- the loop ----------------------------------------------------------------------------
     def static_transforms(self):
         zero = rospy.Time(0)
         self.static_tfb.sendTransform([
             transform(zero, "scan_bot/base_link", "scan_bot/laser", LASER_ON_BASE),
             transform(zero, "gbot/base_link", "gbot/laser", LASER_ON_BASE),
+            transform(zero, "watcher/base_link", "watcher/laser", LASER_ON_BASE),
             transform(zero, "odom", "st_laser", STALE_LASER[0]),
             transform(zero, "odom", "table_cam", CAM[0], CAM[1])])
 
     def wait_for_connections(self):
         pubs = list(self.odom.values()) + list(self.plans.values()) + [
-            self.front_laser.pub, self.gate_laser.pub, self.stale_laser.pub, self.cloud_pub, self.map_pub]
+            self.front_laser.pub, self.gate_laser.pub, self.stale_laser.pub, self.watch_laser.pub, self.cloud_pub,
+            self.map_pub]
         deadline = time.monotonic() + 30.0
         while not rospy.is_shutdown() and time.monotonic() < deadline:
             if all(p.get_num_connections() > 0 for p in pubs) and all(s.get_num_connections() > 0 for s in self.subs):
@@ -268,20 +285,25 @@ class Scenes:
                   "a/" + TALL[0]: (self.scripted_x(TALL[2][0], t),) + TALL[2][1:] + (SPEED,),
                   "a/" + SHORT[0]: (self.scripted_x(SHORT[2][0], t),) + SHORT[2][1:] + (SPEED,),
                   "a/map_bot": (self.scripted_x(MAP_BOT_START[0], t),) + MAP_BOT_START[1:] + (SPEED,),
+                  "a/watcher": WATCHER + (0.0, 0.0),
+                  "a/leaver": (self.leaver_x(t), LEAVER_START[1], 0.0, SPEED),
                   "gs/gbot": (self.gbot.x, 0.0, 0.0, self.gbot.v),
                   "st/s1": (0.0, 0.0, 0.0, 0.0), "st/s2": (0.0, 5.0, 0.0, 0.0)}
         for key, (x, y, z, v) in bodies.items():
             name = key.split("/")[1]
             self.odom[name if key.startswith("a/") else key].publish(odometry(stamp, name + "/base_link", x, y, z, v))
         self.tfb.sendTransform([transform(stamp, "odom", "scan_bot/base_link", bodies["a/scan_bot"][:3]),
-                                transform(stamp, "odom", "gbot/base_link", bodies["gs/gbot"][:3])])
+                                transform(stamp, "odom", "gbot/base_link", bodies["gs/gbot"][:3]),
+                                transform(stamp, "odom", "watcher/base_link", bodies["a/watcher"][:3])])
 
-    def laser_pose(self, x_base):
-        return (x_base + LASER_ON_BASE[0], LASER_ON_BASE[1], LASER_ON_BASE[2], 0.0)
+    @staticmethod
+    def laser_pose(x_base, y_base=0.0):
+        return (x_base + LASER_ON_BASE[0], y_base + LASER_ON_BASE[1], LASER_ON_BASE[2], 0.0)
 
     def publish_sensors(self, t, last_tf, gbot_x_then):
         self.front_laser.publish(last_tf, self.laser_pose(self.scan_bot_x(last_tf)))
         self.gate_laser.publish(last_tf, self.laser_pose(gbot_x_then))
+        self.watch_laser.publish(last_tf, self.laser_pose(*WATCHER))
         rel = t - self.t_go
         if not STALE_FROM <= rel < STALE_UNTIL:
             self.stale_laser.publish(t, STALE_LASER[0] + (0.0,))
@@ -373,27 +395,37 @@ class SensorsScenarios(unittest.TestCase):
         self.assertGreater(len(errors), 10, "%s: too few arrays checked" % label)
         return errors[0], max(errors), len(errors)
 
-    def test_a_scan_wall(self):
-        """The first contact of scan_bot with each published scan's balls; an array judged
-        against the scans published within the 0.3 s before it (the one in use)."""
+    def scan_truths(self, laser, x_of, y, radius, point_radius, label):
+        """(stamp, first contact) of a sphere at (x_of(t), y, 0) with each of the laser's published
+        scans (points: a function of the stamp and the scan's points), until the sphere reaches
+        the first scan's contact (the scripted robot goes on through the wall after it)."""
         truths = []
-        for t, pts in self.s.front_laser.published:
+        for t, pts in laser.published:
             def gap(times, pts=pts):
-                c = np.column_stack([self.s.scan_bot_x(times), np.zeros(len(times)), np.zeros(len(times))])
-                return st.gap_sphere_balls(c, SCAN_BOT_RADIUS, pts, SCAN_POINT_RADIUS)
+                c = np.column_stack([x_of(times), np.full(len(times), y), np.zeros(len(times))])
+                return st.gap_sphere_balls(c, radius, pts, point_radius)
             if truths and t >= truths[0][1]:
-                break   # the scripted robot goes on through the wall: the scene is over
+                break
             truths.append((t, st.first_contact(gap, t, t + 6.0)))
-            self.assertIsNotNone(truths[-1][1], "the scan at %.3f s misses the wall in the robot's path" % t)
+            self.assertIsNotNone(truths[-1][1], "%s: the scan at %.3f s misses the wall in the robot's path" % (
+                label, t - self.s.t_go))
+        return truths
+
+    def check_scan_scene(self, truths, body, sensor, label):
+        """Every array from the first scan on (until shortly before the contact) against the exact
+        contacts of the scans published within the 0.3 s before it (the one in use)."""
         spread = max(tt for _, tt in truths) - min(tt for _, tt in truths)
         first_scan, contact = truths[0][0], min(tt for _, tt in truths)
         arrays = self.arrays(first_scan + 0.15, contact - 0.2)
-        first, worst, n = self.check_times(
-            arrays, "scan_bot", "front_laser",
-            lambda s: [tt for t, tt in truths if s - 0.3 <= t <= s], "scan wall")
-        rospy.loginfo("a. scan wall: %d scans (their exact contacts spread over %.1f ms); first impact %.3f ms "
-                      "from the exact time, largest error %.3f ms over %d arrays", len(truths), 1e3 * spread,
-                      1e3 * first, 1e3 * worst, n)
+        first, worst, n = self.check_times(arrays, body, sensor,
+                                           lambda s: [tt for t, tt in truths if s - 0.3 <= t <= s], label)
+        return ("%d scans (their exact contacts spread over %.1f ms); first impact %.3f ms from the exact time, "
+                "largest error %.3f ms over %d arrays" % (len(truths), 1e3 * spread, 1e3 * first, 1e3 * worst, n))
+
+    def test_a_scan_wall(self):
+        truths = self.scan_truths(self.s.front_laser, self.s.scan_bot_x, 0.0, SCAN_BOT_RADIUS, SCAN_POINT_RADIUS,
+                                  "scan wall")
+        rospy.loginfo("a. scan wall: %s", self.check_scan_scene(truths, "scan_bot", "front_laser", "scan wall"))
 
     def test_b_gated_stop(self):
         b = self.s.gbot
@@ -484,6 +516,30 @@ class SensorsScenarios(unittest.TestCase):
         first, worst, n = self.check_times(arrays, "map_bot", "floor_map", lambda s: [contact], "map wall")
         rospy.loginfo("e. map wall: %d occupied cells; first impact %.3f ms from the exact time, largest error "
                       "%.3f ms over %d arrays", len(ix), 1e3 * first, 1e3 * worst, n)
+
+
+    def test_f_robot_moving_away(self):
+        """leaver's own points (within its sphere grown by filter_margin at the scan's stamp) are
+        no obstacle; the wall's points, the rest of each scan, are."""
+        laser = self.s.watch_laser
+        seen, kept = [], []
+        for t, pts in laser.published:
+            centre = np.array([self.s.leaver_x(t), LEAVER_START[1], 0.0])
+            on_leaver = np.linalg.norm(pts - centre[None, :], axis=1) <= LEAVER_RADIUS + FILTER_MARGIN
+            seen.append(int(on_leaver.sum()))
+            kept.append((t, pts[~on_leaver]))
+
+        class Kept:
+            published = kept
+        truths = self.scan_truths(Kept, self.s.leaver_x, LEAVER_START[1], LEAVER_RADIUS, WATCH_POINT_RADIUS,
+                                  "moving away")
+        seen = seen[:len(truths)]   # the scans before leaver reaches the wall
+        self.assertGreater(min(seen), 3, "the scene is wrong: a scan with (almost) nothing of leaver in it")
+        figures = self.check_scan_scene(truths, "leaver", "watch_laser", "moving away")
+        watcher_hits = [i for a in self.arrays(0.0, float("inf")) for i in a.impacts if "watcher" in (i.body_a, i.body_b)]
+        self.assertEqual(watcher_hits, [], "the standing watcher has impacts: %s" % watcher_hits[:2])
+        rospy.loginfo("f. moving away: %d to %d of leaver's points in each scan dropped; against the rest: %s",
+                      min(seen), max(seen), figures)
 
 
 if __name__ == "__main__":
