@@ -11,7 +11,8 @@ followed by a bounce rather than an overlap).
 
 Private parameters: agents (20), rate (30 Hz), duration (0 = forever; else the node exits
 after that many seconds, which ends demo.launch), seed (1), gates (false), and with gates the
-bases' base_delay (0.06 s), base_linear_accel (1.0 m/s^2) and base_angular_accel (2.0 rad/s^2).
+bases' base_delay (0.06 s), base_linear_accel (1.0 m/s^2) and base_angular_accel (2.0 rad/s^2);
+sensors (false), and with sensors laser_beams (360) and laser_rate (10 Hz).
 
 With gates (demo.launch gates:=true) each agent's planner publishes its wandering command on
 /agent_<i>/nav_vel (geometry_msgs/Twist, body frame) and the agent moves with what
@@ -22,17 +23,33 @@ it arrives and ramps its velocity towards it at base_linear_accel / base_angular
 of jumping (the odometry reports the base's velocity). Without gates the agents follow their
 planners directly, at once.
 
-Contacts (an agent touching another agent, a wall or the pillar) are counted as they begin and
-reported at the end (and every 10 s), per minute of simulated time.
+With sensors (demo.launch sensors:=true) every agent carries a level 2D laser
+(agent_<i>/laser, LASER_ON_BASE in agent_<i>/base_link, on /tf_static) publishing
+/agent_<i>/scan (sensor_msgs/LaserScan, ~laser_beams beams over 360 degrees at ~laser_rate Hz,
+the agents' scans spread over the cycles) of the walls, the pillar, the other agents and a pallet
+that is in no configuration (only the lasers see it; the agents bounce off it too). A laser
+never sees its own agent. Each scan is stamped with the time of the last tf published and cast
+from the agents' poses then (the monitor places it with tf at its stamp, and filters the agents
+out by their poses then).
+
+Contacts (an agent touching another agent, a wall, the pillar or the pallet) are counted as they
+begin and reported at the end (and every 10 s), per minute of simulated time.
 """
 import collections
 import math
+import os
 import random
+import sys
 
 import rospy
 import tf2_ros
 from geometry_msgs.msg import TransformStamped, Twist
 from nav_msgs.msg import Odometry
+
+# demo_lasers.py lies beside this file (in the devel space the script runs through a relay
+# elsewhere, which puts its own directory on the path).
+sys.path.insert(0, os.path.dirname(os.path.realpath(__file__)))
+from demo_lasers import PALLET, Lasers, ScanPublisher  # noqa: E402
 
 ROOM_HALF = 6.0        # inner faces of the walls at +-6 m (config/demo.yaml)
 RADIUS = 0.3           # base radius (urdf/agent.urdf)
@@ -107,7 +124,15 @@ def quat_y(angle):
     return 0.0, math.sin(angle / 2.0), 0.0, math.cos(angle / 2.0)
 
 
-def make_agents(n):
+def box_distance(x, y, box):
+    """Distance from (x, y) to the axis-aligned box ((centre x, y), (size x, y)) and its closest point."""
+    (cx, cy), (sx, sy) = box
+    qx = min(max(x, cx - sx / 2), cx + sx / 2)
+    qy = min(max(y, cy - sy / 2), cy + sy / 2)
+    return math.hypot(x - qx, y - qy), qx, qy
+
+
+def make_agents(n, pallet=None):
     agents = []
     # Collision courses first: head-on pairs along x at several y, and one crossing pair.
     courses = [
@@ -129,6 +154,8 @@ def make_agents(n):
         y = random.uniform(-ROOM_HALF + 0.6, ROOM_HALF - 0.6)
         if math.hypot(x - PILLAR[0], y - PILLAR[1]) < PILLAR[2] + RADIUS + 0.3:
             continue
+        if pallet and box_distance(x, y, pallet)[0] < RADIUS + 0.3:
+            continue
         if any(math.hypot(x - o.x, y - o.y) < 2 * RADIUS + 0.3 for o in agents):
             continue
         agents.append(Agent(x, y, random.uniform(-math.pi, math.pi), random.uniform(0.3, 1.0)))
@@ -142,8 +169,23 @@ def plan(a, t):
     return a.v, a.wz
 
 
-def step(agents, t, dt, gated, now=0.0):
-    """Moves every agent over dt; `now` (s, ROS time) is when the step ends (the bases' clock)."""
+def bounce(a, qx, qy, reach):
+    """An agent closer than `reach` to the point (qx, qy) of an obstacle reflects its velocity
+    about the normal (when approaching) and is put back at that distance."""
+    dx, dy = a.x - qx, a.y - qy
+    d = math.hypot(dx, dy)
+    if d < reach and d > 1e-9:
+        nx, ny = dx / d, dy / d
+        vx, vy = a.vel()
+        vn = vx * nx + vy * ny
+        if vn < 0:
+            a.set_vel(vx - 2 * vn * nx, vy - 2 * vn * ny)
+        a.x, a.y = qx + nx * reach, qy + ny * reach
+
+
+def step(agents, t, dt, gated, now=0.0, pallet=None):
+    """Moves every agent over dt; `now` (s, ROS time) is when the step ends (the bases' clock);
+    `pallet`: a box the agents bounce off too (None: no pallet)."""
     for a in agents:
         if t >= a.next_turn:
             a.wz = random.uniform(-0.6, 0.6)
@@ -178,16 +220,11 @@ def step(agents, t, dt, gated, now=0.0):
         if abs(a.y) > lim:
             a.y = math.copysign(lim, a.y)
             a.set_vel(vx, -vy)
-        # Pillar: reflect about the normal.
-        dx, dy = a.x - PILLAR[0], a.y - PILLAR[1]
-        d = math.hypot(dx, dy)
-        if d < PILLAR[2] + RADIUS and d > 1e-9:
-            nx, ny = dx / d, dy / d
-            vx, vy = a.vel()
-            vn = vx * nx + vy * ny
-            if vn < 0:
-                a.set_vel(vx - 2 * vn * nx, vy - 2 * vn * ny)
-            a.x, a.y = PILLAR[0] + nx * (PILLAR[2] + RADIUS), PILLAR[1] + ny * (PILLAR[2] + RADIUS)
+        # Pillar (and pallet): reflect about the normal.
+        bounce(a, PILLAR[0], PILLAR[1], PILLAR[2] + RADIUS)
+        if pallet:
+            _, qx, qy = box_distance(a.x, a.y, pallet)
+            bounce(a, qx, qy, RADIUS)
     # Agents: elastic bounce (equal masses swap their normal velocities).
     for i in range(len(agents)):
         for j in range(i + 1, len(agents)):
@@ -205,9 +242,9 @@ def step(agents, t, dt, gated, now=0.0):
                 a.straight_until = b.straight_until = 0.0
 
 
-def count_contacts(agents, counts):
+def count_contacts(agents, counts, pallet=None):
     """Counts the contacts that begin now: agent-agent pairs closer than two radii, agents at a
-    wall or at the pillar (1 mm of slack: the bounces above put them exactly there)."""
+    wall, the pillar or the pallet (1 mm of slack: the bounces above put them exactly there)."""
     lim = ROOM_HALF - RADIUS - 1e-3
     for i, a in enumerate(agents):
         now = set()
@@ -215,11 +252,13 @@ def count_contacts(agents, counts):
             now.add("wall")
         if math.hypot(a.x - PILLAR[0], a.y - PILLAR[1]) <= PILLAR[2] + RADIUS + 1e-3:
             now.add("pillar")
+        if pallet and box_distance(a.x, a.y, pallet)[0] <= RADIUS + 1e-3:
+            now.add("pallet")
         for j, b in enumerate(agents):
             if j != i and math.hypot(a.x - b.x, a.y - b.y) <= 2 * RADIUS + 1e-3:
                 now.add(j)
         for what in now - a.touching:
-            if what in ("wall", "pillar"):
+            if what in ("wall", "pillar", "pallet"):
                 counts["obstacle"] += 1
                 rospy.loginfo("demo_sim: contact agent_%d - %s (agent at %.2f m/s)", i, what, a.speed)
             elif what > i:  # each pair once
@@ -228,6 +267,20 @@ def count_contacts(agents, counts):
                 rospy.loginfo("demo_sim: contact agent_%d - agent_%d (at %.2f and %.2f m/s)", i, what,
                               a.speed, b.speed)
         a.touching = now
+
+
+def make_scans(count, rate_hz):
+    """The agents' lasers (~laser_beams beams at ~laser_rate Hz), or None on bad parameters."""
+    beams = int(rospy.get_param("~laser_beams", 360))
+    scan_hz = float(rospy.get_param("~laser_rate", 10.0))
+    if not (beams >= 1 and 0.0 < scan_hz <= rate_hz):
+        rospy.logfatal("demo_sim: ~laser_beams must be >= 1 and ~laser_rate in (0, ~rate], got %d and %g",
+                       beams, scan_hz)
+        raise SystemExit(1)
+    lasers = Lasers(beams, ROOM_HALF, [PILLAR], PALLET)
+    rospy.loginfo("demo_sim: every agent has a %d-beam laser at %.0f Hz; a pallet at (%.1f, %.1f) that only "
+                  "the lasers see", beams, scan_hz, PALLET[0][0], PALLET[0][1])
+    return ScanPublisher(lasers, count, int(round(rate_hz / scan_hz)))
 
 
 def main():
@@ -239,9 +292,11 @@ def main():
     if n < 1:
         rospy.logfatal("demo_sim: ~agents must be >= 1, got %d", n)
         return
-    agents = make_agents(n)
+    pallet = PALLET if rospy.get_param("~sensors", False) else None
+    agents = make_agents(n, pallet)
     if len(agents) < n:
         rospy.logwarn("demo_sim: only %d agents fit in the room", len(agents))
+    scans = make_scans(len(agents), rate_hz) if pallet else None
     pubs = [rospy.Publisher("/agent_%d/odom" % i, Odometry, queue_size=5) for i in range(len(agents))]
     gated = bool(rospy.get_param("~gates", False))
     plan_pubs, subs = [], []
@@ -286,10 +341,14 @@ def main():
             rospy.loginfo("demo_sim: %.0f s elapsed, stopping", duration)
             break
         dt = (now - last).to_sec()
+        # The agents are still where the last tf put them. No scan in the first second, while
+        # the monitor's tf listener gets the lasers' mounts.
+        if scans and dt > 0 and t >= 1.0:
+            scans.publish([(a.x, a.y, a.yaw) for a in agents], last, RADIUS)
         last = now
         if dt > 0:
-            step(agents, t, min(dt, 0.2), gated, now.to_sec())
-            count_contacts(agents, counts)
+            step(agents, t, min(dt, 0.2), gated, now.to_sec(), pallet)
+            count_contacts(agents, counts, pallet)
         if t >= next_report or (duration > 0 and t + 1.5 / rate_hz >= duration):
             next_report = t + 10.0
             minutes = max(t, 1e-9) / 60.0
