@@ -46,7 +46,7 @@ TEST(Params, DefaultsWhenEmpty) {
   EXPECT_EQ(p.axes, 32);
   EXPECT_DOUBLE_EQ(p.phi_deg, 25.0);
   EXPECT_EQ(p.threads, 0);  // every core
-  EXPECT_EQ(p.broad_phase, "grid");  // VADOP's volumes remove nothing after the cull (README)
+  EXPECT_EQ(p.broad_phase, "grid");  // VADOP's volumes remove nothing after the cull (docs/performance.md)
   EXPECT_EQ(p.time_slices, 8);
   EXPECT_DOUBLE_EQ(p.coherence_clearance, 0.0);  // off
   EXPECT_DOUBLE_EQ(p.coherence_lookahead, 0.5);

@@ -153,7 +153,7 @@ constexpr double kMaxRate = 1000.0;
 // Most moving bodies (in all, templates expanded; also the largest `count`). Each one is a topic
 // subscription, and ROS's own bookkeeping makes subscribing superlinear: roscpp
 // (TopicManager::addSubCallback) and rosmaster (NodeRef.add) compare each new subscription
-// with every earlier one of the node. Measured start-up on the 2-core machine (README): 5,000
+// with every earlier one of the node. Measured start-up on the 2-core machine (docs/monitor.md, limits): 5,000
 // bodies 5.5 s, 20,000 about 40 s, 50,000 188 s; 20,000 keeps it within about a minute.
 constexpr int kMaxBodies = 20000;
 
@@ -174,7 +174,7 @@ struct MonitorParams {
   // The world's broad phase (vadop::parseBroadPhaseKind): "grid" (the plain swept-AABB grid,
   // default), "vadop", "sap", "vadop_sap" or "brute"; the impacts are the same, the cost
   // differs. grid is the default because, after the cull (time_slices), the velocity-aligned
-  // volumes remove no pair on the monitor's workloads and cost up to 57% more (README).
+  // volumes remove no pair on the monitor's workloads and cost up to 57% more (docs/performance.md).
   std::string broad_phase = "grid";
   // Time slices of the cull before the narrow phase (vadop::WorldConfig::time_slices),
   // [1, vadop::kMaxTimeSlices]; 1: none. The impacts are the same for every count.
