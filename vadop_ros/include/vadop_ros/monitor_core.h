@@ -246,6 +246,12 @@ class MonitorCore {
   static constexpr uint32_t kMovingGroup = 1u;
   static constexpr uint32_t kStaticGroup = 2u;
   void syncWorld(const ros::Time& now);
+  // Each body's place against ~region at now (kInside everywhere without a region): outside the
+  // region grown by its margin a body is left out of the world (not a static obstacle, not a
+  // gated body); only pairs with a body inside are reported.
+  enum Place : uint8_t { kInside, kMargin, kOutside };
+  void placeInRegion(const ros::Time& now);
+  std::vector<uint8_t> body_place_;
   // One entry of the ImpactArray from the world's impact (thread-safe: reads only).
   void writeImpact(const vadop::Contact& hit, const ros::Time& now, vadop::Impact& msg) const;
   // World::predict threw `error`: leaves out of the world every element whose motion is out of

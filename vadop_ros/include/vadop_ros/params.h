@@ -192,6 +192,19 @@ struct MonitorParams {
   std::vector<SensorParams> sensors;
   bool log_impacts = false;     // log every cycle's impacts as readable lines (ROS_INFO)
   bool publish_markers = true;  // ~markers (built only while someone subscribes)
+  // This monitor's share of a site split among several (~region, ~region_margin): it predicts
+  // the bodies whose frame lies in the box grown by the margin (a gated body always) and
+  // reports the pairs with at least one body inside the box (tracked objects and sensor points
+  // count as inside: every monitor that holds them reports their pairs). Unbounded by default.
+  struct Region {
+    bool bounded = false;
+    Eigen::Vector3d min = Eigen::Vector3d::Zero(), max = Eigen::Vector3d::Zero();  // fixed frame, m
+    bool contains(const Eigen::Vector3d& p, double margin) const {
+      return !bounded || ((p.array() >= min.array() - margin).all() && (p.array() <= max.array() + margin).all());
+    }
+  };
+  Region region;
+  double region_margin = 0.0;  // m, [0, 1e4]
 };
 
 // Parses the private namespace as one XmlRpc struct (what ros::param::get("~") returns).
