@@ -5,7 +5,10 @@
 // timeout; a map's occupied cells; and through MonitorCore and VelocityGate: an impact against a
 // scan-only wall at its exact time, the wall's new points re-entering the world, a gate stopping
 // short of the wall, zero commands while the scan is stale (unless the gate ignores it), and the
-// kept points drawn as one marker.
+// kept points drawn as one marker. The filter (filter_margin, self_margin): the robot's own body
+// dropped by self_margin with a wall just beyond kept, another robot's points dropped (no impact
+// from them, its own prediction unchanged), a tracked object's, the margin's boundary to 1e-6,
+// and the bodies posed at the message's stamp, not at the cycle's time.
 #include "vadop_ros/monitor_core.h"
 #include "vadop_ros/sensors_source.h"
 #include "vadop_ros/velocity_gate.h"
@@ -17,6 +20,7 @@
 #include <diagnostic_updater/DiagnosticStatusWrapper.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -591,4 +595,166 @@ TEST(SensorsInTheMonitor, TheKeptPointsAreDrawnAsOneSphereListEach) {
     EXPECT_NEAR(q.x(), 3.0, 1e-5);
     EXPECT_NEAR(q.z(), 0.1, 1e-9);
   }
+}
+
+// ---------------------------------------------------------------------------------------------
+// filter_margin and self_margin: the points within a monitored body or tracked object (posed at
+// the message's stamp) are dropped, the sensor's own body's by self_margin.
+namespace {
+
+// Robot "robot" (0.6 x 0.6 x 0.4 box, frame robot/base_link) carrying the lidar (a cloud in
+// robot/laser, hung from robot/base_link), and robot "other" (same box); both on odometry.
+MonitorCore makeFleetCore(const std::string& extra = "") {
+  const std::string text = R"(
+horizon: 3.0
+bodies:
+  - {name: robot, frame: robot/base_link, odom_topic: /robot/odom, shape: {type: box, size: [0.6, 0.6, 0.4]}}
+  - {name: other, frame: other/base_link, odom_topic: /other/odom, shape: {type: box, size: [0.6, 0.6, 0.4]}}
+sensors:
+  - {name: lidar, type: cloud, topic: /cloud, voxel: 0.0}
+)" + extra;
+  return MonitorCore(vadop_ros::parseParams(vadop_test::yaml(text)), [](const std::string&, std::string&) { return false; });
+}
+
+// tf for makeFleetCore: the robot at the odom origin, its laser 0.1 m above its frame.
+void addMountedLaser(FakeTf& tf) {
+  tf.set("odom", "robot/base_link", Eigen::Isometry3d::Identity());
+  Eigen::Isometry3d laser = Eigen::Isometry3d::Identity();
+  laser.translation() = Eigen::Vector3d(0.0, 0.0, 0.1);
+  tf.set("robot/base_link", "robot/laser", laser);
+}
+
+// The points the sensor kept, each a ball: whether one lies at `p` (odom).
+bool kept(const SensorsSource& s, const Eigen::Vector3d& p) {
+  for (const Eigen::Vector3d& q : s.points(0)) {
+    if ((q - p).norm() < 1e-6) return true;
+  }
+  return false;
+}
+
+// Points in the laser frame of makeFleetCore (odom z = laser z + 0.1).
+std::vector<Eigen::Vector3d> inLaser(std::vector<Eigen::Vector3d> odom_points) {
+  for (Eigen::Vector3d& p : odom_points) p.z() -= 0.1;
+  return odom_points;
+}
+
+}  // namespace
+
+TEST(SensorFilter, TheRobotsOwnBodyIsDroppedWithSelfMarginAndAWallBeyondKept) {
+  MonitorCore core = makeFleetCore();
+  FakeTf tf;
+  addMountedLaser(tf);
+  SensorsSource& sensors = sensorsOf(core);
+  core.registry().onOdometry(0, odom(100.0, 0.0, 0.0), ros::Time(100.0));
+  core.cycle(ros::Time(100.0), tf);
+  const double self = sensors.params(0).self_margin;  // 0.02 (filter_margin: 0.1)
+  ASSERT_DOUBLE_EQ(self, 0.02);
+  const Eigen::Vector3d face(0.3, 0.1, 0.05), in(0.3 + self - 1e-6, -0.1, 0.05), out(0.3 + self + 1e-6, 0.0, 0.05);
+  const Eigen::Vector3d wall(0.3 + self + 0.05, 0.2, 0.05), back(-0.3, 0.0, 0.15);
+  const std::vector<Eigen::Vector3d> pts = {face, in, out, wall, back};
+  ASSERT_EQ(sensors.onCloud(0, cloud(100.0, inLaser(pts), "robot/laser"), ros::Time(100.0), tf), InputResult::kAccepted);
+  EXPECT_FALSE(kept(sensors, face));
+  EXPECT_FALSE(kept(sensors, in));
+  EXPECT_FALSE(kept(sensors, back));
+  EXPECT_TRUE(kept(sensors, out));   // 1e-6 beyond self_margin
+  EXPECT_TRUE(kept(sensors, wall));  // 5 cm beyond self_margin (within filter_margin)
+  EXPECT_EQ(sensors.points(0).size(), 2u);
+  EXPECT_EQ(sensors.status(0).points_filtered_self, 3u);
+  EXPECT_EQ(sensors.status(0).points_filtered_others, 0u);
+  // The same points in a frame that hangs from no body: the robot is another body to it.
+  ASSERT_EQ(sensors.onCloud(0, cloud(100.01, pts, "odom"), ros::Time(100.01), tf), InputResult::kAccepted);
+  EXPECT_EQ(sensors.points(0).size(), 0u);  // all within filter_margin 0.1 of the robot
+  EXPECT_EQ(sensors.status(0).points_filtered_others, 5u);
+}
+
+TEST(SensorFilter, AnotherRobotsPointsGiveNoImpactAndItsOwnPredictionIsUnchanged) {
+  // "robot" drives at 1 m/s towards "other", which drives away at 1.5 m/s; "third" comes at
+  // "other" from ahead. The laser sees other's rear face (and a far wall).
+  const std::string third = R"(
+  - {name: third, frame: third/base_link, odom_topic: /third/odom, shape: {type: box, size: [0.6, 0.6, 0.4]}}
+)";
+  const auto build = [&third] {
+    std::string text = R"(
+horizon: 2.0
+bodies:
+  - {name: robot, frame: robot/base_link, odom_topic: /robot/odom, shape: {type: box, size: [0.6, 0.6, 0.4]}}
+  - {name: other, frame: other/base_link, odom_topic: /other/odom, shape: {type: box, size: [0.6, 0.6, 0.4]}}
+)" + third.substr(1) + R"(sensors:
+  - {name: lidar, type: cloud, topic: /cloud, voxel: 0.0}
+)";
+    return MonitorCore(vadop_ros::parseParams(vadop_test::yaml(text)), [](const std::string&, std::string&) { return false; });
+  };
+  MonitorCore with = build(), without = build();
+  FakeTf tf;
+  addMountedLaser(tf);
+  std::vector<Eigen::Vector3d> rear;
+  for (int i = -5; i <= 5; ++i) rear.push_back(Eigen::Vector3d(1.7, 0.05 * i, 0.05));
+  rear.push_back(Eigen::Vector3d(8.0, 0.0, 0.05));  // a wall far ahead: kept
+  for (MonitorCore* core : {&with, &without}) {
+    core->registry().onOdometry(0, odom(100.0, 0.0, 1.0), ros::Time(100.0));
+    core->registry().onOdometry(1, odom(100.0, 2.0, 1.5), ros::Time(100.0));
+    core->registry().onOdometry(2, odom(100.0, 6.0, -1.0), ros::Time(100.0));
+    core->cycle(ros::Time(100.0), tf);
+  }
+  SensorsSource& sensors = sensorsOf(with);
+  ASSERT_EQ(sensors.onCloud(0, cloud(100.0, inLaser(rear), "robot/laser"), ros::Time(100.0), tf), InputResult::kAccepted);
+  EXPECT_EQ(sensors.points(0).size(), 1u);
+  EXPECT_EQ(sensors.status(0).points_filtered_others, 11u);
+  // The robot would reach other's rear face points in 1.38 s, were they kept.
+  const vadop::ImpactArray a = with.cycle(ros::Time(100.05), tf);
+  const vadop::ImpactArray b = without.cycle(ros::Time(100.05), tf);
+  for (const vadop::Impact& i : a.impacts) EXPECT_NE(i.body_b, "lidar") << MonitorCore::describe(i);
+  // other's own prediction (against third) is the same with and without the scan.
+  ASSERT_EQ(a.impacts.size(), b.impacts.size());
+  ASSERT_EQ(a.impacts.size(), 1u);
+  EXPECT_EQ(std::min(a.impacts[0].body_a, a.impacts[0].body_b) + std::max(a.impacts[0].body_a, a.impacts[0].body_b),
+            "otherthird");
+  EXPECT_DOUBLE_EQ(a.impacts[0].time_to_impact, b.impacts[0].time_to_impact);
+}
+
+TEST(SensorFilter, ATrackedObjectsPointsAreDroppedUpToFilterMarginExactly) {
+  MonitorCore core = makeFleetCore(R"(
+tracks:
+  - {topic: /people/tracks, prefix: people, default_shape: {type: cylinder, radius: 0.3, length: 1.8}}
+)");
+  FakeTf tf;
+  addMountedLaser(tf);
+  SensorsSource& sensors = sensorsOf(core);
+  vadop::TrackedObject person;
+  person.id = "1";
+  person.pose.position.x = 3.0;
+  person.pose.orientation.w = 1.0;
+  vadop::TrackedObjectArray people;
+  people.header.stamp = ros::Time(100.0);
+  people.header.frame_id = "odom";
+  people.objects = {person};
+  core.registry().onOdometry(0, odom(100.0, 0.0, 0.0), ros::Time(100.0));
+  ASSERT_EQ(core.tracks().onArray(0, people, ros::Time(100.0), tf), InputResult::kAccepted);
+  core.cycle(ros::Time(100.0), tf);
+  const double m = sensors.params(0).filter_margin;  // 0.1
+  const Eigen::Vector3d surface(2.7, 0.0, 0.05), in(3.0 - 0.3 - m + 1e-6, 0.0, 0.05);
+  const Eigen::Vector3d out(3.0, 0.3 + m + 1e-6, 0.05), top(3.0, 0.0, 0.9 + m + 1e-6);
+  ASSERT_EQ(sensors.onCloud(0, cloud(100.0, {surface, in, out, top}, "odom"), ros::Time(100.0), tf),
+            InputResult::kAccepted);
+  EXPECT_FALSE(kept(sensors, surface));
+  EXPECT_FALSE(kept(sensors, in));
+  EXPECT_TRUE(kept(sensors, out));
+  EXPECT_TRUE(kept(sensors, top));
+  EXPECT_EQ(sensors.status(0).points_filtered_others, 2u);
+}
+
+TEST(SensorFilter, BodiesArePosedAtTheMessagesStampNotAtNow) {
+  MonitorCore core = makeFleetCore();
+  FakeTf tf;
+  addMountedLaser(tf);
+  SensorsSource& sensors = sensorsOf(core);
+  // "other" at x = 2 at 100.0 driving +x at 1 m/s: at 100.5 it is at 2.5 (box 2.2 .. 2.8).
+  core.registry().onOdometry(0, odom(100.5, 0.0, 0.0), ros::Time(100.5));
+  core.registry().onOdometry(1, odom(100.5, 2.5, 1.0), ros::Time(100.5));
+  core.cycle(ros::Time(100.5), tf);
+  // A cloud stamped 100.0 (box then at 1.7 .. 2.3), arriving now.
+  const Eigen::Vector3d then(1.75, 0.0, 0.05), now_only(2.65, 0.0, 0.05);
+  ASSERT_EQ(sensors.onCloud(0, cloud(100.0, {then, now_only}, "odom"), ros::Time(100.5), tf), InputResult::kAccepted);
+  EXPECT_FALSE(kept(sensors, then));    // within the box where it was at the stamp
+  EXPECT_TRUE(kept(sensors, now_only));  // 0.35 m beyond it then, inside it now
 }
