@@ -21,7 +21,9 @@
 #include <sensor_msgs/point_cloud2_iterator.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
 #include <string>
@@ -757,4 +759,96 @@ TEST(SensorFilter, BodiesArePosedAtTheMessagesStampNotAtNow) {
   ASSERT_EQ(sensors.onCloud(0, cloud(100.0, {then, now_only}, "odom"), ros::Time(100.5), tf), InputResult::kAccepted);
   EXPECT_FALSE(kept(sensors, then));    // within the box where it was at the stamp
   EXPECT_TRUE(kept(sensors, now_only));  // 0.35 m beyond it then, inside it now
+}
+
+// The filter's cost (not run in CI: --gtest_also_run_disabled_tests): a 1,081-beam scan among
+// 1,000 box robots on a 3 m grid, the laser on robot 0 in the grid's middle, each beam ending on
+// the nearest robot's face or at 10 m; the time of onScan with and without the filter.
+TEST(SensorFilter, DISABLED_CostOfA1081BeamScanAmong1000Robots) {
+  std::string text = "horizon: 3.0\nbodies:\n";
+  const int n = 1000, side = 32;
+  std::vector<Eigen::Vector2d> at;
+  for (int i = 0; i < n; ++i) {
+    // Robot 0 in the middle; the others fill the grid around it.
+    const int cell = (i + side * side / 2 + side / 2) % (side * side);
+    at.push_back(Eigen::Vector2d(3.0 * (cell % side), 3.0 * (cell / side)));
+    text += "  - {name: r" + std::to_string(i) + ", frame: r" + std::to_string(i) + "/base_link, odom_topic: /r" +
+            std::to_string(i) + "/odom, shape: {type: box, size: [0.6, 0.6, 0.4]}}\n";
+  }
+  text += "sensors:\n  - {name: lidar, type: scan, topic: /scan}\n";
+  MonitorCore core(vadop_ros::parseParams(vadop_test::yaml(text)), [](const std::string&, std::string&) { return false; });
+  FakeTf tf;
+  Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+  base.translation() << at[0].x(), at[0].y(), 0.0;
+  tf.set("odom", "r0/base_link", base);
+  tf.set("r0/base_link", "r0/laser", Eigen::Isometry3d::Identity());
+  for (int i = 0; i < n; ++i) {
+    // odom() sets x only: y through the pose.
+    nav_msgs::Odometry m = odom(100.0, at[i].x(), 0.2);
+    m.pose.pose.position.y = at[i].y();
+    core.registry().onOdometry(i, m, ros::Time(100.0));
+  }
+  core.cycle(ros::Time(100.0), tf);
+  sensor_msgs::LaserScan s;
+  s.header.frame_id = "r0/laser";
+  s.angle_min = static_cast<float>(-0.75 * M_PI);
+  s.angle_increment = static_cast<float>(1.5 * M_PI / 1080);
+  s.angle_max = s.angle_min + 1080 * s.angle_increment;
+  s.range_min = 0.05f;
+  s.range_max = 30.0f;
+  for (int b = 0; b <= 1080; ++b) {
+    const double a = s.angle_min + b * static_cast<double>(s.angle_increment);
+    const Eigen::Vector2d d(std::cos(a), std::sin(a));
+    double r = 10.0;
+    for (int i = 1; i < n; ++i) {  // the ray against each square (slab test)
+      const Eigen::Vector2d lo = at[i] - at[0] - Eigen::Vector2d::Constant(0.3), hi = lo + Eigen::Vector2d::Constant(0.6);
+      double t0 = 0.0, t1 = 1e9;
+      for (int k = 0; k < 2; ++k) {
+        if (std::fabs(d[k]) < 1e-12) {
+          if (0.0 < lo[k] || 0.0 > hi[k]) t0 = 2e9;
+          continue;
+        }
+        const double u = lo[k] / d[k], v = hi[k] / d[k];
+        t0 = std::max(t0, std::min(u, v));
+        t1 = std::min(t1, std::max(u, v));
+      }
+      if (t0 <= t1 && t0 < r) r = t0;
+    }
+    s.ranges.push_back(static_cast<float>(r));
+  }
+  SensorsSource& sensors = sensorsOf(core);
+  const auto time = [&](int reps) {
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < reps; ++k) {
+      s.header.stamp = ros::Time(100.0 + 1e-3 * k);
+      sensors.onScan(0, s, ros::Time(100.0 + 1e-3 * k), tf);
+    }
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() / reps;
+  };
+  time(5);
+  const double with = time(50);
+  const size_t kept = sensors.points(0).size();
+  const uint64_t filtered = sensors.status(0).points_filtered_others;
+  // With a cycle before each message: the snapshot is made again (at most once a cycle).
+  const auto cycled = [&](bool scan) {
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < 20; ++k) {
+      const ros::Time t(100.0 + 1e-3 * k);
+      core.cycle(t, tf);
+      s.header.stamp = t;
+      if (scan) sensors.onScan(0, s, t, tf);
+    }
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() / 20;
+  };
+  cycled(true);
+  const double cycle_and_scan = cycled(true), cycle_alone = cycled(false);
+  std::printf("a cycle and a scan: %.3f ms, a cycle alone: %.3f ms (the scan with a fresh snapshot: %.3f ms)\n",
+              cycle_and_scan, cycle_alone, cycle_and_scan - cycle_alone);
+  sensors.setFilterProvider(nullptr);
+  time(5);
+  const double without = time(50);
+  std::printf("1,081-beam scan, 1,000 robots: %.3f ms a message with the filter, %.3f ms without (%zu kept of %zu, "
+              "%.1f filtered a message)\n",
+              with, without, kept, sensors.points(0).size(), static_cast<double>(filtered) / 55.0);
+  EXPECT_LT(kept, sensors.points(0).size());
 }
