@@ -13,7 +13,7 @@ namespace vadop_ros {
 namespace {
 
 // A candidate spanning more grid cells than this is tested against every point instead.
-constexpr int64_t kMaxCellsPerCandidate = 64;
+constexpr double kMaxCellsPerCandidate = 64.0;
 // How far up tf's tree a sensor's frame is followed (a tree deeper than this is not a robot).
 constexpr int kMaxFrameDepth = 64;
 
@@ -127,7 +127,10 @@ void SensorFilter::bin() {
     const double r = std::sqrt(candidates_[k].reach2);
     const Cell a = cellOf(candidates_[k].centre - Eigen::Vector3d::Constant(r));
     const Cell b = cellOf(candidates_[k].centre + Eigen::Vector3d::Constant(r));
-    if ((b[0] - a[0] + 1) * (b[1] - a[1] + 1) * (b[2] - a[2] + 1) > kMaxCellsPerCandidate) {
+    // In doubles: a large body over small cells would overflow the product of integers.
+    double cells = 1.0;
+    for (int k = 0; k < 3; ++k) cells *= static_cast<double>(b[k] - a[k] + 1);
+    if (cells > kMaxCellsPerCandidate) {
       big_.push_back(k);
       continue;
     }
