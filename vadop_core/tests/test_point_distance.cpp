@@ -1,7 +1,7 @@
 // PointDistance (the gap from a point to a posed shape) against an independent brute force:
 // closed forms for the sphere, box, capsule and cylinder, the minimum over the balls for a
-// point set, each under random poses, margins and points around and inside the shape; and the
-// margin's boundary (within(): in at margin - 1e-6, out at margin + 1e-6).
+// point set, each under random poses, margins and points around and inside the shape (gap() and
+// within()); and the margin's boundary (within(): in at margin - 1e-6, out at margin + 1e-6).
 #include "vadop/error.h"
 #include "vadop/point_distance.h"
 #include "vadop/shapes.h"
@@ -81,6 +81,9 @@ TEST(PointDistance, MatchesTheClosedFormsAndTheBruteForceOverPoints) {
       const double truth = truthGap(s, local);
       const double got = query.gap(pose, pose * local);
       SCOPED_TRACE(std::string(vadop::toString(s.type)) + " point " + std::to_string(i));
+      // within() (decided at a coarse tolerance first) against the truth, away from the boundary.
+      const double margin = 0.3 * (0.5 + 0.5 * u(rng));
+      if (std::abs(truth - margin) > 1e-6) EXPECT_EQ(query.within(pose, pose * local, margin), truth <= margin);
       if (truth > 0.0) {
         EXPECT_NEAR(got, truth, 1e-6);
         ++outside;

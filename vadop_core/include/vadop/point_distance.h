@@ -30,14 +30,17 @@ class PointDistance {
   // > 0 outside, within 1e-9 m of the exact distance; <= 0 on or inside a solid shape.
   // Throws vadop::InvalidArgument for a pose or point that is not finite.
   double gap(const Eigen::Isometry3d& pose, const Eigen::Vector3d& p) const;
-  // Whether `p` lies within the shape at `pose` grown by `margin` (gap <= margin).
-  bool within(const Eigen::Isometry3d& pose, const Eigen::Vector3d& p, double margin) const {
-    return gap(pose, p) <= margin;
-  }
+  // Whether `p` lies within the shape at `pose` grown by `margin` >= 0 (gap <= margin, to 1e-9
+  // m). Decided first at a coarse tolerance (a fraction of the margin: a point on the surface,
+  // the common case, needs few iterations), refined only when that leaves it open.
+  bool within(const Eigen::Isometry3d& pose, const Eigen::Vector3d& p, double margin) const;
 
  private:
   std::shared_ptr<const PreparedShape> shape_;
   std::shared_ptr<const PreparedShape> point_;  // a small ball: its radius is added back exactly
+  // The gap's certified bounds at `tolerance`: [lower, upper] (inside a solid shape: upper <= 0).
+  void bounds(const Eigen::Isometry3d& pose, const Eigen::Vector3d& p, double tolerance, double& lower,
+              double& upper) const;
 };
 
 }  // namespace vadop
