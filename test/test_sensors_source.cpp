@@ -6,7 +6,8 @@
 // scan-only wall at its exact time, the wall's new points re-entering the world, a gate stopping
 // short of the wall, zero commands while the scan is stale (unless the gate ignores it), and the
 // kept points drawn as one marker. The filter (filter_margin, self_margin): the robot's own body
-// dropped by self_margin with a wall just beyond kept, another robot's points dropped (no impact
+// dropped by self_margin with a wall just beyond kept (its laser hung from its frame in tf, or
+// only within its bounding sphere), another robot's points dropped (no impact
 // from them, its own prediction unchanged), a tracked object's, the margin's boundary to 1e-6,
 // and the bodies posed at the message's stamp, not at the cycle's time.
 #include "vadop_ros/monitor_core.h"
@@ -663,7 +664,17 @@ TEST(SensorFilter, TheRobotsOwnBodyIsDroppedWithSelfMarginAndAWallBeyondKept) {
   EXPECT_EQ(sensors.points(0).size(), 2u);
   EXPECT_EQ(sensors.status(0).points_filtered_self, 3u);
   EXPECT_EQ(sensors.status(0).points_filtered_others, 0u);
-  // The same points in a frame that hangs from no body: the robot is another body to it.
+  // A laser frame hung from odom, not from the robot's frame, but within its bounding sphere:
+  // the robot is still its own body (self_margin, the smaller).
+  Eigen::Isometry3d loose = Eigen::Isometry3d::Identity();
+  loose.translation() = Eigen::Vector3d(0.0, 0.0, 0.1);
+  tf.set("odom", "loose_laser", loose);
+  ASSERT_EQ(sensors.onCloud(0, cloud(100.005, inLaser(pts), "loose_laser"), ros::Time(100.005), tf), InputResult::kAccepted);
+  EXPECT_TRUE(kept(sensors, out));
+  EXPECT_TRUE(kept(sensors, wall));
+  EXPECT_EQ(sensors.points(0).size(), 2u);
+  EXPECT_EQ(sensors.status(0).points_filtered_self, 6u);
+  // The same points in the fixed frame (no sensor origin): the robot is another body to it.
   ASSERT_EQ(sensors.onCloud(0, cloud(100.01, pts, "odom"), ros::Time(100.01), tf), InputResult::kAccepted);
   EXPECT_EQ(sensors.points(0).size(), 0u);  // all within filter_margin 0.1 of the robot
   EXPECT_EQ(sensors.status(0).points_filtered_others, 5u);

@@ -34,6 +34,7 @@ std::shared_ptr<const FilterSnapshot> makeFilterSnapshot(const BodyRegistry& reg
   const auto& elements = registry.elements();
   cache.resize(elements.size());
   for (size_t b = 0; b < bodies.size(); ++b) snap->owners.push_back(bodies[b].name);
+  snap->monitored = bodies.size();
   for (size_t b = 0; b < bodies.size(); ++b) {
     if (bodies[b].is_static || bodies[b].params.frame.empty()) continue;
     snap->frame_owner.emplace(bare(bodies[b].params.frame), b);
@@ -59,7 +60,30 @@ std::shared_ptr<const FilterSnapshot> makeFilterSnapshot(const BodyRegistry& reg
   return snap;
 }
 
-int carrierOf(const FilterSnapshot& snapshot, const std::string& frame, const ros::Time& stamp, TransformSource& tf) {
+// The monitored body with an element whose bounding sphere at `t` holds `origin` (the nearest
+// centre), or -1.
+int holderOf(const FilterSnapshot& snapshot, double t, const Eigen::Vector3d& origin) {
+  int best = -1;
+  double best_d2 = 0.0;
+  for (const FilterSnapshot::Item& item : snapshot.items) {
+    if (item.owner >= snapshot.monitored) continue;
+    Eigen::Vector3d centre;
+    try {
+      centre = (item.chain ? item.chain->poseAt(t) : item.motion.poseAt(t)).translation();
+    } catch (const std::exception&) {
+      continue;
+    }
+    const double r = item.shape->shape().bounding_radius, d2 = (centre - origin).squaredNorm();
+    if (d2 <= r * r && (best < 0 || d2 < best_d2)) {
+      best = static_cast<int>(item.owner);
+      best_d2 = d2;
+    }
+  }
+  return best;
+}
+
+int carrierOf(const FilterSnapshot& snapshot, const std::string& frame, const ros::Time& stamp, TransformSource& tf,
+              const Eigen::Vector3d* origin) {
   std::string f = bare(frame);
   for (int depth = 0; depth < kMaxFrameDepth && !f.empty(); ++depth) {
     if (const auto it = snapshot.frame_owner.find(f); it != snapshot.frame_owner.end()) {
@@ -75,7 +99,7 @@ int carrierOf(const FilterSnapshot& snapshot, const std::string& frame, const ro
     if (!found || bare(parent) == f) break;
     f = bare(parent);
   }
-  return -1;
+  return origin ? holderOf(snapshot, secondsBetween(stamp, snapshot.base), *origin) : -1;
 }
 
 size_t SensorFilter::CellHash::operator()(const Cell& c) const {

@@ -3,8 +3,9 @@
 // them (FilterSnapshot), and the filter itself (SensorFilter). A point within an element's
 // unpadded shape, posed at the message's stamp and grown by the margin, is dropped: that body
 // is predicted from its own motion instead. The sensor's own body (the monitored body whose
-// tf frame, or one of whose link frames, the message's frame hangs from) uses self_margin,
-// every other body filter_margin.
+// tf frame, or one of whose link frames, the message's frame hangs from; when none does, the
+// monitored body whose element's bounding sphere holds the sensor's origin) uses self_margin,
+// every other body filter_margin (self_margin, the smaller by default: a wrong guess keeps points).
 // Pose at the stamp: each element's motion of the last cycle (the twist from its latest state,
 // or its plan / joint chain) evaluated at the stamp: extrapolated back from its latest state
 // when the stamp is before it, which is exact for a body that kept its velocity since. An
@@ -52,6 +53,7 @@ struct FilterSnapshot {
   ros::Time base;                   // the registry's time base (seconds() of its motions)
   std::vector<Item> items;
   std::vector<std::string> owners;  // a monitored body's or tracked object's name
+  size_t monitored = 0;             // owners [0, monitored) are the registry's bodies
   // The monitored bodies' tf frames (body frame, links' tf frames) -> owner.
   std::unordered_map<std::string, size_t> frame_owner;
 };
@@ -66,8 +68,11 @@ std::shared_ptr<const FilterSnapshot> makeFilterSnapshot(const BodyRegistry& reg
                                                          FilterShapeCache& cache);
 
 // The owner whose frame `frame` hangs from in tf (the frame itself, then its parents up to the
-// root, asked at `stamp`, else the latest), or -1 when none does.
-int carrierOf(const FilterSnapshot& snapshot, const std::string& frame, const ros::Time& stamp, TransformSource& tf);
+// root, asked at `stamp`, else the latest); when none does and `origin` (the frame's origin in
+// the fixed frame) is given, the monitored body with an element whose bounding sphere at the
+// stamp holds it (the nearest centre); else -1.
+int carrierOf(const FilterSnapshot& snapshot, const std::string& frame, const ros::Time& stamp, TransformSource& tf,
+              const Eigen::Vector3d* origin = nullptr);
 
 // Drops the points within the snapshot's elements posed at `stamp`, grown by `margin` (the
 // owner `self`: by `self_margin`). One per sensor (its scratch is reused across messages).

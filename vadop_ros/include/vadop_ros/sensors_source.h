@@ -135,6 +135,8 @@ class SensorsSource : public BodiesSource {
     ros::Time stamp;           // the message's (its receipt when zero)
     size_t nan_beams = 0, first_nan = 0, skipped = 0;
     std::string frame;         // header.frame_id without a leading '/'
+    bool has_origin = false;   // the frame is not the fixed frame: its origin there
+    Eigen::Vector3d origin = Eigen::Vector3d::Zero();
     std::shared_ptr<const FilterSnapshot> bodies;  // what the points are filtered against
     SensorFilter filter;
     SensorFilter::Dropped filtered;

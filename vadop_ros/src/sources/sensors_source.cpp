@@ -127,6 +127,7 @@ bool SensorsSource::prepareHeader(const std_msgs::Header& h, const ros::Time& re
     return false;
   }
   w.frame = frame;
+  w.has_origin = false;
   to_fixed = Eigen::Isometry3d::Identity();
   if (frame == fixed_frame_) return true;
   ros::Time tf_stamp;
@@ -138,6 +139,8 @@ bool SensorsSource::prepareHeader(const std_msgs::Header& h, const ros::Time& re
     error = e.what();
   }
   if (!found) w.why = "header.frame_id \"" + frame + "\": no transform to \"" + fixed_frame_ + "\" at its stamp: " + error;
+  w.has_origin = found;
+  w.origin = to_fixed.translation();
   return found;
 }
 
@@ -145,7 +148,7 @@ void SensorsSource::filterPoints(size_t sensor, TransformSource& tf, Work& w) co
   if (!w.bodies || w.bodies->items.empty() || w.points.empty()) return;
   const SensorParams& sp = params_[sensor];
   try {
-    const int self = carrierOf(*w.bodies, w.frame, w.stamp, tf);
+    const int self = carrierOf(*w.bodies, w.frame, w.stamp, tf, w.has_origin ? &w.origin : nullptr);
     w.filtered = w.filter.apply(*w.bodies, w.stamp, self, sp.filter_margin, sp.self_margin, w.points);
   } catch (const std::exception&) {
     // Not expected (finite points, valid motions); the points then stay obstacles, unfiltered.
