@@ -24,6 +24,7 @@ RANGE_MAX = 15.0
 HORIZON = 3.0
 POINT_RADIUS = 0.02
 RUN = 5.0                    # s
+LEAD_IN = 1.0                # s of odometry before the first scan (the monitor knows both robots)
 HZ_ODOM, HZ_SCAN = 50.0, 15.0
 
 
@@ -101,9 +102,10 @@ class SensorFilterScan(unittest.TestCase):
         return wall
 
     def test_another_robot_moving_away_gives_no_sensor_impact(self):
-        # The truth: kept, the other's rear face (x = 1.7 at the start, static) would be hit by the
+        # The truth: kept, the other's rear face at the first scan (static) would be hit by the
         # robot's front within the horizon; the wall beside the path never is.
-        self.assertLess((X_OTHER0 - 2 * HALF - POINT_RADIUS) / V_ROBOT, HORIZON)
+        gap = X_OTHER0 + (V_OTHER - V_ROBOT) * LEAD_IN - 2 * HALF - POINT_RADIUS
+        self.assertLess(gap / V_ROBOT, HORIZON)
         self.assertGreater(WALL_Y - HALF - POINT_RADIUS, 0.0)
         laser = TransformStamped()
         laser.header.stamp, laser.header.frame_id, laser.child_frame_id = rospy.Time.now(), "robot/base_link", "robot/laser"
@@ -115,18 +117,18 @@ class SensorFilterScan(unittest.TestCase):
                 break
             rospy.sleep(0.1)
         start, rate = rospy.Time.now(), rospy.Rate(HZ_ODOM)
-        walls, k, last_scan = [], 0, -1.0
+        walls, last_scan = [], -1.0
         while not rospy.is_shutdown():
             now = rospy.Time.now()
             t = (now - start).to_sec()
             if t > RUN:
                 break
             self.publish_state(now, t)
-            if t - last_scan >= 1.0 / HZ_SCAN and k > 0:
+            if t - last_scan >= 1.0 / HZ_SCAN and t >= LEAD_IN:
                 # Stamped at the previous state (tf has it on both sides by now).
                 walls.append((now.to_sec(), self.publish_scan(prev, prev_t)))
                 last_scan = t
-            prev, prev_t, k = now, t, k + 1
+            prev, prev_t = now, t
             rate.sleep()
         rospy.sleep(0.3)
         with self.lock:
@@ -136,7 +138,7 @@ class SensorFilterScan(unittest.TestCase):
             for i in a.impacts:
                 self.assertNotIn("lidar", (i.body_a, i.body_b), "an impact from the scan: %s" % i)
         # The sensor's kept points are the wall's beams (within one scan's change), never the other's.
-        fresh = [(s, v) for s, v in kept if v.get("lidar: stale") == "no" and s > start.to_sec() + 1.0]
+        fresh = [(s, v) for s, v in kept if v.get("lidar: stale") == "no" and s > start.to_sec() + LEAD_IN + 0.5]
         self.assertTrue(fresh, "no fresh 'sensors' status: %s" % kept[-3:])
         for s, v in fresh:
             near = [w for ws, w in walls if s - 1.5 <= ws <= s]
