@@ -1,5 +1,7 @@
 #include "vadop_ros/monitor_core.h"
 
+#include "vadop_ros/sensors_source.h"
+
 #include "gate_manoeuvre.h"
 #include "scale_contacts.h"
 
@@ -78,6 +80,9 @@ MonitorCore::MonitorCore(const MonitorParams& params, const ParamReader& read_pa
   for (const BodiesSourceKind& kind : bodiesSourceKinds()) {
     body_sources_.push_back(kind.make(params));
     if (auto* tracks = dynamic_cast<Tracks*>(body_sources_.back().get())) tracks_ = tracks;
+    if (auto* sensors = dynamic_cast<SensorsSource*>(body_sources_.back().get())) {
+      sensors->setFilterProvider([this] { return filterSnapshot(); });
+    }
   }
   for (const BodyParams& b : params.bodies) gate_world_wanted_ = gate_world_wanted_ || b.has_gate;
   impacts_.header.frame_id = params_.fixed_frame;
@@ -443,6 +448,7 @@ void MonitorCore::noteLimit(const vadop::World::MoverContact* limit, double t_no
 
 void MonitorCore::reset() {
   registry_.reset();
+  ++cycles_;
   const auto& elements = registry_.elements();
   for (size_t i = 0; i < elements.size(); ++i) {
     if (!registry_.bodies()[elements[i].body].is_static) {
@@ -661,7 +667,17 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
   return finishCycle(now);
 }
 
+std::shared_ptr<const FilterSnapshot> MonitorCore::filterSnapshot() {
+  if (!filter_snapshot_ || filter_snapshot_cycle_ != cycles_) {
+    static const std::vector<SourcedBody> kNone;
+    filter_snapshot_ = makeFilterSnapshot(registry_, tracks_ ? tracks_->bodies() : kNone, filter_shapes_);
+    filter_snapshot_cycle_ = cycles_;
+  }
+  return filter_snapshot_;
+}
+
 void MonitorCore::startCycle(const ros::Time& now, TransformSource& tf) {
+  ++cycles_;  // the sensors' filter snapshot follows the new motions
   cycle_start_ = std::chrono::steady_clock::now();
   predicting_ = false;  // should the last cycle have thrown before its end
   stats_ = CycleStats();

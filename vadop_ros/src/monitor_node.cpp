@@ -58,6 +58,9 @@ class Tf2Source : public TransformSource {
     }
   }
   bool concurrent() const override { return true; }  // tf2::BufferCore locks its own state
+  bool parent(const std::string& frame, const ros::Time& time, std::string& parent) override {
+    return buffer_._getParent(frame, time, parent);
+  }
 
  private:
   tf2_ros::Buffer& buffer_;

@@ -13,6 +13,7 @@
 #include "vadop_ros/pair_filter.h"
 #include "vadop_ros/params.h"
 #include "vadop_ros/predictor.h"
+#include "vadop_ros/sensor_filter.h"
 #include "vadop_ros/source.h"
 #include "vadop_ros/tracks.h"
 
@@ -319,6 +320,12 @@ class MonitorCore {
   // The limiting contact (none: null) into out.
   static void noteLimit(const vadop::World::MoverContact* limit, double t_now, CommandCheck& out);
   void logPredictionOutcome();  // the recovered / failed lines (throttled)
+  // What the sensors' points are filtered against (sensor_filter.h), made at most once a cycle
+  // when a sensor asks (under the node's lock); cycles_ counts the cycles started.
+  std::shared_ptr<const FilterSnapshot> filterSnapshot();
+  std::shared_ptr<const FilterSnapshot> filter_snapshot_;
+  FilterShapeCache filter_shapes_;
+  uint64_t cycles_ = 0, filter_snapshot_cycle_ = 0;
   // The kept impacts (pair rules) into impacts_, and each body's soonest time to impact.
   void writeImpacts(const ros::Time& now);
   // Counts the undecided pairs the rules keep and names the first (stats_), with its warning.
