@@ -1,0 +1,523 @@
+// The contact patch's centroid: support features, their outlines clipped in the contact plane.
+// See contact_patch.h.
+#include "contact_patch.h"
+
+#include "convex_distance.h"
+#include "gjk.h"
+
+#include <Eigen/QR>
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+#include <vector>
+
+namespace vadop {
+namespace detail {
+
+namespace {
+
+using Vec2 = Eigen::Vector2d;
+using Points = std::vector<Eigen::Vector3d>;
+using Outline = std::vector<Vec2>;  // convex, counter-clockwise; 1 or 2 points when degenerate
+
+// A feature holds the core's points within this share of its size below its support along the
+// normal: a face stays a face under the normal's rounding error (a polytope's normal is exact to
+// rounding, a touching pair's to the distance query's accuracy), yet the point stays within this
+// of each shape.
+constexpr double kFeatureShare = 1e-7;
+constexpr int kCapSides = 32;  // a cylinder's cap as the polygon inscribed in its rim
+// A mesh pair whose bodies meet over many triangles: the patch of the first ones met is enough
+// for a point inside both (each triangle's patch is), and keeps the cost bounded.
+constexpr int kMaxLeafPairs = 1024;
+
+// The feature tolerance of a core: its share of the core's size, and the rounding of its
+// coordinates far from the origin.
+double featureTolerance(const Convex& c) {
+  const Eigen::Vector3d m = c.centre();
+  double size = 0.0;
+  if (c.shape) {
+    size = c.shape->lever;
+  } else {
+    for (const Eigen::Vector3d& v : c.tri) size = std::max(size, (v - m).norm());
+    size += c.rounding;
+  }
+  return kFeatureShare * size + 1e-13 * m.norm();
+}
+
+// Keeps the points within eps of the highest along d.
+void keepHighest(Points& pts, const Eigen::Vector3d& d, double eps) {
+  double top = -kInf;
+  for (const Eigen::Vector3d& x : pts) top = std::max(top, d.dot(x));
+  pts.erase(std::remove_if(pts.begin(), pts.end(), [&](const Eigen::Vector3d& x) { return d.dot(x) < top - eps; }),
+            pts.end());
+}
+
+// A cylinder's feature along the unit db (body frame): its cap when the cap's rim lies within eps
+// of the support, a side line when that line does, else the rim point.
+void cylinderFeature(const PreparedShapeData& s, const Eigen::Vector3d& db, double eps, Points& out) {
+  const double hl = s.half_length, rc = s.cyl_radius;
+  const double z = db.z() >= 0.0 ? hl : -hl;
+  const double r = std::hypot(db.x(), db.y());
+  if (2.0 * rc * r <= eps) {
+    constexpr double kTwoPi = 6.283185307179586;
+    for (int k = 0; k < kCapSides; ++k) {
+      const double a = kTwoPi * k / kCapSides;
+      out.emplace_back(rc * std::cos(a), rc * std::sin(a), z);
+    }
+    return;
+  }
+  const Eigen::Vector3d e(rc * db.x() / r, rc * db.y() / r, 0.0);
+  if (2.0 * hl * std::abs(db.z()) <= eps) {
+    out.push_back(e - Eigen::Vector3d(0.0, 0.0, hl));
+    out.push_back(e + Eigen::Vector3d(0.0, 0.0, hl));
+    return;
+  }
+  out.push_back(e + Eigen::Vector3d(0.0, 0.0, z));
+}
+
+// The core's points (world frame) within eps of its support along the unit d. Heights are
+// compared in the body frame, where coordinates are small.
+Points supportFeature(const Convex& c, const Eigen::Vector3d& d, double eps) {
+  Points pts;
+  if (c.shape == nullptr) {
+    pts.assign(c.tri.begin(), c.tri.end());
+    keepHighest(pts, d, eps);
+    return pts;
+  }
+  const PreparedShapeData& s = *c.shape;
+  const Eigen::Vector3d db = c.R.transpose() * d;
+  switch (s.kind) {
+    case CoreKind::kPoint: pts.emplace_back(Eigen::Vector3d::Zero()); break;
+    case CoreKind::kSegment:
+      pts.emplace_back(0.0, 0.0, -s.half_length);
+      pts.emplace_back(0.0, 0.0, s.half_length);
+      break;
+    case CoreKind::kBox:
+      for (int k = 0; k < 8; ++k) {
+        pts.emplace_back((k & 1 ? 1.0 : -1.0) * s.half_extents.x(), (k & 2 ? 1.0 : -1.0) * s.half_extents.y(),
+                         (k & 4 ? 1.0 : -1.0) * s.half_extents.z());
+      }
+      break;
+    case CoreKind::kCylinder: cylinderFeature(s, db, eps, pts); break;
+    case CoreKind::kPoints: pts = s.points; break;
+    case CoreKind::kMesh: break;  // meshes come triangle by triangle
+  }
+  if (s.kind != CoreKind::kCylinder) keepHighest(pts, db, eps);
+  for (Eigen::Vector3d& x : pts) x = c.R * x + c.p + c.shift;
+  return pts;
+}
+
+double cross(const Vec2& o, const Vec2& a, const Vec2& b) {
+  return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
+}
+
+// The convex hull (monotone chain), counter-clockwise; the two extremes of collinear points.
+Outline convexHull(Outline p) {
+  std::sort(p.begin(), p.end(), [](const Vec2& a, const Vec2& b) {
+    return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
+  });
+  p.erase(std::unique(p.begin(), p.end()), p.end());
+  if (p.size() < 3) return p;
+  Outline h(2 * p.size());
+  size_t k = 0;
+  for (size_t i = 0; i < p.size(); ++i) {
+    while (k >= 2 && cross(h[k - 2], h[k - 1], p[i]) <= 0.0) --k;
+    h[k++] = p[i];
+  }
+  for (size_t i = p.size() - 1, lower = k + 1; i-- > 0;) {
+    while (k >= lower && cross(h[k - 2], h[k - 1], p[i]) <= 0.0) --k;
+    h[k++] = p[i];
+  }
+  h.resize(k - 1);
+  return h;
+}
+
+double signedArea(const Outline& p) {
+  double a = 0.0;
+  for (size_t i = 0, j = p.size() - 1; i < p.size(); j = i++) a += p[j].x() * p[i].y() - p[i].x() * p[j].y();
+  return 0.5 * a;
+}
+
+// The two points farthest apart (a degenerate outline's segment), first and second.
+std::pair<Vec2, Vec2> extremes(const Outline& p) {
+  std::pair<Vec2, Vec2> best{p.front(), p.front()};
+  double far = -1.0;
+  for (size_t i = 0; i < p.size(); ++i) {
+    for (size_t j = i; j < p.size(); ++j) {
+      const double d = (p[i] - p[j]).squaredNorm();
+      if (d > far) {
+        far = d;
+        best = {p[i], p[j]};
+      }
+    }
+  }
+  return best;
+}
+
+// An outline with area: more than a sliver of width tol.
+bool hasArea(const Outline& p, double tol) {
+  if (p.size() < 3) return false;
+  const auto [a, b] = extremes(p);
+  return std::abs(signedArea(p)) > tol * (a - b).norm();
+}
+
+// Sutherland-Hodgman: the subject (any outline: a point or a segment clips as a closed polygon
+// of one or two vertices) clipped by the half-planes of the convex counter-clockwise clipper's
+// edges, each moved out by tol.
+Outline clip(Outline subject, const Outline& clipper, double tol) {
+  for (size_t i = 0; i < clipper.size() && !subject.empty(); ++i) {
+    const Vec2& a = clipper[i];
+    const Vec2 e = clipper[(i + 1) % clipper.size()] - a;
+    const double len = e.norm();
+    if (!(len > 0.0)) continue;
+    auto inside = [&](const Vec2& x) { return (e.x() * (x.y() - a.y()) - e.y() * (x.x() - a.x())) / len + tol; };
+    Outline out;
+    for (size_t j = 0; j < subject.size(); ++j) {
+      const Vec2& prev = subject[(j + subject.size() - 1) % subject.size()];
+      const Vec2& cur = subject[j];
+      const double dp = inside(prev), dc = inside(cur);
+      if ((dc >= 0.0) != (dp >= 0.0)) out.push_back(prev + (cur - prev) * (dp / (dp - dc)));
+      if (dc >= 0.0) out.push_back(cur);
+    }
+    subject = std::move(out);
+  }
+  return subject;
+}
+
+// Where two degenerate outlines (points or segments) meet, within tol: the middle of their
+// common stretch when collinear, else their crossing.
+bool meetDegenerate(const Outline& P, const Outline& Q, double tol, Vec2& c) {
+  auto [p0, p1] = extremes(P);
+  auto [q0, q1] = extremes(Q);
+  if ((q1 - q0).squaredNorm() > (p1 - p0).squaredNorm()) {
+    std::swap(p0, q0);
+    std::swap(p1, q1);
+  }
+  const double len = (p1 - p0).norm();
+  if (len <= tol) {
+    if ((q0 - p0).norm() > 2.0 * tol) return false;
+    c = 0.5 * (p0 + q0);
+    return true;
+  }
+  const Vec2 e = (p1 - p0) / len, m(-e.y(), e.x());
+  const double o0 = m.dot(q0 - p0), o1 = m.dot(q1 - p0);
+  if (std::abs(o0) <= tol && std::abs(o1) <= tol) {
+    const double s0 = e.dot(q0 - p0), s1 = e.dot(q1 - p0);
+    const double lo = std::max(0.0, std::min(s0, s1)), hi = std::min(len, std::max(s0, s1));
+    if (lo > hi + 2.0 * tol) return false;
+    c = p0 + e * (0.5 * (lo + hi));
+    return true;
+  }
+  if ((o0 > tol && o1 > tol) || (o0 < -tol && o1 < -tol)) return false;
+  const Vec2 x = q0 + (q1 - q0) * (o0 / (o0 - o1));
+  const double s = e.dot(x - p0);
+  if (s < -tol || s > len + tol) return false;
+  c = x;
+  return true;
+}
+
+// The centroid of the intersection of two outlines, its area (0 unless both have area) and the
+// intersection itself (its centroid alone when both are degenerate).
+bool meet(const Outline& P, const Outline& Q, double tol, Vec2& c, double& area, Outline& region) {
+  area = 0.0;
+  const bool ap = hasArea(P, tol), aq = hasArea(Q, tol);
+  if (!ap && !aq) {
+    if (!meetDegenerate(P, Q, tol, c)) return false;
+    region.assign(1, c);
+    return true;
+  }
+  // Exactly first (a tolerance would move a face's edges out, and the centroid with them), then
+  // within tol (a point or an edge on the other's boundary).
+  region = clip(aq ? P : Q, aq ? Q : P, 0.0);
+  if (region.empty()) region = clip(aq ? P : Q, aq ? Q : P, tol);
+  if (region.empty()) return false;
+  if (ap && aq && hasArea(region, tol)) {
+    const double a = signedArea(region);
+    Vec2 sum = Vec2::Zero();
+    for (size_t i = 0, j = region.size() - 1; i < region.size(); j = i++) {
+      sum += (region[j] + region[i]) * (region[j].x() * region[i].y() - region[i].x() * region[j].y());
+    }
+    c = sum / (6.0 * a);
+    area = std::abs(a);
+    return true;
+  }
+  const auto [a, b] = extremes(region);
+  c = 0.5 * (a + b);
+  return true;
+}
+
+Eigen::Vector3d anyPerpendicular(const Eigen::Vector3d& n) {
+  const Eigen::Vector3d t = std::abs(n.x()) < 0.6 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  return n.cross(t).normalized();
+}
+
+// The normal of a planar feature (at least three points not on a line, all within eps of one
+// plane), oriented along n; zero when the feature is not planar.
+Eigen::Vector3d planeNormal(const Points& f, const Eigen::Vector3d& n, double eps) {
+  if (f.size() < 3) return Eigen::Vector3d::Zero();
+  const Eigen::Vector3d& o = f.front();
+  size_t i1 = 0, i2 = 0;
+  for (size_t i = 1; i < f.size(); ++i) {
+    if ((f[i] - o).squaredNorm() > (f[i1] - o).squaredNorm()) i1 = i;
+  }
+  const Eigen::Vector3d e = f[i1] - o;
+  for (size_t i = 1; i < f.size(); ++i) {
+    if (e.cross(f[i] - o).squaredNorm() > e.cross(f[i2] - o).squaredNorm()) i2 = i;
+  }
+  Eigen::Vector3d m = e.cross(f[i2] - o);
+  if (!(m.norm() > eps * e.norm())) return Eigen::Vector3d::Zero();
+  m.normalize();
+  for (const Eigen::Vector3d& x : f) {
+    if (std::abs(m.dot(x - o)) > eps) return Eigen::Vector3d::Zero();
+  }
+  return m.dot(n) >= 0.0 ? m : Eigen::Vector3d(-m);
+}
+
+// The normal the patch is built on: the exact normal of a face of either core within kSnapAngle
+// of n (the face most aligned with it), else n. A touching pair's normal comes from closest
+// points a rounding error apart, a cylinder's or a point cloud's overlap normal from a search
+// to 1e-6: off by far more than a face's tolerance, so the face would break into a corner.
+constexpr double kSnapAngle = 1e-3;  // rad, as physics engines pick a reference face
+
+Eigen::Vector3d snapNormal(const Convex& A, const Convex& B, const Eigen::Vector3d& n, double ea, double eb) {
+  Eigen::Vector3d best = n;
+  double best_cos = std::cos(kSnapAngle);
+  const double sa = ea / kFeatureShare, sb = eb / kFeatureShare;  // the cores' sizes, about
+  for (const Eigen::Vector3d& m : {planeNormal(supportFeature(A, n, ea + kSnapAngle * sa), n, ea),
+                                   planeNormal(supportFeature(B, -n, eb + kSnapAngle * sb), n, eb)}) {
+    if (m.dot(n) > best_cos) {
+      best_cos = m.dot(n);
+      best = m;
+    }
+  }
+  return best;
+}
+
+struct Patch {
+  bool found = false;
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // the plane it lies in
+  std::vector<Eigen::Vector3d> region;                // its outline on that plane (convex)
+  double area = 0.0;
+  double separation = 0.0;  // along its normal
+  double tolerance = 0.0;   // of its features
+};
+
+// The patch's centroid from the features within eps of the supports along n: their common
+// outline in the plane normal to n, placed midway between the padded shapes' supports.
+bool meetAlong(const Convex& A, const Convex& B, const Eigen::Vector3d& n, double ea, double eb, Patch& p) {
+  const Points fa = supportFeature(A, n, ea), fb = supportFeature(B, -n, eb);
+  const Eigen::Vector3d u = anyPerpendicular(n), v = n.cross(u);
+  auto outline = [&](const Points& f) {
+    Outline o;
+    o.reserve(f.size());
+    for (const Eigen::Vector3d& x : f) o.emplace_back(u.dot(x), v.dot(x));
+    return convexHull(std::move(o));
+  };
+  Vec2 c;
+  Outline region;
+  if (fa.empty() || fb.empty() || !meet(outline(fa), outline(fb), ea + eb, c, p.area, region)) return false;
+  const double top_a = n.dot(A.support(n)) + A.rounding;
+  const double low_b = n.dot(B.support(-n)) - B.rounding;
+  const double mid = 0.5 * (top_a + low_b);
+  p.found = true;
+  p.point = c.x() * u + c.y() * v + mid * n;
+  p.normal = n;
+  p.region.clear();
+  for (const Vec2& x : region) p.region.push_back(x.x() * u + x.y() * v + mid * n);
+  p.separation = low_b - top_a;
+  p.tolerance = ea + eb;
+  return true;
+}
+
+// A point of both cores when the GJK found them overlapping: its final simplex holds the origin,
+// o = sum l_i (a_i - b_i) with weights l_i >= 0 summing to 1, so sum l_i a_i = sum l_i b_i lies in
+// both (each a convex combination of its own core's points).
+Eigen::Vector3d commonPoint(const Gjk& g) {
+  const SVert* s = g.simplex;
+  const int n = std::clamp(g.simplex_n, 1, 4);
+  if (n == 1) return 0.5 * (s[0].a + s[0].b);
+  Eigen::Matrix<double, 3, Eigen::Dynamic> E(3, n - 1);
+  for (int k = 1; k < n; ++k) E.col(k - 1) = s[k].w - s[0].w;
+  const Eigen::VectorXd mu = E.colPivHouseholderQr().solve(Eigen::Vector3d(-s[0].w));
+  Eigen::Vector3d x = s[0].a;
+  for (int k = 1; k < n; ++k) x += mu(k - 1) * (s[k].a - s[0].a);
+  return x;
+}
+
+Convex shifted(Convex c, const Eigen::Vector3d& d) {
+  c.p += d;
+  if (c.shape == nullptr) {
+    for (Eigen::Vector3d& v : c.tri) v += d;
+  }
+  return c;
+}
+
+// One pair of convex cores. Touching (apart, or overlapping within the features' tolerance):
+// the closest points of the pair held a little apart along n, to rounding accuracy, give the
+// normal (closest points a rounding error apart give a direction good to no better than that
+// error over their distance), and their midpoint the point when no face or line meets the
+// other's. Overlapping: the contact's normal, and features as tight as will meet (a normal
+// found by search can part two rim points or split a side line), from 1e-7 to 1e-3 of the
+// cores' sizes. Both on the snapped normal.
+Patch pairPatch(const Convex& A, const Convex& B, const Eigen::Vector3d& n) {
+  const double ea = featureTolerance(A), eb = featureTolerance(B);
+  const double sep = separation(A, B, n);
+  Patch p;
+  if (sep > -(ea + eb)) {
+    const double apart = ea + eb - std::min(sep, 0.0);
+    const double scale = 1.0 + A.p.norm() + B.p.norm() + A.lever + B.lever;
+    const DistanceResult r = convexDistance(A, shifted(B, apart * n), -n, 1e-15 * scale, 0.0, 256, nullptr);
+    if (!r.cores_overlap) {
+      if (meetAlong(A, B, snapNormal(A, B, r.normal, ea, eb), ea, eb, p)) return p;
+      p.found = true;
+      p.point = 0.5 * (r.point_a + r.point_b - apart * n);
+      p.normal = r.normal;
+      p.region.assign(1, p.point);
+      p.separation = r.distance - apart;  // the pair's own gap: a pair side by side is far
+      p.tolerance = ea + eb;
+      return p;
+    }
+  }
+  const Eigen::Vector3d m = snapNormal(A, B, n, ea, eb);
+  // Looser features stay within a quarter of the depth of each shape.
+  const double loosest = std::max(1.0, 0.25 * -sep / std::max(ea, eb));
+  for (double loose = 1.0; loose <= std::min(loosest, 1e4); loose *= 10.0) {
+    if (meetAlong(A, B, m, loose * ea, loose * eb, p)) return p;
+  }
+  const double scale = 1.0 + A.p.norm() + B.p.norm() + A.lever + B.lever;
+  const Gjk g = runGjk(A, B, -n, 1e-15 * scale, 0.0, 256);
+  if (g.overlap) {
+    p.found = true;
+    p.point = commonPoint(g);
+    p.normal = n;
+    p.region.assign(1, p.point);
+    p.separation = sep;
+    p.tolerance = ea + eb;
+  }
+  return p;
+}
+
+// Whether x lies within tol of the convex polygon (or segment, or point) `poly`, all three in
+// the plane normal to n.
+bool nearRegion(const Eigen::Vector3d& x, const std::vector<Eigen::Vector3d>& poly, const Eigen::Vector3d& n,
+                double tol) {
+  if (poly.size() < 3) {
+    const Eigen::Vector3d a = poly.front(), e = poly.back() - a;
+    const double ee = e.squaredNorm();
+    const double s = ee > 0.0 ? std::clamp((x - a).dot(e) / ee, 0.0, 1.0) : 0.0;
+    return (x - a - s * e).norm() <= tol;
+  }
+  bool pos = true, neg = true;  // inside every edge for one of the two orientations
+  for (size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) {
+    const Eigen::Vector3d e = poly[i] - poly[j];
+    const double len = e.norm();
+    if (!(len > 0.0)) continue;
+    const double side = n.dot(e.cross(x - poly[j])) / len;
+    pos = pos && side >= -tol;
+    neg = neg && side <= tol;
+  }
+  return pos || neg;
+}
+
+bool adjoin(const Patch& a, const Patch& b, double tol) {
+  for (const Eigen::Vector3d& x : a.region) {
+    if (nearRegion(x, b.region, b.normal, tol)) return true;
+  }
+  for (const Eigen::Vector3d& x : b.region) {
+    if (nearRegion(x, a.region, a.normal, tol)) return true;
+  }
+  return false;
+}
+
+// The deepest patches (within their features' tolerance): the one with the largest area and
+// those joined to it on its plane, edge to edge (a face split into triangles), area-weighted;
+// else the one nearest the witness points; their midpoint when there is none. Patches on
+// other planes or apart (a table's feet) are left out: their common centroid could lie in
+// neither body.
+Eigen::Vector3d combinePatches(const std::vector<Patch>& patches, const Eigen::Vector3d& witness) {
+  double deepest = kInf;
+  for (const Patch& p : patches) deepest = std::min(deepest, p.separation + p.tolerance);
+  std::vector<const Patch*> deep;
+  for (const Patch& p : patches) {
+    if (p.separation - p.tolerance <= deepest) deep.push_back(&p);
+  }
+  if (deep.empty()) return witness;
+  auto nearer = [&](const Patch* a, const Patch* b) {
+    if (a->area != b->area) return a->area > b->area;
+    return (a->point - witness).squaredNorm() < (b->point - witness).squaredNorm();
+  };
+  std::sort(deep.begin(), deep.end(), nearer);
+  const Patch& ref = *deep.front();
+  if (!(ref.area > 0.0)) return ref.point;
+  std::vector<const Patch*> group{&ref};
+  std::vector<bool> taken(deep.size(), false);
+  taken[0] = true;
+  for (size_t g = 0; g < group.size(); ++g) {
+    for (size_t k = 1; k < deep.size(); ++k) {
+      const Patch& p = *deep[k];
+      const double tol = p.tolerance + ref.tolerance;
+      if (taken[k] || !(p.area > 0.0) || std::abs(ref.normal.dot(p.point - ref.point)) > tol) continue;
+      if (!adjoin(*group[g], p, tol)) continue;
+      taken[k] = true;
+      group.push_back(&p);
+    }
+  }
+  Eigen::Vector3d weighted = Eigen::Vector3d::Zero();
+  double area = 0.0;
+  for (const Patch* p : group) {
+    area += p->area;
+    weighted += p->area * p->point;
+  }
+  return weighted / area;
+}
+
+// A mesh on either side: the leaf pairs within reach of the contact, about as deep along n as
+// it, whose features meet; of those, the deepest along their own normals.
+Eigen::Vector3d meshPatchPoint(const Side& A, const Side& B, const DistanceResult& contact,
+                               const Eigen::Vector3d& witness) {
+  const Eigen::Vector3d& n = contact.normal;
+  const double reach = std::max(contact.distance, 0.0);
+  std::vector<Patch> patches;
+  int leaves = 0;
+  std::vector<std::pair<int, int>> stack{{A.root(), B.root()}};
+  while (!stack.empty() && leaves < kMaxLeafPairs) {
+    const auto [ia, ib] = stack.back();
+    stack.pop_back();
+    const double D = (A.centre(ia) - B.centre(ib)).norm() - A.radius(ia) - B.radius(ib);
+    if (D > reach + kSnapAngle * (A.radius(ia) + B.radius(ib))) continue;
+    if (A.leaf(ia) && B.leaf(ib)) {
+      ++leaves;
+      const Convex ca = A.convex(ia), cb = B.convex(ib);
+      const double tol = (kSnapAngle / kFeatureShare) * (featureTolerance(ca) + featureTolerance(cb));
+      if (std::abs(separation(ca, cb, n) - contact.distance) > tol) continue;
+      const Patch p = pairPatch(ca, cb, n);
+      if (p.found) patches.push_back(p);
+      continue;
+    }
+    const bool split_a = !A.leaf(ia) && (B.leaf(ib) || A.radius(ia) >= B.radius(ib));
+    if (split_a) {
+      stack.emplace_back(A.d->nodes[ia].left, ib);
+      stack.emplace_back(A.d->nodes[ia].right, ib);
+    } else {
+      stack.emplace_back(ia, B.d->nodes[ib].left);
+      stack.emplace_back(ia, B.d->nodes[ib].right);
+    }
+  }
+  return combinePatches(patches, witness);
+}
+
+}  // namespace
+
+Eigen::Vector3d contactPatchPoint(const Side& A, const Side& B, const DistanceResult& contact) {
+  const Eigen::Vector3d witness = 0.5 * (contact.point_a + contact.point_b);
+  const Eigen::Vector3d& n = contact.normal;
+  if (!(n.allFinite() && std::abs(n.squaredNorm() - 1.0) < 1e-9 && std::isfinite(contact.distance))) return witness;
+  if (A.mesh || B.mesh) return meshPatchPoint(A, B, contact, witness);
+  const Patch p = pairPatch(A.convex(0), B.convex(0), n);
+  return p.found ? p.point : witness;
+}
+
+}  // namespace detail
+}  // namespace vadop
