@@ -53,12 +53,13 @@ void keepHighest(Points& pts, const Eigen::Vector3d& d, double eps) {
 }
 
 // A cylinder's feature along the unit db (body frame): its cap when the cap's rim lies within eps
-// of the support, a side line when that line does, else the rim point.
-void cylinderFeature(const PreparedShapeData& s, const Eigen::Vector3d& db, double eps, Points& out) {
+// of the support, a side line when that line does, else the rim point; the side line's and the
+// rim point's place around the axis from dg (see supportFeature).
+void cylinderFeature(const PreparedShapeData& s, const Eigen::Vector3d& db, const Eigen::Vector3d& dg, double eps,
+                     Points& out) {
   const double hl = s.half_length, rc = s.cyl_radius;
   const double z = db.z() >= 0.0 ? hl : -hl;
-  const double r = std::hypot(db.x(), db.y());
-  if (2.0 * rc * r <= eps) {
+  if (2.0 * rc * std::hypot(db.x(), db.y()) <= eps) {
     constexpr double kTwoPi = 6.283185307179586;
     for (int k = 0; k < kCapSides; ++k) {
       const double a = kTwoPi * k / kCapSides;
@@ -66,7 +67,9 @@ void cylinderFeature(const PreparedShapeData& s, const Eigen::Vector3d& db, doub
     }
     return;
   }
-  const Eigen::Vector3d e(rc * db.x() / r, rc * db.y() / r, 0.0);
+  const double r = std::hypot(dg.x(), dg.y());
+  const Eigen::Vector3d e = r > 0.0 ? Eigen::Vector3d(rc * dg.x() / r, rc * dg.y() / r, 0.0)
+                                    : Eigen::Vector3d(rc * db.x(), rc * db.y(), 0.0).normalized() * rc;
   if (2.0 * hl * std::abs(db.z()) <= eps) {
     out.push_back(e - Eigen::Vector3d(0.0, 0.0, hl));
     out.push_back(e + Eigen::Vector3d(0.0, 0.0, hl));
@@ -76,8 +79,11 @@ void cylinderFeature(const PreparedShapeData& s, const Eigen::Vector3d& db, doub
 }
 
 // The core's points (world frame) within eps of its support along the unit d. Heights are
-// compared in the body frame, where coordinates are small.
-Points supportFeature(const Convex& c, const Eigen::Vector3d& d, double eps) {
+// compared in the body frame, where coordinates are small. A round core's feature that depends
+// on the direction (a cylinder's side line or rim point) lies along `along` when given: the
+// contact's own normal, so that the point and that normal agree (a body turning about its axis
+// slides, exactly, at its surface point along the normal).
+Points supportFeature(const Convex& c, const Eigen::Vector3d& d, double eps, const Eigen::Vector3d* along = nullptr) {
   Points pts;
   if (c.shape == nullptr) {
     pts.assign(c.tri.begin(), c.tri.end());
@@ -98,13 +104,31 @@ Points supportFeature(const Convex& c, const Eigen::Vector3d& d, double eps) {
                          (k & 4 ? 1.0 : -1.0) * s.half_extents.z());
       }
       break;
-    case CoreKind::kCylinder: cylinderFeature(s, db, eps, pts); break;
+    case CoreKind::kCylinder: cylinderFeature(s, db, along ? Eigen::Vector3d(c.R.transpose() * *along) : db, eps, pts); break;
     case CoreKind::kPoints: pts = s.points; break;
     case CoreKind::kMesh: break;  // meshes come triangle by triangle
   }
   if (s.kind != CoreKind::kCylinder) keepHighest(pts, db, eps);
   for (Eigen::Vector3d& x : pts) x = c.R * x + c.p + c.shift;
   return pts;
+}
+
+// A round core's feature: a sphere's centre, a capsule's segment or end, a cylinder's side line
+// or rim point (its cap is a face).
+bool roundFeature(const Convex& c, const Points& f) {
+  if (c.shape == nullptr) return false;
+  const CoreKind k = c.shape->kind;
+  return k == CoreKind::kPoint || k == CoreKind::kSegment || (k == CoreKind::kCylinder && f.size() < 3);
+}
+
+// The point of a round feature (one or two points) whose projection along the plane's axes u, v
+// is nearest c.
+Eigen::Vector3d onFeature(const Points& f, const Vec2& c, const Eigen::Vector3d& u, const Eigen::Vector3d& v) {
+  if (f.size() < 2) return f.front();
+  const Vec2 q0(u.dot(f[0]), v.dot(f[0])), q1(u.dot(f[1]), v.dot(f[1]));
+  const double qq = (q1 - q0).squaredNorm();
+  const double t = qq > 0.0 ? std::clamp((c - q0).dot(q1 - q0) / qq, 0.0, 1.0) : 0.5;
+  return f[0] + t * (f[1] - f[0]);
 }
 
 Eigen::Vector3d anyPerpendicular(const Eigen::Vector3d& n) {
@@ -165,9 +189,13 @@ struct Patch {
 };
 
 // The patch's centroid from the features within eps of the supports along n: their common
-// outline in the plane normal to n, placed midway between the padded shapes' supports.
-bool meetAlong(const Convex& A, const Convex& B, const Eigen::Vector3d& n, double ea, double eb, Patch& p) {
-  const Points fa = supportFeature(A, n, ea), fb = supportFeature(B, -n, eb);
+// outline in the plane normal to n, placed midway between the padded shapes' supports. With a
+// round feature (`along`: the contact's normal, see supportFeature), the point on it moved along
+// that normal to the midway plane.
+bool meetAlong(const Convex& A, const Convex& B, const Eigen::Vector3d& n, double ea, double eb,
+               const Eigen::Vector3d& along, Patch& p) {
+  const Eigen::Vector3d back = -along;
+  const Points fa = supportFeature(A, n, ea, &along), fb = supportFeature(B, -n, eb, &back);
   const Eigen::Vector3d u = anyPerpendicular(n), v = n.cross(u);
   auto outline = [&](const Points& f) {
     Outline o;
@@ -183,6 +211,11 @@ bool meetAlong(const Convex& A, const Convex& B, const Eigen::Vector3d& n, doubl
   const double mid = 0.5 * (top_a + low_b);
   p.found = true;
   p.point = c.x() * u + c.y() * v + mid * n;
+  const bool round_a = roundFeature(A, fa);
+  if ((round_a || roundFeature(B, fb)) && n.dot(along) > 0.5) {
+    const Eigen::Vector3d x = onFeature(round_a ? fa : fb, c, u, v);
+    p.point = x + ((mid - n.dot(x)) / n.dot(along)) * along;
+  }
   p.normal = n;
   p.region.clear();
   for (const Vec2& x : region) p.region.push_back(x.x() * u + x.y() * v + mid * n);
@@ -230,7 +263,7 @@ Patch pairPatch(const Convex& A, const Convex& B, const Eigen::Vector3d& n) {
     const double scale = 1.0 + A.p.norm() + B.p.norm() + A.lever + B.lever;
     const DistanceResult r = convexDistance(A, shifted(B, apart * n), -n, 1e-15 * scale, 0.0, 256, nullptr);
     if (!r.cores_overlap) {
-      if (meetAlong(A, B, snapNormal(A, B, r.normal, ea, eb), ea, eb, p)) return p;
+      if (meetAlong(A, B, snapNormal(A, B, r.normal, ea, eb), ea, eb, n, p)) return p;
       p.found = true;
       p.point = 0.5 * (r.point_a + r.point_b - apart * n);
       p.normal = r.normal;
@@ -244,7 +277,7 @@ Patch pairPatch(const Convex& A, const Convex& B, const Eigen::Vector3d& n) {
   // Looser features stay within a quarter of the depth of each shape.
   const double loosest = std::max(1.0, 0.25 * -sep / std::max(ea, eb));
   for (double loose = 1.0; loose <= std::min(loosest, 1e4); loose *= 10.0) {
-    if (meetAlong(A, B, m, loose * ea, loose * eb, p)) return p;
+    if (meetAlong(A, B, m, loose * ea, loose * eb, n, p)) return p;
   }
   const double scale = 1.0 + A.p.norm() + B.p.norm() + A.lever + B.lever;
   const Gjk g = runGjk(A, B, -n, 1e-15 * scale, 0.0, 256);

@@ -1,5 +1,6 @@
 #include "world_engine.h"
 
+#include "contact_patch.h"
 #include "name_index.h"
 #include "pair_certificates.h"
 
@@ -957,7 +958,7 @@ TimeOfImpact WorldEngine::moverImpact(const Record& rm, const Motion& motion, Bo
         oc ? oc->velocityOfPoint(hit.point, t0) : broad_phase_->motion(other).velocityOfPoint(hit.point, t0);
     const Eigen::Vector3d closing = motion.velocityOfPoint(hit.point, t0) - other_velocity;
     // Separating or sliding: not blocked (no contact).
-    if (closing.dot(hit.normal) <= 0.0) return TimeOfImpact{};
+    if (!detail::pressesIn(closing, hit.normal)) return TimeOfImpact{};
   }
   return hit;
 }

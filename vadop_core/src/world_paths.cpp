@@ -3,6 +3,8 @@
 // other bodies in their own future and, when asked, in the one where each brakes.
 #include "world_engine.h"
 
+#include "contact_patch.h"
+
 #include "vadop/error.h"
 
 #include <algorithm>
@@ -63,7 +65,7 @@ TimeOfImpact pressingImpact(const PreparedShape& a, const TimedPath& pa, const P
     bool pressing = true;
     if (out.hit && out.initially_touching) {
       const Eigen::Vector3d closing = ma.velocityOfPoint(out.point, s) - mb.velocityOfPoint(out.point, s);
-      pressing = closing.dot(out.normal) > 0.0 || digsIn(a, ma, b, mb, s, e, out.distance, options.tolerance);
+      pressing = detail::pressesIn(closing, out.normal) || digsIn(a, ma, b, mb, s, e, out.distance, options.tolerance);
     }
     if (pressing && (out.hit || out.undecided)) {
       out.iterations = iterations;
@@ -183,7 +185,7 @@ std::optional<WorldEngine::MoverContact> WorldEngine::pathImpact(const Record& r
     if (hit.hit && hit.initially_touching) {
       const Eigen::Vector3d closing =
           path.motion(path.pieceAt(t0)).velocityOfPoint(hit.point, t0) - oc.velocityOfPoint(hit.point, t0);
-      if (closing.dot(hit.normal) <= 0.0) return out;  // separating or sliding: not blocked
+      if (!detail::pressesIn(closing, hit.normal)) return out;  // separating or sliding: not blocked
     }
     consider(hit, false);
     return out;
