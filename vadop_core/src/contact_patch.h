@@ -5,7 +5,9 @@
 // end; a sphere's centre) is projected onto the contact plane, the two convex outlines are
 // clipped against each other (Sutherland-Hodgman), and the centroid of what remains is placed on
 // the plane midway through the penetration. For a round core this is the deepest point of the
-// penetration between the two witness points. It does not change the normal or the depth, and
+// penetration between the two witness points; a cylinder's side line or rim point is taken along
+// the contact's own normal, so that the point and the normal agree (a body turning about its axis
+// slides at it, exactly). It does not change the normal or the depth, and
 // does not search for the contact (convex_distance.h, mesh_queries.h do). Internal to the
 // library (not installed).
 #pragma once
@@ -21,13 +23,16 @@ namespace detail {
 
 // The contact point of `contact` (a DistanceResult between A and B posed as given: its normal,
 // from a to b, unit; its distance, minus the depth when overlapping; its witness points).
-// A mesh contributes every triangle whose separation from the other body along the normal is
-// the contact's (within the features' tolerance) and whose outline meets the other's: the
-// area-weighted centroid of those patches, or, when all are points or segments (point sets,
-// edges), the one nearest the witness points. Falls back to the midpoint of the witness points
-// when no outline meets (a normal only approximate: a cylinder's or a point cloud's).
-// Features are taken within 1e-7 of each core's size along the normal, so the point lies within
-// that plus half the depth of each shape.
+// The patch is built on the normal of a face of either core within 1e-3 rad of the contact's
+// (the exact normal a physics engine's reference face gives), features taken within 1e-7 of
+// each core's size along it, so the point lies within that plus half the depth of each shape.
+// When no face or line of one meets the other's: touching, the midpoint of the pair's closest
+// points to rounding accuracy; overlapping (a normal found by search, a cylinder's or a point
+// cloud's), looser features up to a quarter of the depth, else a point of both cores (the GJK's).
+// A mesh contributes every triangle about as deep along the normal as the contact whose features
+// meet the other's: the deepest patches, the largest with those joined to it edge to edge on its
+// plane, area-weighted; when all are points or segments (point sets, edges), the one nearest the
+// witness points. The witness points' midpoint when nothing meets.
 Eigen::Vector3d contactPatchPoint(const Side& A, const Side& B, const DistanceResult& contact);
 
 // Whether `closing` (a's velocity less b's at the contact point) presses the bodies together
