@@ -104,7 +104,9 @@ Points supportFeature(const Convex& c, const Eigen::Vector3d& d, double eps, con
                          (k & 4 ? 1.0 : -1.0) * s.half_extents.z());
       }
       break;
-    case CoreKind::kCylinder: cylinderFeature(s, db, along ? Eigen::Vector3d(c.R.transpose() * *along) : db, eps, pts); break;
+    case CoreKind::kCylinder:
+      cylinderFeature(s, db, along ? Eigen::Vector3d(c.R.transpose() * *along) : db, eps, pts);
+      break;
     case CoreKind::kPoints: pts = s.points; break;
     case CoreKind::kMesh: break;  // meshes come triangle by triangle
   }

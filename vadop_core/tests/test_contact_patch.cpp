@@ -88,7 +88,8 @@ std::vector<Kind> kinds() {
                std::hypot(0.4, 0.45)});
   // A tetrahedron: 0 inside its four faces' half-spaces, else the nearest face.
   const std::vector<Vector3d> tp = {{0.6, 0, -0.3}, {-0.3, 0.5, -0.3}, {-0.3, -0.5, -0.3}, {0, 0, 0.6}};
-  const std::vector<Tri> tf = {{tp[0], tp[2], tp[1]}, {tp[0], tp[1], tp[3]}, {tp[1], tp[2], tp[3]}, {tp[2], tp[0], tp[3]}};
+  const std::vector<Tri> tf = {
+      {tp[0], tp[2], tp[1]}, {tp[0], tp[1], tp[3]}, {tp[1], tp[2], tp[3]}, {tp[2], tp[0], tp[3]}};
   k.push_back({"convex", vadop::makeConvex(tp),
                [tf](const Vector3d& x) {
                  bool inside = true;
@@ -99,7 +100,9 @@ std::vector<Kind> kinds() {
   // A box's surface as a mesh of 12 triangles.
   const Vector3d hm(0.45, 0.35, 0.4);
   std::vector<Vector3d> mv;
-  for (int i = 0; i < 8; ++i) mv.emplace_back(i & 1 ? hm.x() : -hm.x(), i & 2 ? hm.y() : -hm.y(), i & 4 ? hm.z() : -hm.z());
+  for (int i = 0; i < 8; ++i) {
+    mv.emplace_back(i & 1 ? hm.x() : -hm.x(), i & 2 ? hm.y() : -hm.y(), i & 4 ? hm.z() : -hm.z());
+  }
   const std::vector<std::array<int, 3>> mt = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
                                               {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
   std::vector<Tri> mtris;
@@ -192,7 +195,8 @@ void checkTrial(const Trial& tr, const vadop::TimeOfImpact& hit, const std::stri
   ASSERT_TRUE(hit.hit) << what;
   ASSERT_TRUE(hit.initially_touching) << what;
   const Vector3d p = hit.point;
-  EXPECT_LE(tr.A.distance(p), 1e-6 * tr.A.kind->size + tr.overlap) << what << " point " << p.transpose() << " normal " << hit.normal.transpose() << " distance " << hit.distance;
+  EXPECT_LE(tr.A.distance(p), 1e-6 * tr.A.kind->size + tr.overlap)
+      << what << " point " << p.transpose() << " normal " << hit.normal.transpose() << " distance " << hit.distance;
   EXPECT_LE(tr.B.distance(p), 1e-6 * tr.B.kind->size + tr.overlap) << what << " point " << p.transpose();
   if (!tr.aligned || tr.overlap > 0.0) return;
   const double r = tr.B.kind->size, h = r / 60.0;
@@ -232,7 +236,8 @@ TEST(ContactPatch, PointInBothShapesForEveryPairOfKinds) {
         pa.translation() = Vector3d(uni(rng), uni(rng), uni(rng));
         Vector3d u = Vector3d::UnitZ();
         if (aligned) {
-          pb.translation() = pa.translation() + 0.3 * std::min(ks[i].size, ks[j].size) * Vector3d(uni(rng), uni(rng), 0);
+          const double shift = 0.3 * std::min(ks[i].size, ks[j].size);
+          pb.translation() = pa.translation() + shift * Vector3d(uni(rng), uni(rng), 0);
         } else {
           pa.linear() = randomRotation(rng).toRotationMatrix();
           pb.linear() = randomRotation(rng).toRotationMatrix();
