@@ -217,6 +217,20 @@ void checkTrial(const Trial& tr, const vadop::TimeOfImpact& hit, const std::stri
                                                    << p.transpose();
 }
 
+// Trials for each ordered pair of kinds, half of them face on face: fewer under the sanitizers
+// (instrumented code runs ~20x slower; the same paths are exercised).
+#if defined(__SANITIZE_ADDRESS__)
+constexpr int kTrialsPerPair = 2;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr int kTrialsPerPair = 2;
+#else
+constexpr int kTrialsPerPair = 6;
+#endif
+#else
+constexpr int kTrialsPerPair = 6;
+#endif
+
 Quaterniond randomRotation(std::mt19937& rng) {
   std::normal_distribution<double> g;
   return Quaterniond(g(rng), g(rng), g(rng), g(rng)).normalized();
@@ -230,8 +244,8 @@ TEST(ContactPatch, PointInBothShapesForEveryPairOfKinds) {
   for (size_t i = 0; i < ks.size(); ++i) {
     for (size_t j = 0; j < ks.size(); ++j) {
       const vadop::PreparedShape a(ks[i].shape), b(ks[j].shape);
-      for (int k = 0; k < 6; ++k) {
-        const bool aligned = k < 3;
+      for (int k = 0; k < kTrialsPerPair; ++k) {
+        const bool aligned = k < kTrialsPerPair / 2;
         Isometry3d pa = Isometry3d::Identity(), pb = Isometry3d::Identity();
         pa.translation() = Vector3d(uni(rng), uni(rng), uni(rng));
         Vector3d u = Vector3d::UnitZ();
@@ -261,9 +275,9 @@ TEST(ContactPatch, PointInBothShapesForEveryPairOfKinds) {
       }
     }
   }
-  EXPECT_EQ(trials, 8 * 8 * 12);
+  EXPECT_EQ(trials, 8 * 8 * 2 * kTrialsPerPair);
   // Faces on faces: box, cylinder, convex, mesh and box set on each other's tops.
-  EXPECT_GE(centroid_checks, 40);
+  EXPECT_GE(centroid_checks, 15 * kTrialsPerPair / 2);
 }
 
 // Jolt's CastShapeTests "TestCast2DBoxVsBox": a flat 2 x 2 square (a convex point set) touching
