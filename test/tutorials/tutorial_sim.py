@@ -7,7 +7,9 @@ import math
 import threading
 
 import rospy
-from nav_msgs.msg import Odometry
+from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import Odometry, Path
+from sensor_msgs.msg import JointState
 from vadop.msg import ImpactArray, TrackedObject
 
 
@@ -46,6 +48,35 @@ def tracked_object(obj_id, x, y, vx, vy):
     o.twist.linear.x = vx
     o.twist.linear.y = vy
     return o
+
+
+def joint_state(stamp, positions, velocities=None):
+    """sensor_msgs/JointState from {joint name: position} (and {joint name: velocity})."""
+    m = JointState()
+    m.header.stamp = stamp
+    m.name = list(positions)
+    m.position = [positions[n] for n in m.name]
+    if velocities is not None:
+        m.velocity = [velocities[n] for n in m.name]
+    return m
+
+
+def timed_path(poses, frame="odom"):
+    """nav_msgs/Path of a planar plan: poses [(rospy.Time, x, y, yaw)], each stamped with the time
+    the body is there (the monitor's path_topic)."""
+    m = Path()
+    m.header.stamp = poses[0][0]
+    m.header.frame_id = frame
+    for stamp, x, y, yaw in poses:
+        p = PoseStamped()
+        p.header.stamp = stamp
+        p.header.frame_id = frame
+        p.pose.position.x = x
+        p.pose.position.y = y
+        p.pose.orientation.z = math.sin(yaw / 2)
+        p.pose.orientation.w = math.cos(yaw / 2)
+        m.poses.append(p)
+    return m
 
 
 class Base:
