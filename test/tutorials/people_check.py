@@ -68,7 +68,8 @@ class People(unittest.TestCase):
         tracked = [a for a in seen if a.header.stamp < start + rospy.Duration(TRACKS_STOP)]
         for a in tracked:
             for i in a.impacts:
-                self.assertEqual({i.body_a, i.body_b}, {"robot", "people/7"}, str(i))
+                if {i.body_a, i.body_b} != {"robot", "people/7"}:
+                    self.fail("unexpected pair %s" % i)
         found = tutorial_sim.impacts_of_pair(tracked, "robot", "people/7")
         self.assertGreater(len(found), len(tracked) // 2, "robot <-> people/7 in %d of %d arrays" %
                            (len(found), len(tracked)))
@@ -80,9 +81,9 @@ class People(unittest.TestCase):
         gone = [a for a in seen if a.header.stamp > start + rospy.Duration(TRACKS_STOP + TIMEOUT + 0.2)]
         self.assertGreater(len(gone), 10)
         for a in gone:
-            self.assertEqual([i for i in a.impacts if "people/7" in (i.body_a, i.body_b)], [],
-                             "people/7 still predicted %.2f s after its last array" %
-                             (a.header.stamp - start).to_sec())
+            if any("people/7" in (i.body_a, i.body_b) for i in a.impacts):
+                self.fail("people/7 still predicted %.2f s after the start, its last array at %.1f s" %
+                          ((a.header.stamp - start).to_sec(), TRACKS_STOP))
 
 
 if __name__ == "__main__":
