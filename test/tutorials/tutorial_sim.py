@@ -7,9 +7,9 @@ import math
 import threading
 
 import rospy
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, TransformStamped
 from nav_msgs.msg import Odometry, Path
-from sensor_msgs.msg import JointState
+from sensor_msgs.msg import JointState, LaserScan
 from vadop.msg import ImpactArray, TrackedObject
 
 
@@ -76,6 +76,39 @@ def timed_path(poses, frame="odom"):
         p.pose.orientation.z = math.sin(yaw / 2)
         p.pose.orientation.w = math.cos(yaw / 2)
         m.poses.append(p)
+    return m
+
+
+def transform(stamp, parent, child, x, y, yaw):
+    """geometry_msgs/TransformStamped of a planar pose of `child` in `parent` (for tf2's broadcaster)."""
+    t = TransformStamped()
+    t.header.stamp = stamp
+    t.header.frame_id = parent
+    t.child_frame_id = child
+    t.transform.translation.x = x
+    t.transform.translation.y = y
+    t.transform.rotation.z = math.sin(yaw / 2)
+    t.transform.rotation.w = math.cos(yaw / 2)
+    return t
+
+
+def scan_of_wall(stamp, frame, laser_x, laser_y, wall_x, wall_half_width, beams=181, range_max=10.0):
+    """sensor_msgs/LaserScan over [-pi/2, pi/2] of a laser at (laser_x, laser_y), facing +x, that
+    sees only the plane x = wall_x for |y| <= wall_half_width (other beams: +inf, out of range)."""
+    m = LaserScan()
+    m.header.stamp = stamp
+    m.header.frame_id = frame
+    m.angle_min, m.angle_max = -math.pi / 2, math.pi / 2
+    m.angle_increment = math.pi / (beams - 1)
+    m.range_min, m.range_max = 0.05, range_max
+    for k in range(beams):
+        a = m.angle_min + k * m.angle_increment
+        r = float("inf")
+        if math.cos(a) > 1e-9:
+            d = (wall_x - laser_x) / math.cos(a)
+            if 0.0 < d < range_max and abs(laser_y + d * math.sin(a)) <= wall_half_width:
+                r = d
+        m.ranges.append(r)
     return m
 
 
