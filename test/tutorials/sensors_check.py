@@ -56,6 +56,7 @@ class Sensors(unittest.TestCase):
         last = rospy.get_time()
         end = last + seconds
         next_plan = next_scan = last
+        previous = None   # (stamp, laser x, y) of the last odometry and tf sent
         while not rospy.is_shutdown() and last < end:
             rate.sleep()
             now = rospy.get_time()
@@ -66,10 +67,13 @@ class Sensors(unittest.TestCase):
             stamp = rospy.Time.now()
             self.odom.publish(tutorial_sim.odometry(stamp, "base_link", x, y, yaw, v, w))
             self.tf.sendTransform(tutorial_sim.transform(stamp, "odom", "base_link", x, y, yaw))
-            if scans and now >= next_scan:
-                # Stamped at a pose already in tf (the robot is driving straight along +x).
-                self.scan.publish(tutorial_sim.scan_of_wall(stamp, "laser", x + LASER[0], y, WALL_FACE_X, 2.0))
+            if scans and previous is not None and now >= next_scan:
+                # As a driver does: stamped at a pose tf already has (the previous one; the robot
+                # drives straight along +x).
+                self.scan.publish(tutorial_sim.scan_of_wall(previous[0], "laser", previous[1], previous[2],
+                                                            WALL_FACE_X, 2.0))
                 next_scan = now + 1.0 / SCAN_HZ
+            previous = (stamp, x + LASER[0], y)
             if now >= next_plan:
                 self.plan.publish(command)
                 next_plan = now + 1.0 / PLAN_HZ
