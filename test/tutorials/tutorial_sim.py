@@ -1,7 +1,8 @@
-"""Shared by the tutorials' rostests (test/tutorials/*_check.py): message builders for the inputs
-the tutorials configure, a simulated base that executes a gate's cmd_vel_out, a recorder of
-~impacts and the check of an impact's time against its analytic value. It publishes nothing by
-itself and runs no monitor: each check script scripts its own scene."""
+"""Shared by the tutorials' rostests (test/tutorials/*_check.py): builders of the messages the
+tutorials' inputs take (odometry, tracked objects, joint states, timed paths, tf transforms, a
+laser's scan of a wall), a simulated base that executes a gate's cmd_vel_out, a recorder of
+~impacts and the timing of an impact against its analytic time. It publishes nothing by itself
+and runs no monitor: each check script scripts its own scene."""
 import collections
 import math
 import threading
