@@ -232,6 +232,21 @@ sensors: [{name: a, type: scan, topic: /s}, {name: b, type: scan, topic: /t, sel
   EXPECT_EQ(paramError("padding: 0.06\n" + gated), "no error");
   // No gate: nothing to go blind.
   EXPECT_EQ(paramError("sensors: [{name: a, type: scan, topic: /s}]"), "no error");
+  // dynamic_reconfigure cannot lower the padding below a self_margin either: refused, kept.
+  vadop_ros::MonitorCore core(vadop_ros::parseParams(vadop_test::yaml("padding: 0.06\n" + gated)),
+                              [](const std::string&, std::string&) { return false; });
+  vadop_ros::RuntimeSettings lower = core.settings();
+  lower.padding = 0.04;
+  std::vector<std::string> errors;
+  EXPECT_DOUBLE_EQ(core.reconfigure(lower, &errors).padding, 0.06);
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_NE(errors[0].find("padding = 0.040000 refused (~padding: must exceed ~sensors[1] (\"b\").self_margin"),
+            std::string::npos)
+      << errors[0];
+  lower.padding = 0.08;
+  errors.clear();
+  EXPECT_DOUBLE_EQ(core.reconfigure(lower, &errors).padding, 0.08);
+  EXPECT_TRUE(errors.empty());
 }
 
 TEST(SensorsSource, ScanOfAWallGivesItsPointsInTheFixedFrame) {

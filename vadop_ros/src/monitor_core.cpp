@@ -68,6 +68,21 @@ std::string rangeCheck(const char* name, double v, double lo, double hi, double 
   return buf;
 }
 
+// "" when a padding keeps every gated body's padding above the sensors' self_margin (the
+// start-up rule, checkSelfMargins), else the error line: lowered at run time it would let a
+// gate take a wall for its own body.
+std::string selfMarginCheck(const MonitorParams& params, double padding) {
+  MonitorParams p = params;
+  p.padding = padding;
+  try {
+    checkSelfMargins(p);
+  } catch (const ParamError& e) {
+    return "padding = " + std::to_string(padding) + " refused (" + e.what() + "); keeping " +
+           std::to_string(params.padding) + " m";
+  }
+  return "";
+}
+
 }  // namespace
 
 MonitorCore::MonitorCore(const MonitorParams& params, const ParamReader& read_param, const MeshLoader& load_mesh)
@@ -189,7 +204,7 @@ RuntimeSettings MonitorCore::reconfigure(const RuntimeSettings& requested, std::
     params_.rate = requested.rate;
   }
   if (!refuse(rangeCheck("padding", requested.padding, 0.0, kMaxPadding, params_.padding, "m")) &&
-      requested.padding != params_.padding) {
+      !refuse(selfMarginCheck(params_, requested.padding)) && requested.padding != params_.padding) {
     params_.padding = requested.padding;
     // Shapes change: every element leaves the world and comes back, padded anew, at the next
     // cycle (World has no setShape). Not under a predicting world's feet: then at the next

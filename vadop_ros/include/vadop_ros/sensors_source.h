@@ -77,6 +77,10 @@ struct SensorStatus {
   double last_warn = -1e300;     // wall seconds of the last warning (throttle)
 };
 
+// A gated body's ~padding must exceed every sensor's self_margin (see checkSelfMargins in
+// sensors_source.cpp); throws ParamError naming both. Start-up and dynamic_reconfigure check it.
+void checkSelfMargins(const MonitorParams& p);
+
 class SensorsSource : public BodiesSource {
  public:
   SensorsSource(std::vector<SensorParams> params, std::string fixed_frame, double max_stamp_skew);

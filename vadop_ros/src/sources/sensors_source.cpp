@@ -611,6 +611,19 @@ SensorParams parseSensor(const XmlRpcValue& e, const std::string& path, std::set
   return s;
 }
 
+
+// ~sensors: a list of sensors, after the bodies and static obstacles (their names are taken).
+void parseSensors(const XmlRpcValue& list, MonitorParams& out) {
+  param_reading::requireArray(list, "~sensors");
+  std::set<std::string> names;
+  for (const BodyParams& b : out.bodies) names.insert(b.name);
+  for (const StaticObstacleParams& o : out.static_obstacles) names.insert(o.name);
+  for (int i = 0; i < list.size(); ++i) out.sensors.push_back(parseSensor(list[i], sensorPath(i, list[i]), names));
+  checkSelfMargins(out);
+}
+
+}  // namespace
+
 // A gated body's ~padding must exceed the self_margin of every sensor it carries: within the
 // margin a wall would be taken for the body itself and the gate would go blind at the wall.
 // Which body carries a sensor is known only through tf at run time, so at start-up every
@@ -630,18 +643,6 @@ void checkSelfMargins(const MonitorParams& p) {
                                         " (a wall within the margin would be taken for the body and its gate would go blind)");
   }
 }
-
-// ~sensors: a list of sensors, after the bodies and static obstacles (their names are taken).
-void parseSensors(const XmlRpcValue& list, MonitorParams& out) {
-  param_reading::requireArray(list, "~sensors");
-  std::set<std::string> names;
-  for (const BodyParams& b : out.bodies) names.insert(b.name);
-  for (const StaticObstacleParams& o : out.static_obstacles) names.insert(o.name);
-  for (int i = 0; i < list.size(); ++i) out.sensors.push_back(parseSensor(list[i], sensorPath(i, list[i]), names));
-  checkSelfMargins(out);
-}
-
-}  // namespace
 
 BodiesSourceKind sensorsSourceKind() {
   return {"sensors", parseSensors, [](const MonitorParams& p) -> std::unique_ptr<BodiesSource> {
