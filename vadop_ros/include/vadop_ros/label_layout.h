@@ -6,8 +6,12 @@
 // width around its position (whatever the view's azimuth, the text stays inside it); its box is
 // that footprint times [z - height / 2, z + height / 2].
 // layoutLabels raises each label above its anchor and stacks, in a fixed order, the labels whose
-// footprints intersect: each goes just above every earlier one it would overlap, so no two
-// boxes intersect. Deterministic: the result depends on the labels' order and values only.
+// footprints intersect: a label whose footprint meets an earlier label's joins that label's
+// column (takes its x and y: a stack at one place reads from every azimuth, while labels at
+// different depths would slide over each other on screen), and goes just above every earlier
+// one it would overlap, so no two boxes intersect. So a label stands above its anchor or, in a
+// crowd, within a label's width of it. Deterministic: the result depends on the labels' order
+// and values only.
 // It does not move labels sideways, wrap text, or know what a camera sees (two labels far apart
 // in the world can still meet on screen when one is behind the other; see kLabelGap for the
 // views a stack reads from).
@@ -39,7 +43,9 @@ struct LabelBox {
 // The box of a text of `chars` characters and height `height` centred at `centre`.
 LabelBox labelBox(const Eigen::Vector3d& centre, size_t chars, double height);
 
-// True when the two boxes intersect (touching is not intersecting).
+// True when the two boxes' footprints (x, y) intersect; when the boxes intersect (touching is
+// not intersecting).
+bool footprintsOverlap(const LabelBox& a, const LabelBox& b);
 bool labelsOverlap(const LabelBox& a, const LabelBox& b);
 
 // Boxes for labels of the given texts anchored at `anchors` (same length), each `raise` above

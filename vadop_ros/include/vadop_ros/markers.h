@@ -13,7 +13,8 @@
 // grey when clear.
 // Impacts (namespace "impacts"): a sphere at each contact point and an arrow along its normal
 // (from a to b); and one text a body pair, "a/link <-> b/link: 0.83 s" of the pair's soonest
-// impact, above its point, stacked so that no two labels overlap (label_layout.h).
+// impact, above its point (in a crowd: stacked in a nearby label's column) so that no two labels
+// overlap (label_layout.h).
 // A gate's decision (gateDecisionMarker): a text above the gated body in the gate's namespace,
 // "stop: r2 in 0.80 s", "slow 40%: r2/arm in 1.30 s", "clear", "stale: <detail>",
 // "timeout: <detail>", "bad_command: <detail>"; green when clear, amber when slow, red when
