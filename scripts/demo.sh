@@ -4,7 +4,7 @@
 # agents wandering a room, vadop_monitor predicting their impacts, printed as readable lines, and
 # rviz when a display exists. Arguments go to scripts/ros_demo.sh: [SECONDS] [roslaunch args...],
 # e.g. `bash scripts/demo.sh 60 agents:=40`.
-# The broad-phase demo of vadop_core alone is build/core/vadop_broadphase_demo (see README).
+# The broad-phase demo of vadop_core alone is build/core/vadop_broadphase_demo (see docs/design.md).
 set -euo pipefail
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:${PATH}
 cd "$(dirname "${BASH_SOURCE[0]}")/.."

@@ -28,6 +28,13 @@ class FakeTf : public vadop_ros::TransformSource {
   bool concurrent_lookups = false;
   bool concurrent() const override { return concurrent_lookups; }
 
+  bool parent(const std::string& frame, const ros::Time&, std::string& parent) override {
+    const auto it = parent_.find(frame);
+    if (it == parent_.end()) return false;
+    parent = it->second;
+    return true;
+  }
+
   bool lookup(const std::string& target, const std::string& source, const ros::Time&, Eigen::Isometry3d& pose,
               ros::Time& stamp, std::string& error) override {
     ++lookups;

@@ -1073,3 +1073,79 @@ TEST(MonitorCore, ImpactArrayOnTheThreadsEqualsOneThread) {
   }
   EXPECT_GE(threaded_cycles, 4u);
 }
+
+// A site split among four monitors (~region: the quadrants of a 40 m square, ~region_margin
+// covering two bodies' travel over the horizon): the union of their impacts is the impacts of
+// one monitor over the whole fleet, pair for pair at the same time, none lost at a border,
+// none reported that the single monitor does not have; each monitor predicts fewer bodies.
+TEST(MonitorCore, FourRegionsReportTheImpactsOfOneMonitorOverTheWholeSite) {
+  constexpr int kBodies = 160;
+  std::string bodies = "bodies:\n";
+  for (int i = 0; i < kBodies; ++i) {
+    bodies += "  - {name: r" + std::to_string(i) + ", odom_topic: /r" + std::to_string(i) +
+              "/odom, shape: {type: cylinder, radius: 0.3, length: 0.5}}\n";
+  }
+  const std::string base = "horizon: 2.0\n" + bodies;
+  // Speeds up to 1 m/s each over a 2 s horizon: a partner of a body inside a region is within
+  // 2 * 1 * 2 + 2 * 0.3 m of it, so a margin of 5 m leaves none out.
+  auto quadrant = [&](double x0, double y0) {
+    return base + "region: {min: [" + std::to_string(x0) + ", " + std::to_string(y0) + ", -10], max: [" +
+           std::to_string(x0 + 20.0) + ", " + std::to_string(y0 + 20.0) + ", 10]}\nregion_margin: 5.0\n";
+  };
+  std::vector<std::unique_ptr<MonitorCore>> shards;
+  MonitorCore whole = makeCore(base);
+  for (double x0 : {-20.0, 0.0}) {
+    for (double y0 : {-20.0, 0.0}) {
+      shards.push_back(std::make_unique<MonitorCore>(vadop_ros::parseParams(vadop_test::yaml(quadrant(x0, y0))), noParams()));
+    }
+  }
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> pos(-20.0, 20.0), vel(-0.7, 0.7);
+  FakeTf tf;
+  size_t compared = 0, across = 0;
+  std::vector<int> quadrant_of(kBodies);
+  for (int round = 0; round < 5; ++round) {
+    const double stamp = 100.0 + round;
+    for (int i = 0; i < kBodies; ++i) {
+      // A fifth of the fleet near the borders x = 0 and y = 0, where the regions meet.
+      double x = pos(rng), y = pos(rng);
+      if (i % 5 == 0) x = 0.5 * vel(rng);
+      if (i % 5 == 1) y = 0.5 * vel(rng);
+      const double vx = vel(rng), vy = vel(rng);
+      // Its quadrant at the cycle (0.01 s after the stamp): the region that must report it.
+      quadrant_of[i] = (x + 0.01 * vx >= 0.0 ? 2 : 0) + (y + 0.01 * vy >= 0.0 ? 1 : 0);
+      const nav_msgs::Odometry m = odom(stamp, x, y, vx, vy);
+      whole.registry().onOdometry(i, m, ros::Time(stamp));
+      for (auto& s : shards) s->registry().onOdometry(i, m, ros::Time(stamp));
+    }
+    const ros::Time now(stamp + 0.01);
+    std::map<std::pair<std::string, std::string>, double> truth, united;
+    // A pair by its names in order (which body is a depends on the order they entered a world).
+    const auto pairOf = [](const vadop::Impact& i) { return std::minmax(i.body_a, i.body_b); };
+    for (const vadop::Impact& i : whole.cycle(now, tf).impacts) truth[pairOf(i)] = i.time_to_impact;
+    for (size_t k = 0; k < shards.size(); ++k) {
+      auto& s = shards[k];
+      for (const vadop::Impact& i : s->cycle(now, tf).impacts) {
+        const std::pair<std::string, std::string> key = pairOf(i);
+        // Only pairs with a body inside its own quadrant (shards in quadrant_of's order).
+        EXPECT_TRUE(quadrant_of[std::stoi(i.body_a.substr(1))] == static_cast<int>(k) ||
+                    quadrant_of[std::stoi(i.body_b.substr(1))] == static_cast<int>(k))
+            << key.first << "-" << key.second << " reported by region " << k << ", where neither is";
+        ASSERT_TRUE(truth.count(key)) << key.first << "-" << key.second << " reported by a region only";
+        EXPECT_NEAR(i.time_to_impact, truth[key], 1e-3) << key.first << "-" << key.second;
+        united[key] = i.time_to_impact;
+      }
+      EXPECT_LT(s->lastStats().elements_in_world, static_cast<size_t>(kBodies));
+    }
+    for (const auto& [pair, t] : truth) {
+      EXPECT_TRUE(united.count(pair)) << pair.first << "-" << pair.second << " at " << t << " s lost at a border";
+      ++compared;
+    }
+    // Pairs whose bodies lie in different quadrants: the borders are really crossed.
+    for (const auto& [pair, t] : truth) {
+      across += quadrant_of[std::stoi(pair.first.substr(1))] != quadrant_of[std::stoi(pair.second.substr(1))] ? 1 : 0;
+    }
+  }
+  EXPECT_GT(compared, 20u);
+  EXPECT_GT(across, 5u);
+}

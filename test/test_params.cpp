@@ -46,7 +46,7 @@ TEST(Params, DefaultsWhenEmpty) {
   EXPECT_EQ(p.axes, 32);
   EXPECT_DOUBLE_EQ(p.phi_deg, 25.0);
   EXPECT_EQ(p.threads, 0);  // every core
-  EXPECT_EQ(p.broad_phase, "grid");  // VADOP's volumes remove nothing after the cull (README)
+  EXPECT_EQ(p.broad_phase, "grid");  // VADOP's volumes remove nothing after the cull (docs/performance.md)
   EXPECT_EQ(p.time_slices, 8);
   EXPECT_DOUBLE_EQ(p.coherence_clearance, 0.0);  // off
   EXPECT_DOUBLE_EQ(p.coherence_lookahead, 0.5);
@@ -99,6 +99,27 @@ TEST(Params, ReferenceExamplesAreNamedSoNoRealRobotMatchesThem) {
   EXPECT_TRUE(minimal.bodies.empty());
   EXPECT_TRUE(minimal.static_obstacles.empty());
   EXPECT_TRUE(minimal.ignore_pairs.empty());
+}
+
+// ~region and ~region_margin: a box in the fixed frame, each min below its max; the margin
+// with a region only.
+TEST(Params, RegionIsABoxAndItsMarginNeedsIt) {
+  const MonitorParams p = parseParams(yaml("region: {min: [-1, -2, -3], max: [1, 2, 3]}\nregion_margin: 4.5\n"));
+  EXPECT_TRUE(p.region.bounded);
+  EXPECT_EQ(p.region.min, Eigen::Vector3d(-1, -2, -3));
+  EXPECT_EQ(p.region.max, Eigen::Vector3d(1, 2, 3));
+  EXPECT_DOUBLE_EQ(p.region_margin, 4.5);
+  EXPECT_TRUE(p.region.contains({5.4, 0, 0}, 4.5));
+  EXPECT_FALSE(p.region.contains({5.6, 0, 0}, 4.5));
+  EXPECT_FALSE(parseParams(yaml("rate: 10")).region.bounded);
+  EXPECT_TRUE(parseParams(yaml("rate: 10")).region.contains({1e6, 0, 0}, 0.0));
+  EXPECT_EQ(errorOf("region_margin: 1"), "~region_margin: applies with ~region only");
+  EXPECT_EQ(errorOf("region: {min: [0, 0, 0], max: [1, 0, 1]}"), "~region.max[1]: must be above min[1] (0), got 0");
+  EXPECT_NE(errorOf("region: {min: [0, 0, 0]}").find("~region.max: is required"), std::string::npos);
+  EXPECT_NE(errorOf("region: {min: [0, 0], max: [1, 1, 1]}").find("~region.min"), std::string::npos);
+  EXPECT_NE(errorOf("region: {mn: [0, 0, 0], max: [1, 1, 1]}").find("did you mean \"min\"?"), std::string::npos);
+  EXPECT_NE(errorOf("region: {min: [0, 0, 0], max: [1, 1, 1]}\nregion_margin: -1").find("~region_margin"),
+            std::string::npos);
 }
 
 TEST(Params, ShapesAsInTheSceneFormat) {

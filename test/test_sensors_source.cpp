@@ -5,7 +5,11 @@
 // timeout; a map's occupied cells; and through MonitorCore and VelocityGate: an impact against a
 // scan-only wall at its exact time, the wall's new points re-entering the world, a gate stopping
 // short of the wall, zero commands while the scan is stale (unless the gate ignores it), and the
-// kept points drawn as one marker.
+// kept points drawn as one marker. The filter (filter_margin, self_margin): the robot's own body
+// dropped by self_margin with a wall just beyond kept (its laser hung from its frame in tf, or
+// only within its bounding sphere), another robot's points dropped (no impact
+// from them, its own prediction unchanged), a tracked object's, the margin's boundary to 1e-6,
+// and the bodies posed at the message's stamp, not at the cycle's time.
 #include "vadop_ros/monitor_core.h"
 #include "vadop_ros/sensors_source.h"
 #include "vadop_ros/velocity_gate.h"
@@ -17,7 +21,10 @@
 #include <diagnostic_updater/DiagnosticStatusWrapper.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <ctime>
 #include <limits>
 #include <map>
 #include <string>
@@ -591,4 +598,277 @@ TEST(SensorsInTheMonitor, TheKeptPointsAreDrawnAsOneSphereListEach) {
     EXPECT_NEAR(q.x(), 3.0, 1e-5);
     EXPECT_NEAR(q.z(), 0.1, 1e-9);
   }
+}
+
+// ---------------------------------------------------------------------------------------------
+// filter_margin and self_margin: the points within a monitored body or tracked object (posed at
+// the message's stamp) are dropped, the sensor's own body's by self_margin.
+namespace {
+
+// Robot "robot" (0.6 x 0.6 x 0.4 box, frame robot/base_link) carrying the lidar (a cloud in
+// robot/laser, hung from robot/base_link), and robot "other" (same box); both on odometry.
+MonitorCore makeFleetCore(const std::string& extra = "") {
+  const std::string text = R"(
+horizon: 3.0
+bodies:
+  - {name: robot, frame: robot/base_link, odom_topic: /robot/odom, shape: {type: box, size: [0.6, 0.6, 0.4]}}
+  - {name: other, frame: other/base_link, odom_topic: /other/odom, shape: {type: box, size: [0.6, 0.6, 0.4]}}
+sensors:
+  - {name: lidar, type: cloud, topic: /cloud, voxel: 0.0}
+)" + extra;
+  return MonitorCore(vadop_ros::parseParams(vadop_test::yaml(text)), [](const std::string&, std::string&) { return false; });
+}
+
+// tf for makeFleetCore: the robot at the odom origin, its laser 0.1 m above its frame.
+void addMountedLaser(FakeTf& tf) {
+  tf.set("odom", "robot/base_link", Eigen::Isometry3d::Identity());
+  Eigen::Isometry3d laser = Eigen::Isometry3d::Identity();
+  laser.translation() = Eigen::Vector3d(0.0, 0.0, 0.1);
+  tf.set("robot/base_link", "robot/laser", laser);
+}
+
+// The points the sensor kept, each a ball: whether one lies at `p` (odom).
+bool kept(const SensorsSource& s, const Eigen::Vector3d& p) {
+  for (const Eigen::Vector3d& q : s.points(0)) {
+    if ((q - p).norm() < 1e-6) return true;
+  }
+  return false;
+}
+
+// Points in the laser frame of makeFleetCore (odom z = laser z + 0.1).
+std::vector<Eigen::Vector3d> inLaser(std::vector<Eigen::Vector3d> odom_points) {
+  for (Eigen::Vector3d& p : odom_points) p.z() -= 0.1;
+  return odom_points;
+}
+
+}  // namespace
+
+TEST(SensorFilter, TheRobotsOwnBodyIsDroppedWithSelfMarginAndAWallBeyondKept) {
+  MonitorCore core = makeFleetCore();
+  FakeTf tf;
+  addMountedLaser(tf);
+  SensorsSource& sensors = sensorsOf(core);
+  core.registry().onOdometry(0, odom(100.0, 0.0, 0.0), ros::Time(100.0));
+  core.cycle(ros::Time(100.0), tf);
+  const double self = sensors.params(0).self_margin;  // 0.02 (filter_margin: 0.1)
+  ASSERT_DOUBLE_EQ(self, 0.02);
+  const Eigen::Vector3d face(0.3, 0.1, 0.05), in(0.3 + self - 1e-6, -0.1, 0.05), out(0.3 + self + 1e-6, 0.0, 0.05);
+  const Eigen::Vector3d wall(0.3 + self + 0.05, 0.2, 0.05), back(-0.3, 0.0, 0.15);
+  const std::vector<Eigen::Vector3d> pts = {face, in, out, wall, back};
+  ASSERT_EQ(sensors.onCloud(0, cloud(100.0, inLaser(pts), "robot/laser"), ros::Time(100.0), tf), InputResult::kAccepted);
+  EXPECT_FALSE(kept(sensors, face));
+  EXPECT_FALSE(kept(sensors, in));
+  EXPECT_FALSE(kept(sensors, back));
+  EXPECT_TRUE(kept(sensors, out));   // 1e-6 beyond self_margin
+  EXPECT_TRUE(kept(sensors, wall));  // 5 cm beyond self_margin (within filter_margin)
+  EXPECT_EQ(sensors.points(0).size(), 2u);
+  EXPECT_EQ(sensors.status(0).points_filtered_self, 3u);
+  EXPECT_EQ(sensors.status(0).points_filtered_others, 0u);
+  // A laser frame hung from odom, not from the robot's frame, but within its bounding sphere:
+  // the robot is still its own body (self_margin, the smaller).
+  Eigen::Isometry3d loose = Eigen::Isometry3d::Identity();
+  loose.translation() = Eigen::Vector3d(0.0, 0.0, 0.1);
+  tf.set("odom", "loose_laser", loose);
+  ASSERT_EQ(sensors.onCloud(0, cloud(100.005, inLaser(pts), "loose_laser"), ros::Time(100.005), tf), InputResult::kAccepted);
+  EXPECT_TRUE(kept(sensors, out));
+  EXPECT_TRUE(kept(sensors, wall));
+  EXPECT_EQ(sensors.points(0).size(), 2u);
+  EXPECT_EQ(sensors.status(0).points_filtered_self, 6u);
+  // The same points in the fixed frame (no sensor origin): the robot is another body to it.
+  ASSERT_EQ(sensors.onCloud(0, cloud(100.01, pts, "odom"), ros::Time(100.01), tf), InputResult::kAccepted);
+  EXPECT_EQ(sensors.points(0).size(), 0u);  // all within filter_margin 0.1 of the robot
+  EXPECT_EQ(sensors.status(0).points_filtered_others, 5u);
+}
+
+TEST(SensorFilter, AnotherRobotsPointsGiveNoImpactAndItsOwnPredictionIsUnchanged) {
+  // "robot" drives at 1 m/s towards "other", which drives away at 1.5 m/s; "third" comes at
+  // "other" from ahead. The laser sees other's rear face (and a far wall).
+  const std::string third = R"(
+  - {name: third, frame: third/base_link, odom_topic: /third/odom, shape: {type: box, size: [0.6, 0.6, 0.4]}}
+)";
+  const auto build = [&third] {
+    std::string text = R"(
+horizon: 2.0
+bodies:
+  - {name: robot, frame: robot/base_link, odom_topic: /robot/odom, shape: {type: box, size: [0.6, 0.6, 0.4]}}
+  - {name: other, frame: other/base_link, odom_topic: /other/odom, shape: {type: box, size: [0.6, 0.6, 0.4]}}
+)" + third.substr(1) + R"(sensors:
+  - {name: lidar, type: cloud, topic: /cloud, voxel: 0.0}
+)";
+    return MonitorCore(vadop_ros::parseParams(vadop_test::yaml(text)), [](const std::string&, std::string&) { return false; });
+  };
+  MonitorCore with = build(), without = build();
+  FakeTf tf;
+  addMountedLaser(tf);
+  std::vector<Eigen::Vector3d> rear;
+  for (int i = -5; i <= 5; ++i) rear.push_back(Eigen::Vector3d(1.7, 0.05 * i, 0.05));
+  rear.push_back(Eigen::Vector3d(8.0, 0.0, 0.05));  // a wall far ahead: kept
+  for (MonitorCore* core : {&with, &without}) {
+    core->registry().onOdometry(0, odom(100.0, 0.0, 1.0), ros::Time(100.0));
+    core->registry().onOdometry(1, odom(100.0, 2.0, 1.5), ros::Time(100.0));
+    core->registry().onOdometry(2, odom(100.0, 6.0, -1.0), ros::Time(100.0));
+    core->cycle(ros::Time(100.0), tf);
+  }
+  SensorsSource& sensors = sensorsOf(with);
+  ASSERT_EQ(sensors.onCloud(0, cloud(100.0, inLaser(rear), "robot/laser"), ros::Time(100.0), tf), InputResult::kAccepted);
+  EXPECT_EQ(sensors.points(0).size(), 1u);
+  EXPECT_EQ(sensors.status(0).points_filtered_others, 11u);
+  // The robot would reach other's rear face points in 1.38 s, were they kept.
+  const vadop::ImpactArray a = with.cycle(ros::Time(100.05), tf);
+  const vadop::ImpactArray b = without.cycle(ros::Time(100.05), tf);
+  for (const vadop::Impact& i : a.impacts) EXPECT_NE(i.body_b, "lidar") << MonitorCore::describe(i);
+  // other's own prediction (against third) is the same with and without the scan.
+  ASSERT_EQ(a.impacts.size(), b.impacts.size());
+  ASSERT_EQ(a.impacts.size(), 1u);
+  EXPECT_EQ(std::min(a.impacts[0].body_a, a.impacts[0].body_b) + std::max(a.impacts[0].body_a, a.impacts[0].body_b),
+            "otherthird");
+  EXPECT_DOUBLE_EQ(a.impacts[0].time_to_impact, b.impacts[0].time_to_impact);
+}
+
+TEST(SensorFilter, ATrackedObjectsPointsAreDroppedUpToFilterMarginExactly) {
+  MonitorCore core = makeFleetCore(R"(
+tracks:
+  - {topic: /people/tracks, prefix: people, default_shape: {type: cylinder, radius: 0.3, length: 1.8}}
+)");
+  FakeTf tf;
+  addMountedLaser(tf);
+  SensorsSource& sensors = sensorsOf(core);
+  vadop::TrackedObject person;
+  person.id = "1";
+  person.pose.position.x = 3.0;
+  person.pose.orientation.w = 1.0;
+  vadop::TrackedObjectArray people;
+  people.header.stamp = ros::Time(100.0);
+  people.header.frame_id = "odom";
+  people.objects = {person};
+  core.registry().onOdometry(0, odom(100.0, 0.0, 0.0), ros::Time(100.0));
+  ASSERT_EQ(core.tracks().onArray(0, people, ros::Time(100.0), tf), InputResult::kAccepted);
+  core.cycle(ros::Time(100.0), tf);
+  const double m = sensors.params(0).filter_margin;  // 0.1
+  const Eigen::Vector3d surface(2.7, 0.0, 0.05), in(3.0 - 0.3 - m + 1e-6, 0.0, 0.05);
+  const Eigen::Vector3d out(3.0, 0.3 + m + 1e-6, 0.05), top(3.0, 0.0, 0.9 + m + 1e-6);
+  ASSERT_EQ(sensors.onCloud(0, cloud(100.0, {surface, in, out, top}, "odom"), ros::Time(100.0), tf),
+            InputResult::kAccepted);
+  EXPECT_FALSE(kept(sensors, surface));
+  EXPECT_FALSE(kept(sensors, in));
+  EXPECT_TRUE(kept(sensors, out));
+  EXPECT_TRUE(kept(sensors, top));
+  EXPECT_EQ(sensors.status(0).points_filtered_others, 2u);
+}
+
+TEST(SensorFilter, BodiesArePosedAtTheMessagesStampNotAtNow) {
+  MonitorCore core = makeFleetCore();
+  FakeTf tf;
+  addMountedLaser(tf);
+  SensorsSource& sensors = sensorsOf(core);
+  // "other" at x = 2 at 100.0 driving +x at 1 m/s: at 100.5 it is at 2.5 (box 2.2 .. 2.8).
+  core.registry().onOdometry(0, odom(100.5, 0.0, 0.0), ros::Time(100.5));
+  core.registry().onOdometry(1, odom(100.5, 2.5, 1.0), ros::Time(100.5));
+  core.cycle(ros::Time(100.5), tf);
+  // A cloud stamped 100.0 (box then at 1.7 .. 2.3), arriving now.
+  const Eigen::Vector3d then(1.75, 0.0, 0.05), now_only(2.65, 0.0, 0.05);
+  ASSERT_EQ(sensors.onCloud(0, cloud(100.0, {then, now_only}, "odom"), ros::Time(100.5), tf), InputResult::kAccepted);
+  EXPECT_FALSE(kept(sensors, then));    // within the box where it was at the stamp
+  EXPECT_TRUE(kept(sensors, now_only));  // 0.35 m beyond it then, inside it now
+}
+
+// The filter's cost (not run in CI: --gtest_also_run_disabled_tests): a 1,081-beam scan among
+// 1,000 box robots on a 3 m grid, the laser on robot 0 in the grid's middle, each beam ending on
+// the nearest robot's face or at 10 m; the CPU time of onScan with and without the filter.
+// This thread's CPU time (ms): the machine's other load does not count.
+double threadMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return 1e3 * static_cast<double>(ts.tv_sec) + 1e-6 * static_cast<double>(ts.tv_nsec);
+}
+
+TEST(SensorFilter, DISABLED_CostOfA1081BeamScanAmong1000Robots) {
+  std::string text = "horizon: 3.0\nbodies:\n";
+  const int n = 1000, side = 32;
+  std::vector<Eigen::Vector2d> at;
+  for (int i = 0; i < n; ++i) {
+    // Robot 0 in the middle; the others fill the grid around it.
+    const int cell = (i + side * side / 2 + side / 2) % (side * side);
+    at.push_back(Eigen::Vector2d(3.0 * (cell % side), 3.0 * (cell / side)));
+    text += "  - {name: r" + std::to_string(i) + ", frame: r" + std::to_string(i) + "/base_link, odom_topic: /r" +
+            std::to_string(i) + "/odom, shape: {type: box, size: [0.6, 0.6, 0.4]}}\n";
+  }
+  text += "sensors:\n  - {name: lidar, type: scan, topic: /scan}\n";
+  MonitorCore core(vadop_ros::parseParams(vadop_test::yaml(text)), [](const std::string&, std::string&) { return false; });
+  FakeTf tf;
+  Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+  base.translation() << at[0].x(), at[0].y(), 0.0;
+  tf.set("odom", "r0/base_link", base);
+  tf.set("r0/base_link", "r0/laser", Eigen::Isometry3d::Identity());
+  for (int i = 0; i < n; ++i) {
+    // odom() sets x only: y through the pose.
+    nav_msgs::Odometry m = odom(100.0, at[i].x(), 0.2);
+    m.pose.pose.position.y = at[i].y();
+    core.registry().onOdometry(i, m, ros::Time(100.0));
+  }
+  core.cycle(ros::Time(100.0), tf);
+  sensor_msgs::LaserScan s;
+  s.header.frame_id = "r0/laser";
+  s.angle_min = static_cast<float>(-0.75 * M_PI);
+  s.angle_increment = static_cast<float>(1.5 * M_PI / 1080);
+  s.angle_max = s.angle_min + 1080 * s.angle_increment;
+  s.range_min = 0.05f;
+  s.range_max = 30.0f;
+  for (int b = 0; b <= 1080; ++b) {
+    const double a = s.angle_min + b * static_cast<double>(s.angle_increment);
+    const Eigen::Vector2d d(std::cos(a), std::sin(a));
+    double r = 10.0;
+    for (int i = 1; i < n; ++i) {  // the ray against each square (slab test)
+      const Eigen::Vector2d lo = at[i] - at[0] - Eigen::Vector2d::Constant(0.3), hi = lo + Eigen::Vector2d::Constant(0.6);
+      double t0 = 0.0, t1 = 1e9;
+      for (int k = 0; k < 2; ++k) {
+        if (std::fabs(d[k]) < 1e-12) {
+          if (0.0 < lo[k] || 0.0 > hi[k]) t0 = 2e9;
+          continue;
+        }
+        const double u = lo[k] / d[k], v = hi[k] / d[k];
+        t0 = std::max(t0, std::min(u, v));
+        t1 = std::min(t1, std::max(u, v));
+      }
+      if (t0 <= t1 && t0 < r) r = t0;
+    }
+    s.ranges.push_back(static_cast<float>(r));
+  }
+  SensorsSource& sensors = sensorsOf(core);
+  const auto time = [&](int reps) {
+    const auto t0 = threadMs();
+    for (int k = 0; k < reps; ++k) {
+      s.header.stamp = ros::Time(100.0 + 1e-3 * k);
+      sensors.onScan(0, s, ros::Time(100.0 + 1e-3 * k), tf);
+    }
+    return (threadMs() - t0) / reps;
+  };
+  time(5);
+  const double with = time(50);
+  const size_t kept = sensors.points(0).size();
+  const uint64_t filtered = sensors.status(0).points_filtered_others;
+  // After a cycle the first message makes the snapshot again (at most once a cycle), under the
+  // node's lock; the second reuses it.
+  double fresh = 0.0, reused = 0.0;
+  for (int k = 0; k < 20; ++k) {
+    const ros::Time t(100.1 + 1e-3 * k);  // after time()'s stamps: accepted, not out of order
+    core.cycle(t, tf);
+    s.header.stamp = t;
+    const auto t0 = threadMs();
+    sensors.onScan(0, s, t, tf);
+    const auto t1 = threadMs();
+    sensors.onScan(0, s, t, tf);
+    const auto t2 = threadMs();
+    fresh += (t1 - t0) / 20;
+    reused += (t2 - t1) / 20;
+  }
+  std::printf("after a cycle: %.3f ms for the first message (the snapshot made: %.3f ms), %.3f ms for the next\n",
+              fresh, fresh - reused, reused);
+  sensors.setFilterProvider(nullptr);
+  time(5);
+  const double without = time(50);
+  std::printf("1,081-beam scan, 1,000 robots: %.3f ms a message with the filter, %.3f ms without (%zu kept of %zu, "
+              "%.1f filtered a message)\n",
+              with, without, kept, sensors.points(0).size(), static_cast<double>(filtered) / 55.0);
+  EXPECT_LT(kept, sensors.points(0).size());
 }

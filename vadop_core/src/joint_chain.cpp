@@ -19,6 +19,8 @@
 #include "vadop/joint_chain.h"
 
 #include "advance_step.h"
+#include "body_side.h"
+#include "contact_patch.h"
 #include "vadop/error.h"
 #include "vadop/vadop.h"
 
@@ -436,6 +438,17 @@ class ChainImpactSearch {
     out_.distance = c.distance;
   }
 
+  // A contact at the query's start: the point where the links meet (contact_patch.h).
+  void fillTouching(const DistanceResult& c) {
+    out_.hit = true;
+    out_.initially_touching = t_ == t0_;
+    fill(t_, c);
+    if (!out_.initially_touching) return;
+    const Eigen::Isometry3d pa = ca_.poseAt(t_), pb = cb_.poseAt(t_);
+    out_.point = detail::contactPatchPoint(detail::makeSide(a_.data(), pa.linear(), pa.translation()),
+                                           detail::makeSide(b_.data(), pb.linear(), pb.translation()), c);
+  }
+
   // Both links ride rigidly on their bases over [t, e]: the constant-twist narrow phase. True
   // when that decides the query (out_ holds the answer); else t moves to e.
   bool rigidStretch(double e) {
@@ -515,9 +528,7 @@ class ChainImpactSearch {
       ++used_;
       out_.iterations = used_;
       if (s.touching) {
-        out_.hit = true;
-        out_.initially_touching = t_ == t0_;
-        fill(t_, s.closest);
+        fillTouching(s.closest);
         return true;
       }
       if (s.clear && e >= t1_) {
@@ -532,9 +543,7 @@ class ChainImpactSearch {
     ++used_;
     out_.iterations = used_;
     if (d.distance <= touch) {
-      out_.hit = true;
-      out_.initially_touching = t_ == t0_;
-      fill(t_, d);
+      fillTouching(d);
       return true;
     }
     return false;

@@ -11,6 +11,7 @@
 // Internal to vadop_core (World's mover queries).
 #pragma once
 
+#include "contact_patch.h"
 #include "vadop/distance.h"
 #include "vadop/time_of_impact.h"
 
@@ -22,7 +23,7 @@ template <class MotionA, class MotionB>
 bool pressedTogether(const TimeOfImpact& hit, const PreparedShape& a, const MotionA& ma, const PreparedShape& b,
                      const MotionB& mb, double s, double e, double tolerance) {
   const Eigen::Vector3d closing = ma.velocityOfPoint(hit.point, s) - mb.velocityOfPoint(hit.point, s);
-  if (closing.dot(hit.normal) > 0.0) return true;
+  if (detail::pressesIn(closing, hit.normal)) return true;
   const double deeper = std::min(hit.distance, 0.0) - tolerance;
   for (int k = 1; k <= 4; ++k) {
     const double t = s + (e - s) * k / 4.0;

@@ -26,6 +26,8 @@
 // current t, the end of the certified interval: never a contact, never a miss.
 #include "vadop/time_of_impact.h"
 #include "advance_step.h"
+#include "body_side.h"
+#include "contact_patch.h"
 
 #include "vadop/error.h"
 
@@ -192,6 +194,12 @@ TimeOfImpact conservativeAdvancement(const PreparedShape& a, const Motion& ma, c
       out.hit = true;
       out.initially_touching = first;
       fill(t, s.closest);
+      // In contact at the start: the point where the bodies meet (the witness points of a face
+      // are any of its corners).
+      if (first) {
+        out.point = detail::contactPatchPoint(detail::sideAt(a.data(), ma, t), detail::sideAt(b.data(), mb, t),
+                                              s.closest);
+      }
       return out;
     }
     if (s.clear) {

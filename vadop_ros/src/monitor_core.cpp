@@ -1,5 +1,7 @@
 #include "vadop_ros/monitor_core.h"
 
+#include "vadop_ros/sensors_source.h"
+
 #include "gate_manoeuvre.h"
 #include "scale_contacts.h"
 
@@ -78,6 +80,9 @@ MonitorCore::MonitorCore(const MonitorParams& params, const ParamReader& read_pa
   for (const BodiesSourceKind& kind : bodiesSourceKinds()) {
     body_sources_.push_back(kind.make(params));
     if (auto* tracks = dynamic_cast<Tracks*>(body_sources_.back().get())) tracks_ = tracks;
+    if (auto* sensors = dynamic_cast<SensorsSource*>(body_sources_.back().get())) {
+      sensors->setFilterProvider([this] { return filterSnapshot(); });
+    }
   }
   for (const BodyParams& b : params.bodies) gate_world_wanted_ = gate_world_wanted_ || b.has_gate;
   impacts_.header.frame_id = params_.fixed_frame;
@@ -443,6 +448,7 @@ void MonitorCore::noteLimit(const vadop::World::MoverContact* limit, double t_no
 
 void MonitorCore::reset() {
   registry_.reset();
+  ++cycles_;
   const auto& elements = registry_.elements();
   for (size_t i = 0; i < elements.size(); ++i) {
     if (!registry_.bodies()[elements[i].body].is_static) {
@@ -530,15 +536,38 @@ size_t MonitorCore::syncSourcedBodies(size_t j, double t_now, const ros::Time& n
   return in_world;
 }
 
+void MonitorCore::placeInRegion(const ros::Time& now) {
+  const auto& bodies = registry_.bodies();
+  body_place_.assign(bodies.size(), kInside);
+  if (!params_.region.bounded) return;
+  const double t_now = registry_.seconds(now);
+  for (size_t b = 0; b < bodies.size(); ++b) {
+    const Body& body = bodies[b];
+    // Static obstacles stay (they cost no prediction); a gated body stays wherever it drives,
+    // so that its gate, which lives in this monitor, always has it.
+    if (body.is_static) {
+      body_place_[b] = kMargin;
+      continue;
+    }
+    if (!body.frame_motion.valid) continue;  // not in the world this cycle anyway
+    const Eigen::Vector3d p = body.frame_motion.motion.positionAt(t_now);
+    body_place_[b] = params_.region.contains(p, 0.0)                    ? kInside
+                     : params_.region.contains(p, params_.region_margin) ? kMargin
+                     : body.params.has_gate                              ? kMargin
+                                                                         : kOutside;
+  }
+}
+
 void MonitorCore::syncWorld(const ros::Time& now) {
   const auto& elements = registry_.elements();
   size_t moving = 0;
   std::string error;
   elements_in_world_of_body_.assign(registry_.bodies().size(), 0);
+  placeInRegion(now);
   for (size_t i = 0; i < elements.size(); ++i) {
     const Element& e = elements[i];
     if (refused_[i] && !(e.active && sameMotion(e.motion, refused_motion_[i]))) refused_[i] = 0;
-    if (!e.active || refused_[i]) {
+    if (!e.active || refused_[i] || body_place_[e.body] == kOutside) {
       if (refused_[i]) registry_.markElementBad(i, "left out since the prediction failed on it", now);
       predictor_.unset(i);
       continue;
@@ -638,7 +667,17 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
   return finishCycle(now);
 }
 
+std::shared_ptr<const FilterSnapshot> MonitorCore::filterSnapshot() {
+  if (!filter_snapshot_ || filter_snapshot_cycle_ != cycles_) {
+    static const std::vector<SourcedBody> kNone;
+    filter_snapshot_ = makeFilterSnapshot(registry_, tracks_ ? tracks_->bodies() : kNone, filter_shapes_);
+    filter_snapshot_cycle_ = cycles_;
+  }
+  return filter_snapshot_;
+}
+
 void MonitorCore::startCycle(const ros::Time& now, TransformSource& tf) {
+  ++cycles_;  // the sensors' filter snapshot follows the new motions
   cycle_start_ = std::chrono::steady_clock::now();
   predicting_ = false;  // should the last cycle have thrown before its end
   stats_ = CycleStats();
@@ -721,11 +760,17 @@ void MonitorCore::writeImpacts(const ros::Time& now) {
   // when pair_rules_needed_, this predicate; without those rules it reports no ignored pair).
   std::vector<uint32_t>& kept = kept_impacts_;
   kept.clear();
+  const auto& elements = registry_.elements();
+  // With a region: a pair with both bodies outside it is another monitor's to report.
+  const auto inside = [&](size_t element) {
+    return isSourced(element) || body_place_[elements[element].body] == kInside;
+  };
   for (size_t k = 0; k < raw.size(); ++k) {
     if (pair_rules_needed_ && pairIgnored(raw[k].a_user, raw[k].b_user)) {
       ++stats_.ignored_tested;
       continue;
     }
+    if (params_.region.bounded && !inside(raw[k].a_user) && !inside(raw[k].b_user)) continue;
     kept.push_back(static_cast<uint32_t>(k));
   }
   // The array's entries are overwritten in place (their strings keep their storage from cycle
@@ -737,7 +782,6 @@ void MonitorCore::writeImpacts(const ros::Time& now) {
   vadop::parallelFor(vadop::threadCount(params_.threads), kept.size(), kImpactsPerThread, kImpactChunk,
                              [&](size_t i) { writeImpact(raw[kept[i]], now, out[i]); });
   // The soonest time to impact of an element's body (a source body's own).
-  const auto& elements = registry_.elements();
   auto soonest = [&](size_t element) -> double& {
     return isSourced(element) ? sourced_soonest_[element - setBase()] : soonest_[elements[element].body];
   };

@@ -3,7 +3,7 @@
 // the configured bodies over a time horizon and publishes them (~impacts), with rviz markers
 // (~markers) and /diagnostics; bodies with a gate get each velocity command checked and
 // forwarded scaled (cmd_vel_in -> cmd_vel_out, ~gate_states).
-// Parameters: config/monitor.yaml; behaviour: README.md ("The ROS monitor node").
+// Parameters: config/monitor.yaml; behaviour: docs/monitor.md.
 #include "vadop_ros/monitor_core.h"
 #include "vadop_ros/monitor_diagnostics.h"
 #include "vadop_ros/monitor_node.h"
@@ -58,6 +58,9 @@ class Tf2Source : public TransformSource {
     }
   }
   bool concurrent() const override { return true; }  // tf2::BufferCore locks its own state
+  bool parent(const std::string& frame, const ros::Time& time, std::string& parent) override {
+    return buffer_._getParent(frame, time, parent);
+  }
 
  private:
   tf2_ros::Buffer& buffer_;

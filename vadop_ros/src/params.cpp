@@ -460,7 +460,7 @@ std::set<std::string> makeTopLevelKeys() {
       "fixed_frame", "rate", "horizon", "padding", "stale_timeout", "max_stamp_skew", "axes", "phi_deg", "threads", "broad_phase", "time_slices",
       "coherence_clearance", "coherence_lookahead",
       "self_collision", "ignore_pairs", "bodies", "static_obstacles", "log_impacts",
-      "publish_markers",
+      "publish_markers", "region", "region_margin",
       // set by diagnostic_updater and dynamic_reconfigure themselves
       "diagnostic_period"};
   for (const BodiesSourceKind& kind : bodiesSourceKinds()) keys.insert(kind.name);
@@ -539,6 +539,35 @@ void checkPredictorParams(const MonitorParams& p) {
   }
 }
 
+// ~region {min: [x, y, z], max: [x, y, z]} (fixed frame, each min below its max) and
+// ~region_margin (m, with a region only).
+static void parseRegion(const XmlRpcValue& root, MonitorParams& p) {
+  const XmlRpcValue* region = member(root, "region");
+  if (const XmlRpcValue* m = member(root, "region_margin")) {
+    if (!region) fail("~region_margin", "applies with ~region only");
+    p.region_margin = ranged(m, 0.0, 0.0, 1e4, false, "~region_margin");
+  }
+  if (!region) return;
+  requireStruct(*region, "~region");
+  rejectUnknown(*region, {"min", "max"}, "~region");
+  for (const char* key : {"min", "max"}) {
+    const XmlRpcValue* corner = member(*region, key);
+    if (!corner) fail(std::string("~region.") + key, "is required ([x, y, z] in the fixed frame)");
+    const auto xyz = numberList(*corner, 3, std::string("~region.") + key);
+    for (int k = 0; k < 3; ++k) {
+      checkRange(xyz[k], vadop::kMaxCoordinate, std::string("~region.") + key + "[" + std::to_string(k) + "]", "m");
+      (std::string(key) == "min" ? p.region.min : p.region.max)[k] = xyz[k];
+    }
+  }
+  for (int k = 0; k < 3; ++k) {
+    if (!(p.region.min[k] < p.region.max[k])) {
+      fail("~region.max[" + std::to_string(k) + "]", "must be above min[" + std::to_string(k) + "] (" +
+                                                        num(p.region.min[k]) + "), got " + num(p.region.max[k]));
+    }
+  }
+  p.region.bounded = true;
+}
+
 MonitorParams parseParams(const XmlRpcValue& root) {
   MonitorParams p;
   if (root.getType() == XmlRpcValue::TypeInvalid) return p;
@@ -574,6 +603,7 @@ MonitorParams parseParams(const XmlRpcValue& root) {
   if (const XmlRpcValue* v = member(root, "self_collision")) p.self_collision = toBool(*v, "~self_collision");
   if (const XmlRpcValue* v = member(root, "log_impacts")) p.log_impacts = toBool(*v, "~log_impacts");
   if (const XmlRpcValue* v = member(root, "publish_markers")) p.publish_markers = toBool(*v, "~publish_markers");
+  parseRegion(root, p);
 
   if (const XmlRpcValue* v = member(root, "ignore_pairs")) {
     requireArray(*v, "~ignore_pairs");

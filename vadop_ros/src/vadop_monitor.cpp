@@ -1,5 +1,5 @@
 // vadop_monitor: the monitor (monitor_node.h) as a node of its own. Parameters:
-// config/monitor.yaml; behaviour: README.md ("The ROS monitor node").
+// config/monitor.yaml; behaviour: docs/monitor.md.
 #include "vadop_ros/monitor_node.h"
 #include "vadop_ros/params.h"
 

@@ -133,6 +133,11 @@ class TransformSource {
   // True when lookup may run on several threads at once (tf2's buffer locks its own state);
   // BodyRegistry::update then updates bodies in parallel.
   virtual bool concurrent() const { return false; }
+  // The parent of `frame` in tf's tree at `time` (ros::Time(0): the latest); false when it has
+  // none or is unknown. A sensor's frame is followed up to the body that carries it.
+  virtual bool parent(const std::string& /*frame*/, const ros::Time& /*time*/, std::string& /*parent*/) {
+    return false;
+  }
 };
 
 // Reads a string parameter (a robot_description); false when it does not exist.

@@ -13,6 +13,7 @@
 #include "vadop_ros/pair_filter.h"
 #include "vadop_ros/params.h"
 #include "vadop_ros/predictor.h"
+#include "vadop_ros/sensor_filter.h"
 #include "vadop_ros/source.h"
 #include "vadop_ros/tracks.h"
 
@@ -251,6 +252,12 @@ class MonitorCore {
   static constexpr uint32_t kMovingGroup = 1u;
   static constexpr uint32_t kStaticGroup = 2u;
   void syncWorld(const ros::Time& now);
+  // Each body's place against ~region at now (kInside everywhere without a region): outside the
+  // region grown by its margin a body is left out of the world (not a static obstacle, not a
+  // gated body); only pairs with a body inside are reported.
+  enum Place : uint8_t { kInside, kMargin, kOutside };
+  void placeInRegion(const ros::Time& now);
+  std::vector<uint8_t> body_place_;
   // One entry of the ImpactArray from the world's impact (thread-safe: reads only).
   void writeImpact(const vadop::Contact& hit, const ros::Time& now, vadop::Impact& msg) const;
   // World::predict threw `error`: leaves out of the world every element whose motion is out of
@@ -318,6 +325,12 @@ class MonitorCore {
   // The limiting contact (none: null) into out.
   static void noteLimit(const vadop::World::MoverContact* limit, double t_now, CommandCheck& out);
   void logPredictionOutcome();  // the recovered / failed lines (throttled)
+  // What the sensors' points are filtered against (sensor_filter.h), made at most once a cycle
+  // when a sensor asks (under the node's lock); cycles_ counts the cycles started.
+  std::shared_ptr<const FilterSnapshot> filterSnapshot();
+  std::shared_ptr<const FilterSnapshot> filter_snapshot_;
+  FilterShapeCache filter_shapes_;
+  uint64_t cycles_ = 0, filter_snapshot_cycle_ = 0;
   // The kept impacts (pair rules) into impacts_, and each body's soonest time to impact.
   void writeImpacts(const ros::Time& now);
   // Counts the undecided pairs the rules keep and names the first (stats_), with its warning.

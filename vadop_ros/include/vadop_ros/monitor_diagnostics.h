@@ -19,7 +19,8 @@
 //  - "sensors" (with ~sensors; SensorsSource::report): "N point(s) from M sensor(s)" and the
 //    stale ones, and per sensor S "S: topic", "S: type", "S: points" (kept now), "S: stale",
 //    "S: messages accepted", "S: messages dropped", "S: messages out of order", "S: beams NaN",
-//    "S: points skipped", "S: expired", "S: last problem"; WARN while a sensor is stale (the
+//    "S: points skipped", "S: points filtered (own body)", "S: points filtered (other bodies)",
+//    "S: expired", "S: last problem"; WARN while a sensor is stale (the
 //    gates stop) or dropped something within the last BodyRegistry::kInvalidMarkSeconds.
 #pragma once
 

@@ -153,7 +153,7 @@ constexpr double kMaxRate = 1000.0;
 // Most moving bodies (in all, templates expanded; also the largest `count`). Each one is a topic
 // subscription, and ROS's own bookkeeping makes subscribing superlinear: roscpp
 // (TopicManager::addSubCallback) and rosmaster (NodeRef.add) compare each new subscription
-// with every earlier one of the node. Measured start-up on the 2-core machine (README): 5,000
+// with every earlier one of the node. Measured start-up on the 2-core machine (docs/monitor.md, limits): 5,000
 // bodies 5.5 s, 20,000 about 40 s, 50,000 188 s; 20,000 keeps it within about a minute.
 constexpr int kMaxBodies = 20000;
 
@@ -174,7 +174,7 @@ struct MonitorParams {
   // The world's broad phase (vadop::parseBroadPhaseKind): "grid" (the plain swept-AABB grid,
   // default), "vadop", "sap", "vadop_sap" or "brute"; the impacts are the same, the cost
   // differs. grid is the default because, after the cull (time_slices), the velocity-aligned
-  // volumes remove no pair on the monitor's workloads and cost up to 57% more (README).
+  // volumes remove no pair on the monitor's workloads and cost up to 57% more (docs/performance.md).
   std::string broad_phase = "grid";
   // Time slices of the cull before the narrow phase (vadop::WorldConfig::time_slices),
   // [1, vadop::kMaxTimeSlices]; 1: none. The impacts are the same for every count.
@@ -192,6 +192,19 @@ struct MonitorParams {
   std::vector<SensorParams> sensors;
   bool log_impacts = false;     // log every cycle's impacts as readable lines (ROS_INFO)
   bool publish_markers = true;  // ~markers (built only while someone subscribes)
+  // This monitor's share of a site split among several (~region, ~region_margin): it predicts
+  // the bodies whose frame lies in the box grown by the margin (a gated body always) and
+  // reports the pairs with at least one body inside the box (tracked objects and sensor points
+  // count as inside: every monitor that holds them reports their pairs). Unbounded by default.
+  struct Region {
+    bool bounded = false;
+    Eigen::Vector3d min = Eigen::Vector3d::Zero(), max = Eigen::Vector3d::Zero();  // fixed frame, m
+    bool contains(const Eigen::Vector3d& p, double margin) const {
+      return !bounded || ((p.array() >= min.array() - margin).all() && (p.array() <= max.array() + margin).all());
+    }
+  };
+  Region region;
+  double region_margin = 0.0;  // m, [0, 1e4]
 };
 
 // Parses the private namespace as one XmlRpc struct (what ros::param::get("~") returns).

@@ -25,15 +25,22 @@
 // beam would leave the sensor stale and stop every gate. A cloud's non-finite points (an
 // organized cloud's "no return") and points beyond vadop::kMaxCoordinate are skipped and counted.
 //
-// A message's points and shape are built without the node's lock (a 30,000-point cloud takes a
-// few ms on the 2-core machine), then committed under it: the gates do not wait for them.
+// Points within a monitored body or a tracked object, posed at the message's stamp and grown by
+// filter_margin, are dropped (the sensor's own body, the one its frame hangs from in tf: by
+// self_margin); a map's cells by their centres. That body is predicted from its own motion
+// instead. How they are posed and culled: sensor_filter.h. Counted per sensor ("points
+// filtered"); never against another sensor's points or a static obstacle.
 //
-// It does not (yet): drop the points within monitored bodies or tracked objects (filter_margin,
-// self_margin), compensate a moving sensor's motion during a scan, or merge a map's cells.
+// A message's points, filter and shape are built without the node's lock (a 30,000-point cloud
+// takes a few ms on the 2-core machine) from a snapshot of the bodies taken under it (the
+// provider's, at most one per cycle), then committed under it: the gates do not wait for them.
+//
+// It does not (yet): compensate a moving sensor's motion during a scan, or merge a map's cells.
 #pragma once
 
 #include "vadop_ros/body_registry.h"  // TransformSource, InputResult
 #include "vadop_ros/params.h"
+#include "vadop_ros/sensor_filter.h"
 #include "vadop_ros/source.h"
 
 #include <laser_geometry/laser_geometry.h>
@@ -61,6 +68,8 @@ struct SensorStatus {
   uint64_t accepted = 0, dropped = 0, out_of_order = 0, expired = 0;
   uint64_t beams_nan = 0;        // scans: NaN ranges (no point)
   uint64_t points_skipped = 0;   // clouds: non-finite points; all: points beyond kMaxCoordinate
+  // Within the sensor's own body grown by self_margin / within another body by filter_margin.
+  uint64_t points_filtered_self = 0, points_filtered_others = 0;
   size_t points = 0;             // kept now (a map: occupied cells)
   ros::Time last_receipt;        // of the last accepted message (zero: none yet)
   std::string last_problem;      // the latest dropped message (or NaN beam), why
@@ -94,6 +103,11 @@ class SensorsSource : public BodiesSource {
                       TransformSource& tf);
   InputResult onMap(size_t sensor, const nav_msgs::OccupancyGrid& msg, const ros::Time& receipt, TransformSource& tf);
 
+  // What the points are filtered against: called under the node's lock once per message
+  // (MonitorCore's snapshot of its last cycle). None: nothing is filtered.
+  using FilterProvider = std::function<std::shared_ptr<const FilterSnapshot>()>;
+  void setFilterProvider(FilterProvider provider) { filter_provider_ = std::move(provider); }
+
   size_t sensors() const { return params_.size(); }
   const SensorParams& params(size_t sensor) const { return params_.at(sensor); }
   const SensorStatus& status(size_t sensor) const { return status_.at(sensor); }
@@ -120,6 +134,12 @@ class SensorsSource : public BodiesSource {
     std::string why;           // non-empty: the message is dropped, for this reason
     ros::Time stamp;           // the message's (its receipt when zero)
     size_t nan_beams = 0, first_nan = 0, skipped = 0;
+    std::string frame;         // header.frame_id without a leading '/'
+    bool has_origin = false;   // the frame is not the fixed frame: its origin there
+    Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+    std::shared_ptr<const FilterSnapshot> bodies;  // what the points are filtered against
+    SensorFilter filter;
+    SensorFilter::Dropped filtered;
     std::vector<Eigen::Vector3d> points;  // kept, in the fixed frame
     bool has_shape = false;    // false: no point kept
     vadop::Shape shape;        // about the points' centroid
@@ -142,6 +162,8 @@ class SensorsSource : public BodiesSource {
   // when it is non-zero (a map: turned by `turn`).
   void buildShape(size_t sensor, Work& w, const Eigen::Vector3d& box = Eigen::Vector3d::Zero(),
                   const Eigen::Matrix3d& turn = Eigen::Matrix3d::Identity()) const;
+  // Drops w.points within the snapshot's bodies (filter_margin, self_margin).
+  void filterPoints(size_t sensor, TransformSource& tf, Work& w) const;
   // Keeps `p` (fixed frame) when within the z band and the library's range (else counts it).
   bool admit(size_t sensor, const Eigen::Vector3d& p, Work& w) const;
   // Under the lock: the prepared message dropped, ignored (out of order) or kept.
@@ -158,6 +180,7 @@ class SensorsSource : public BodiesSource {
   std::vector<std::vector<Eigen::Vector3d>> points_;
   std::vector<char> emptied_;  // per sensor: its last accepted message had no point (leaves)
   std::vector<std::unique_ptr<Work>> work_;  // per sensor (LaserProjection does not move)
+  FilterProvider filter_provider_;
 };
 
 }  // namespace vadop_ros

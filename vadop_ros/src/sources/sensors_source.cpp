@@ -2,6 +2,7 @@
 
 #include "../message_checks.h"
 #include "../param_reading.h"
+#include "source_problem.h"
 
 #include <vadop/error.h>
 #include <vadop/shapes.h>
@@ -21,7 +22,6 @@
 namespace vadop_ros {
 namespace {
 
-constexpr double kWarnPeriod = 5.0;  // s, per sensor
 // A map's default height band (m in the fixed frame) and the height given to its unbounded side.
 constexpr double kMapFloor = 0.0, kMapHeight = 2.0;
 
@@ -98,15 +98,8 @@ SensorsSource::SensorsSource(std::vector<SensorParams> params, std::string fixed
 }
 
 void SensorsSource::problem(size_t sensor, const std::string& why, const ros::Time& receipt) {
-  SensorStatus& st = status_[sensor];
-  st.last_problem = why;
-  st.last_problem_receipt = receipt;
-  const double wall = ros::WallTime::now().toSec();
-  if (wall - st.last_warn >= kWarnPeriod) {
-    st.last_warn = wall;
-    ROS_WARN_NAMED("vadop_monitor", "sensor \"%s\" (%s): %s (warnings for this sensor throttled to one per %.0f s)",
-                   params_[sensor].name.c_str(), params_[sensor].topic.c_str(), why.c_str(), kWarnPeriod);
-  }
+  const SensorParams& p = params_[sensor];
+  noteSourceProblem(status_[sensor], "sensor \"" + p.name + "\" (" + p.topic + ")", "sensor", why, receipt);
 }
 
 InputResult SensorsSource::dropMessage(size_t sensor, const std::string& why, const ros::Time& receipt) {
@@ -121,6 +114,7 @@ bool SensorsSource::prepareHeader(const std_msgs::Header& h, const ros::Time& re
   w.nan_beams = w.skipped = 0;
   w.points.clear();
   w.has_shape = false;
+  w.filtered = SensorFilter::Dropped();
   w.stamp = h.stamp.isZero() ? receipt : h.stamp;
   if (const std::string why = stampSkewError(w.stamp, receipt, max_stamp_skew_); !why.empty()) {
     w.why = "header.stamp: " + why;
@@ -132,6 +126,8 @@ bool SensorsSource::prepareHeader(const std_msgs::Header& h, const ros::Time& re
     w.why = "header.frame_id is empty";
     return false;
   }
+  w.frame = frame;
+  w.has_origin = false;
   to_fixed = Eigen::Isometry3d::Identity();
   if (frame == fixed_frame_) return true;
   ros::Time tf_stamp;
@@ -143,7 +139,21 @@ bool SensorsSource::prepareHeader(const std_msgs::Header& h, const ros::Time& re
     error = e.what();
   }
   if (!found) w.why = "header.frame_id \"" + frame + "\": no transform to \"" + fixed_frame_ + "\" at its stamp: " + error;
+  w.has_origin = found;
+  w.origin = to_fixed.translation();
   return found;
+}
+
+void SensorsSource::filterPoints(size_t sensor, TransformSource& tf, Work& w) const {
+  if (!w.bodies || w.bodies->items.empty() || w.points.empty()) return;
+  const SensorParams& sp = params_[sensor];
+  try {
+    const int self = carrierOf(*w.bodies, w.frame, w.stamp, tf, w.has_origin ? &w.origin : nullptr);
+    w.filtered = w.filter.apply(*w.bodies, w.stamp, self, sp.filter_margin, sp.self_margin, w.points);
+  } catch (const std::exception&) {
+    // Not expected (finite points, valid motions); the points then stay obstacles, unfiltered.
+    w.filtered = SensorFilter::Dropped();
+  }
 }
 
 bool SensorsSource::admit(size_t sensor, const Eigen::Vector3d& p, Work& w) const {
@@ -193,6 +203,8 @@ InputResult SensorsSource::commit(size_t sensor, Work& w, const ros::Time& recei
     return InputResult::kOutOfOrder;
   }
   st.points_skipped += w.skipped;
+  st.points_filtered_self += w.filtered.self;
+  st.points_filtered_others += w.filtered.others;
   if (w.nan_beams > 0) {
     st.beams_nan += w.nan_beams;
     problem(sensor, "ranges[" + std::to_string(w.first_nan) + "] is NaN (" + std::to_string(w.nan_beams) +
@@ -246,6 +258,7 @@ void SensorsSource::prepareScan(size_t sensor, const sensor_msgs::LaserScan& msg
     const Eigen::Vector3d p = to_fixed * Eigen::Vector3d(*x, *y, *z);
     if (admit(sensor, p, w)) w.points.push_back(p);
   }
+  filterPoints(sensor, tf, w);
   buildShape(sensor, w);
 }
 
@@ -275,6 +288,7 @@ void SensorsSource::prepareCloud(size_t sensor, const sensor_msgs::PointCloud2& 
     const Eigen::Vector3d p = to_fixed * Eigen::Vector3d(*x, *y, *z);
     if (admit(sensor, p, w) && firstInVoxel(p)) w.points.push_back(p);
   }
+  filterPoints(sensor, tf, w);
   buildShape(sensor, w);
 }
 
@@ -327,24 +341,28 @@ void SensorsSource::prepareMap(size_t sensor, const nav_msgs::OccupancyGrid& msg
       ++w.skipped;
     }
   }
+  filterPoints(sensor, tf, w);
   buildShape(sensor, w, Eigen::Vector3d(res, res, z1 - z0), turn);
 }
 
 InputResult SensorsSource::onScan(size_t sensor, const sensor_msgs::LaserScan& msg, const ros::Time& receipt,
                                   TransformSource& tf) {
-  prepareScan(sensor, msg, receipt, tf, *work_.at(sensor));
+  work_.at(sensor)->bodies = filter_provider_ ? filter_provider_() : nullptr;
+  prepareScan(sensor, msg, receipt, tf, *work_[sensor]);
   return commit(sensor, *work_[sensor], receipt);
 }
 
 InputResult SensorsSource::onCloud(size_t sensor, const sensor_msgs::PointCloud2& msg, const ros::Time& receipt,
                                    TransformSource& tf) {
-  prepareCloud(sensor, msg, receipt, tf, *work_.at(sensor));
+  work_.at(sensor)->bodies = filter_provider_ ? filter_provider_() : nullptr;
+  prepareCloud(sensor, msg, receipt, tf, *work_[sensor]);
   return commit(sensor, *work_[sensor], receipt);
 }
 
 InputResult SensorsSource::onMap(size_t sensor, const nav_msgs::OccupancyGrid& msg, const ros::Time& receipt,
                                  TransformSource& tf) {
-  prepareMap(sensor, msg, receipt, tf, *work_.at(sensor));
+  work_.at(sensor)->bodies = filter_provider_ ? filter_provider_() : nullptr;
+  prepareMap(sensor, msg, receipt, tf, *work_[sensor]);
   return commit(sensor, *work_[sensor], receipt);
 }
 
@@ -424,9 +442,14 @@ std::vector<ros::Subscriber> SensorsSource::subscribe(const Wiring& w) {
     auto handler = [this, s, lock, tf](auto prepare) {
       return [this, s, lock, tf, prepare](const auto& msg) {
         const ros::Time receipt = ros::Time::now();
+        {
+          std::lock_guard<std::mutex> guard(*lock);
+          work_[s]->bodies = filter_provider_ ? filter_provider_() : nullptr;
+        }
         (this->*prepare)(s, *msg, receipt, *tf, *work_[s]);
         std::lock_guard<std::mutex> guard(*lock);
         commit(s, *work_[s], receipt);
+        work_[s]->bodies.reset();  // the snapshot's shapes are not kept alive between messages
       };
     };
     const std::string& topic = params_[s].topic;
@@ -471,6 +494,8 @@ void SensorsSource::report(diagnostic_updater::DiagnosticStatusWrapper& stat, co
     stat.add(k + "messages out of order", st.out_of_order);
     stat.add(k + "beams NaN", st.beams_nan);
     stat.add(k + "points skipped", st.points_skipped);
+    stat.add(k + "points filtered (own body)", st.points_filtered_self);
+    stat.add(k + "points filtered (other bodies)", st.points_filtered_others);
     stat.add(k + "expired", st.expired);
     stat.add(k + "last problem", st.last_problem.empty() ? std::string("none") : st.last_problem);
     points += st.points;

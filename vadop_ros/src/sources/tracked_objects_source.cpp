@@ -2,6 +2,7 @@
 
 #include "../message_checks.h"
 #include "../param_reading.h"
+#include "source_problem.h"
 
 #include <vadop/error.h>
 
@@ -22,8 +23,6 @@
 namespace vadop_ros {
 namespace {
 
-constexpr double kWarnPeriod = 5.0;  // s, per source
-
 Eigen::Vector3d toEigen(const geometry_msgs::Vector3& v) { return {v.x, v.y, v.z}; }
 
 }  // namespace
@@ -36,15 +35,8 @@ Tracks::Tracks(std::vector<TrackParams> params, std::string fixed_frame, double 
       last_stamp_(params_.size()) {}
 
 void Tracks::problem(size_t source, const std::string& why, const ros::Time& receipt) {
-  TrackSourceStatus& st = status_[source];
-  st.last_problem = why;
-  st.last_problem_receipt = receipt;
-  const double wall = ros::WallTime::now().toSec();
-  if (wall - st.last_warn >= kWarnPeriod) {
-    st.last_warn = wall;
-    ROS_WARN_NAMED("vadop_monitor", "tracks %s (prefix \"%s\"): %s (warnings for this source throttled to one per %.0f s)",
-                   params_[source].topic.c_str(), params_[source].prefix.c_str(), why.c_str(), kWarnPeriod);
-  }
+  const TrackParams& p = params_[source];
+  noteSourceProblem(status_[source], "tracks " + p.topic + " (prefix \"" + p.prefix + "\")", "source", why, receipt);
 }
 
 bool Tracks::shapeOf(size_t source, const shape_msgs::SolidPrimitive& p, size_t index, vadop::Shape& out,

@@ -1,0 +1,116 @@
+// What a sensor's points are filtered against (~sensors' filter_margin and self_margin): the
+// monitored bodies' collision elements and the tracked objects, as the node's last cycle knew
+// them (FilterSnapshot), and the filter itself (SensorFilter). A point within an element's
+// unpadded shape, posed at the message's stamp and grown by the margin, is dropped: that body
+// is predicted from its own motion instead. The sensor's own body (the monitored body whose
+// tf frame, or one of whose link frames, the message's frame hangs from; when none does, the
+// monitored body whose element's bounding sphere holds the sensor's origin) uses self_margin,
+// every other body filter_margin (self_margin, the smaller by default: a wrong guess keeps points).
+// Pose at the stamp: each element's motion of the last cycle (the twist from its latest state,
+// or its plan / joint chain) evaluated at the stamp: extrapolated back from its latest state
+// when the stamp is before it, which is exact for a body that kept its velocity since. An
+// element the last cycle could not place (no state, a transform missing) or whose pose at the
+// stamp cannot be had filters nothing: its points stay obstacles (the safe side).
+// Cost: the elements' bounding spheres grown by the margin are culled against the points'
+// bounding box, the survivors binned in a uniform grid; a point is tested exactly
+// (vadop::PointDistance) only against the elements whose grown sphere contains it.
+// It does not: filter against static obstacles or other sensors' points (never), or
+// compensate the sensor's own motion during a scan.
+#pragma once
+
+#include "vadop_ros/body_registry.h"  // TransformSource
+
+#include <vadop/motion.h>
+#include <vadop/point_distance.h>
+
+#include <Eigen/Geometry>
+#include <ros/time.h>
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+namespace vadop {
+class LinkChain;
+}
+
+namespace vadop_ros {
+
+struct SourcedBody;
+
+// The filter's view of the bodies at one cycle: immutable once made, shared by the sensors'
+// message handlers outside the node's lock.
+struct FilterSnapshot {
+  struct Item {
+    size_t owner = 0;  // index into owners
+    std::shared_ptr<const vadop::PointDistance> shape;  // unpadded
+    vadop::Motion motion;                                // registry seconds
+    std::shared_ptr<const vadop::LinkChain> chain;       // null: `motion` alone
+  };
+  ros::Time base;                   // the registry's time base (seconds() of its motions)
+  std::vector<Item> items;
+  std::vector<std::string> owners;  // a monitored body's or tracked object's name
+  size_t monitored = 0;             // owners [0, monitored) are the registry's bodies
+  // The monitored bodies' tf frames (body frame, links' tf frames) -> owner.
+  std::unordered_map<std::string, size_t> frame_owner;
+};
+
+// The prepared shapes of the registry's elements (built once each: a mesh's tree is costly).
+using FilterShapeCache = std::vector<std::shared_ptr<const vadop::PointDistance>>;
+
+// The snapshot of the moving bodies' elements placed at the last update and of the tracked
+// objects `tracked` (alive slots).
+std::shared_ptr<const FilterSnapshot> makeFilterSnapshot(const BodyRegistry& registry,
+                                                         const std::vector<SourcedBody>& tracked,
+                                                         FilterShapeCache& cache);
+
+// The owner whose frame `frame` hangs from in tf (the frame itself, then its parents up to the
+// root, asked at `stamp`, else the latest); when none does and `origin` (the frame's origin in
+// the fixed frame) is given, the monitored body with an element whose bounding sphere at the
+// stamp holds it (the nearest centre); else -1.
+int carrierOf(const FilterSnapshot& snapshot, const std::string& frame, const ros::Time& stamp, TransformSource& tf,
+              const Eigen::Vector3d* origin = nullptr);
+
+// Drops the points within the snapshot's elements posed at `stamp`, grown by `margin` (the
+// owner `self`: by `self_margin`). One per sensor (its scratch is reused across messages).
+class SensorFilter {
+ public:
+  struct Dropped {
+    size_t self = 0, others = 0;
+  };
+  Dropped apply(const FilterSnapshot& snapshot, const ros::Time& stamp, int self, double margin, double self_margin,
+                std::vector<Eigen::Vector3d>& points);
+
+ private:
+  struct Candidate {
+    Eigen::Isometry3d pose;
+    Eigen::Vector3d centre;
+    double reach2 = 0.0;  // (bounding radius + margin)^2
+    double margin = 0.0;
+    size_t item = 0;
+    bool self = false;
+  };
+  using Cell = std::array<int64_t, 3>;
+  struct CellHash {
+    size_t operator()(const Cell& c) const;
+  };
+  // The items whose grown bounding sphere meets the box [lo, hi].
+  void cull(const FilterSnapshot& snapshot, double t, int self, double margin, double self_margin,
+            const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);
+  // The candidates into the grid (those spanning too many cells: big_).
+  void bin();
+  Cell cellOf(const Eigen::Vector3d& p) const;
+  // The candidate that holds `p`, or null.
+  const Candidate* holder(const FilterSnapshot& snapshot, const Eigen::Vector3d& p) const;
+  bool holds(const FilterSnapshot& snapshot, const Candidate& c, const Eigen::Vector3d& p) const;
+
+  std::vector<Candidate> candidates_;
+  std::unordered_map<Cell, std::vector<uint32_t>, CellHash> grid_;
+  std::vector<uint32_t> big_;
+  double cell_ = 1.0;
+};
+
+}  // namespace vadop_ros

@@ -1,0 +1,214 @@
+#include "vadop_ros/sensor_filter.h"
+
+#include "vadop_ros/source.h"  // SourcedBody
+
+#include <vadop/error.h>
+#include <vadop/joint_chain.h>
+
+#include <algorithm>
+#include <cmath>
+#include <exception>
+
+namespace vadop_ros {
+namespace {
+
+// A candidate spanning more grid cells than this is tested against every point instead.
+constexpr double kMaxCellsPerCandidate = 64.0;
+// How far up tf's tree a sensor's frame is followed (a tree deeper than this is not a robot).
+constexpr int kMaxFrameDepth = 64;
+
+std::string bare(const std::string& frame) {
+  size_t i = 0;
+  while (i < frame.size() && frame[i] == '/') ++i;
+  return frame.substr(i);
+}
+
+}  // namespace
+
+std::shared_ptr<const FilterSnapshot> makeFilterSnapshot(const BodyRegistry& registry,
+                                                         const std::vector<SourcedBody>& tracked,
+                                                         FilterShapeCache& cache) {
+  auto snap = std::make_shared<FilterSnapshot>();
+  snap->base = registry.timeBase();
+  const auto& bodies = registry.bodies();
+  const auto& elements = registry.elements();
+  cache.resize(elements.size());
+  for (size_t b = 0; b < bodies.size(); ++b) snap->owners.push_back(bodies[b].name);
+  snap->monitored = bodies.size();
+  for (size_t b = 0; b < bodies.size(); ++b) {
+    if (bodies[b].is_static) continue;
+    if (!bodies[b].params.frame.empty()) snap->frame_owner.emplace(bare(bodies[b].params.frame), b);
+    // An odometry body's frame is its messages' child_frame_id (its `frame` key is optional).
+    const VelocityState* state = bodies[b].sources.empty() ? nullptr : bodies[b].sources.front()->velocityState();
+    if (state && !state->child_frame.empty()) snap->frame_owner.emplace(bare(state->child_frame), b);
+  }
+  for (size_t i = 0; i < elements.size(); ++i) {
+    const Element& e = elements[i];
+    if (bodies[e.body].is_static) continue;
+    if (!e.tf_frame.empty()) snap->frame_owner.emplace(bare(e.tf_frame), e.body);
+    if (!e.active) continue;
+    if (!cache[i]) cache[i] = std::make_shared<const vadop::PointDistance>(e.shape);
+    snap->items.push_back({e.body, cache[i], e.motion, e.chain});
+  }
+  for (const SourcedBody& t : tracked) {
+    if (!t.alive) continue;
+    try {
+      vadop::Motion m = twistMotion(t.pose, t.v, t.w, registry.seconds(t.stamp));
+      snap->items.push_back({snap->owners.size(), std::make_shared<const vadop::PointDistance>(t.shape), m, nullptr});
+      snap->owners.push_back(t.name);
+    } catch (const vadop::InvalidArgument&) {
+      // Out of the library's range: the cycle leaves it out of the world too; it filters nothing.
+    }
+  }
+  return snap;
+}
+
+// The monitored body with an element whose bounding sphere at `t` holds `origin` (the nearest
+// centre), or -1.
+int holderOf(const FilterSnapshot& snapshot, double t, const Eigen::Vector3d& origin) {
+  int best = -1;
+  double best_d2 = 0.0;
+  for (const FilterSnapshot::Item& item : snapshot.items) {
+    if (item.owner >= snapshot.monitored) continue;
+    Eigen::Vector3d centre;
+    try {
+      centre = (item.chain ? item.chain->poseAt(t) : item.motion.poseAt(t)).translation();
+    } catch (const std::exception&) {
+      continue;
+    }
+    const double r = item.shape->shape().bounding_radius, d2 = (centre - origin).squaredNorm();
+    if (d2 <= r * r && (best < 0 || d2 < best_d2)) {
+      best = static_cast<int>(item.owner);
+      best_d2 = d2;
+    }
+  }
+  return best;
+}
+
+int carrierOf(const FilterSnapshot& snapshot, const std::string& frame, const ros::Time& stamp, TransformSource& tf,
+              const Eigen::Vector3d* origin) {
+  std::string f = bare(frame);
+  for (int depth = 0; depth < kMaxFrameDepth && !f.empty(); ++depth) {
+    if (const auto it = snapshot.frame_owner.find(f); it != snapshot.frame_owner.end()) {
+      return static_cast<int>(it->second);
+    }
+    std::string parent;
+    bool found = false;
+    try {
+      found = tf.parent(f, stamp, parent) || tf.parent(f, ros::Time(0), parent);
+    } catch (const std::exception&) {
+      found = false;
+    }
+    if (!found || bare(parent) == f) break;
+    f = bare(parent);
+  }
+  return origin ? holderOf(snapshot, secondsBetween(stamp, snapshot.base), *origin) : -1;
+}
+
+size_t SensorFilter::CellHash::operator()(const Cell& c) const {
+  const uint64_t h = static_cast<uint64_t>(c[0]) * 73856093ull ^ static_cast<uint64_t>(c[1]) * 19349663ull ^
+                     static_cast<uint64_t>(c[2]) * 83492791ull;
+  return static_cast<size_t>(h);
+}
+
+SensorFilter::Cell SensorFilter::cellOf(const Eigen::Vector3d& p) const {
+  return {static_cast<int64_t>(std::floor(p.x() / cell_)), static_cast<int64_t>(std::floor(p.y() / cell_)),
+          static_cast<int64_t>(std::floor(p.z() / cell_))};
+}
+
+void SensorFilter::cull(const FilterSnapshot& snapshot, double t, int self, double margin, double self_margin,
+                        const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+  candidates_.clear();
+  for (size_t i = 0; i < snapshot.items.size(); ++i) {
+    const FilterSnapshot::Item& item = snapshot.items[i];
+    const bool is_self = static_cast<int>(item.owner) == self;
+    const double m = is_self ? self_margin : margin;
+    Candidate c;
+    try {
+      c.pose = item.chain ? item.chain->poseAt(t) : item.motion.poseAt(t);
+    } catch (const std::exception&) {
+      continue;  // no pose at the stamp: it filters nothing
+    }
+    c.centre = c.pose.translation();
+    if (!c.pose.matrix().allFinite()) continue;
+    const double reach = item.shape->shape().bounding_radius + m;
+    // The grown bounding sphere against the points' box: the box's point nearest the centre.
+    if ((c.centre - c.centre.cwiseMax(lo).cwiseMin(hi)).squaredNorm() > reach * reach) continue;
+    c.reach2 = reach * reach;
+    c.margin = m;
+    c.item = i;
+    c.self = is_self;
+    candidates_.push_back(c);
+  }
+}
+
+void SensorFilter::bin() {
+  grid_.clear();
+  big_.clear();
+  // Cells of about a typical candidate's diameter: most candidates span a few cells.
+  std::vector<double> reach;
+  for (const Candidate& c : candidates_) reach.push_back(std::sqrt(c.reach2));
+  std::nth_element(reach.begin(), reach.begin() + reach.size() / 2, reach.end());
+  cell_ = std::max(2.0 * reach[reach.size() / 2], 1e-3);
+  for (uint32_t k = 0; k < candidates_.size(); ++k) {
+    const double r = std::sqrt(candidates_[k].reach2);
+    const Cell a = cellOf(candidates_[k].centre - Eigen::Vector3d::Constant(r));
+    const Cell b = cellOf(candidates_[k].centre + Eigen::Vector3d::Constant(r));
+    // In doubles: a large body over small cells would overflow the product of integers.
+    double cells = 1.0;
+    for (int k = 0; k < 3; ++k) cells *= static_cast<double>(b[k] - a[k] + 1);
+    if (cells > kMaxCellsPerCandidate) {
+      big_.push_back(k);
+      continue;
+    }
+    for (int64_t x = a[0]; x <= b[0]; ++x) {
+      for (int64_t y = a[1]; y <= b[1]; ++y) {
+        for (int64_t z = a[2]; z <= b[2]; ++z) grid_[{x, y, z}].push_back(k);
+      }
+    }
+  }
+}
+
+bool SensorFilter::holds(const FilterSnapshot& snapshot, const Candidate& c, const Eigen::Vector3d& p) const {
+  if ((p - c.centre).squaredNorm() > c.reach2) return false;
+  return snapshot.items[c.item].shape->within(c.pose, p, c.margin);
+}
+
+const SensorFilter::Candidate* SensorFilter::holder(const FilterSnapshot& snapshot, const Eigen::Vector3d& p) const {
+  if (const auto it = grid_.find(cellOf(p)); it != grid_.end()) {
+    for (const uint32_t k : it->second) {
+      if (holds(snapshot, candidates_[k], p)) return &candidates_[k];
+    }
+  }
+  for (const uint32_t k : big_) {
+    if (holds(snapshot, candidates_[k], p)) return &candidates_[k];
+  }
+  return nullptr;
+}
+
+SensorFilter::Dropped SensorFilter::apply(const FilterSnapshot& snapshot, const ros::Time& stamp, int self,
+                                          double margin, double self_margin, std::vector<Eigen::Vector3d>& points) {
+  Dropped dropped;
+  if (points.empty() || snapshot.items.empty()) return dropped;
+  Eigen::Vector3d lo = points.front(), hi = points.front();
+  for (const Eigen::Vector3d& p : points) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  cull(snapshot, secondsBetween(stamp, snapshot.base), self, margin, self_margin, lo, hi);
+  if (candidates_.empty()) return dropped;
+  bin();
+  size_t kept = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Candidate* c = holder(snapshot, points[i]);
+    if (c == nullptr) {
+      points[kept++] = points[i];
+    } else {
+      ++(c->self ? dropped.self : dropped.others);
+    }
+  }
+  points.resize(kept);
+  return dropped;
+}
+
+}  // namespace vadop_ros
