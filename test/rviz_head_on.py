@@ -155,6 +155,21 @@ class OrbitCamera:
         return (min(p[0] for p in pts), min(p[1] for p in pts), max(p[0] for p in pts), max(p[1] for p in pts))
 
 
+def demo_wall_corners(rviz_config):
+    """The 8 corners of each wall (static obstacle named wall_*) of config/demo.yaml, beside the
+    rviz directory of the given config."""
+    path = os.path.join(os.path.dirname(os.path.abspath(rviz_config)), "..", "config", "demo.yaml")
+    with open(path) as f:
+        demo = yaml.safe_load(f)
+    out = []
+    for o in demo["static_obstacles"]:
+        if not o["name"].startswith("wall_") or o["shape"]["type"] != "box":
+            continue
+        c, h = np.asarray(o["pose"]["position"], dtype=float), 0.5 * np.asarray(o["shape"]["size"], dtype=float)
+        out += [c + h * np.array([sx, sy, sz]) for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
+    return out
+
+
 # ---------------------------------------------------------------------------------------------
 # Xvfb and rviz
 # ---------------------------------------------------------------------------------------------
@@ -401,6 +416,17 @@ class RvizHeadOn(unittest.TestCase):
                       100 * impact)
         self.assertGreater(grey, 0.8, "clear body at pixel (%.0f, %.0f): only %.0f%% grey" % (p[0], p[1], 100 * grey))
         self.assertEqual(impact, 0.0, "clear body at pixel (%.0f, %.0f) has the impact colour" % p)
+
+        # (d) The view frames the demo's room (config/demo.yaml's walls, demo.launch): every corner
+        # of every wall projects inside the 3D view, and the room spans most of its width or height.
+        pts = [cam.project(c) for c in demo_wall_corners(self.config)]
+        self.assertEqual(len(pts), 32, "config/demo.yaml: four box walls expected")
+        for p in pts:
+            self.assertTrue(inside(p), "a corner of the demo room's walls projects outside the 3D view: %s" % (p,))
+        span_x = (max(p[0] for p in pts) - min(p[0] for p in pts)) / (x1 - x0)
+        span_y = (max(p[1] for p in pts) - min(p[1] for p in pts)) / (y1 - y0)
+        rospy.loginfo("demo room spans %.0f%% of the 3D view's width, %.0f%% of its height", 100 * span_x, 100 * span_y)
+        self.assertGreater(max(span_x, span_y), 0.8, "the demo room fills too little of the view")
 
 
 if __name__ == "__main__":

@@ -331,6 +331,34 @@ TEST(CommandCheck, MarkersDrawTheGatedSweep) {
   EXPECT_TRUE(none.markers.empty());
 }
 
+// A gate's decision: one text above its body (top of its 0.5 m ball + kGateDecisionRaise) in the
+// gate's namespace; nothing while the body is not in the world.
+TEST(CommandCheck, GateDecisionDrawnAboveItsBody) {
+  MonitorCore core = makeCore(kTwo);
+  FakeTf tf;
+  vadop::GateState s;
+  s.reason = vadop::GateState::REASON_STOP;
+  s.limiting_body = "b";
+  s.time_to_contact = 0.8;
+  visualization_msgs::MarkerArray none;
+  core.appendGateDecision(s, 0, "gate/a", none);
+  EXPECT_TRUE(none.markers.empty());
+  core.registry().onOdometry(0, odom(100.0, -2, 1, 0, 0), ros::Time(100.0));
+  core.registry().onOdometry(1, odom(100.0, 2, 0, 0, 0), ros::Time(100.0));
+  core.cycle(ros::Time(100.0), tf);
+  visualization_msgs::MarkerArray out;
+  core.appendGateDecision(s, 0, "gate/a", out);
+  ASSERT_EQ(out.markers.size(), 1u);
+  const visualization_msgs::Marker& m = out.markers[0];
+  EXPECT_EQ(m.ns, "gate/a");
+  EXPECT_EQ(m.id, vadop_ros::kGateDecisionId);
+  EXPECT_EQ(m.type, visualization_msgs::Marker::TEXT_VIEW_FACING);
+  EXPECT_EQ(m.text, "stop: b in 0.80 s");
+  EXPECT_NEAR(m.pose.position.x, -2.0, 1e-9);
+  EXPECT_NEAR(m.pose.position.y, 1.0, 1e-9);
+  EXPECT_NEAR(m.pose.position.z, 0.5 + vadop_ros::kGateDecisionRaise, 1e-9);
+}
+
 // The braking rule (issue 48), analytic: a at x = -2 facing b, a gap `gap` ahead; a brakes at
 // 1 m/s^2 and 2 rad/s^2, holds a command for 0.5 s (cmd_timeout) after a reaction time.
 namespace {

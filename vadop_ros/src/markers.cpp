@@ -1,8 +1,11 @@
 #include "vadop_ros/markers.h"
 
+#include "vadop_ros/label_layout.h"
+
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <utility>
 #include <vector>
 #include <algorithm>
 
@@ -200,8 +203,8 @@ void addElementMarkers(visualization_msgs::MarkerArray& out, const MarkerInput& 
   addTrajectoryLine(out, base, id, e, colour, in);
 }
 
-// One impact in namespace "impacts": a dot at its point, an arrow along its normal and a label
-// with the two elements and the time to impact (ids id .. id + 2).
+// One impact in namespace "impacts": a dot at its point and an arrow along its normal (ids id
+// and id + 1).
 void addImpactMarkers(visualization_msgs::MarkerArray& out, const MarkerInput& in, const vadop::Impact& imp, int& id) {
   const auto colour = impactColour(imp.time_to_impact, in.horizon);
   Marker base = baseMarker(in, "impacts");
@@ -229,21 +232,108 @@ void addImpactMarkers(visualization_msgs::MarkerArray& out, const MarkerInput& i
   arrow.scale.z = 0.1;   // head length
   setColour(arrow, colour, 1.0f);
   out.markers.push_back(arrow);
+}
 
-  Marker text = base;
-  text.id = id++;
-  text.type = Marker::TEXT_VIEW_FACING;
-  text.pose.position = imp.point;
-  text.pose.position.z += 0.35;
-  text.scale.z = 0.18;
-  char secs[32];
-  std::snprintf(secs, sizeof secs, "%.2f s", imp.time_to_impact);
-  text.text = label(imp.body_a, imp.link_a) + " <-> " + label(imp.body_b, imp.link_b) + " " + secs;
-  setColour(text, {1.0f, 1.0f, 1.0f}, 1.0f);
-  out.markers.push_back(text);
+// The soonest impact of each body pair (either order), soonest first (ties: by label text).
+std::vector<const vadop::Impact*> soonestPerPair(const vadop::ImpactArray& impacts) {
+  std::map<std::pair<std::string, std::string>, const vadop::Impact*> soonest;
+  for (const vadop::Impact& imp : impacts.impacts) {
+    const auto key = std::minmax(imp.body_a, imp.body_b);
+    const vadop::Impact*& s = soonest[{key.first, key.second}];
+    if (!s || imp.time_to_impact < s->time_to_impact) s = &imp;
+  }
+  std::vector<const vadop::Impact*> out;
+  for (const auto& kv : soonest) out.push_back(kv.second);
+  std::stable_sort(out.begin(), out.end(), [](const vadop::Impact* a, const vadop::Impact* b) {
+    return a->time_to_impact < b->time_to_impact;
+  });
+  return out;
+}
+
+// One label per body pair in namespace "impacts" (ids from id on): its soonest link pair and time,
+// above that impact's point, stacked so that no two labels overlap (label_layout.h).
+void addPairLabels(visualization_msgs::MarkerArray& out, const MarkerInput& in, int& id) {
+  const std::vector<const vadop::Impact*> pairs = soonestPerPair(*in.impacts);
+  std::vector<Eigen::Vector3d> anchors;
+  std::vector<std::string> texts;
+  for (const vadop::Impact* imp : pairs) {
+    anchors.emplace_back(imp->point.x, imp->point.y, imp->point.z);
+    texts.push_back(pairLabel(*imp));
+  }
+  const std::vector<LabelBox> boxes = layoutLabels(anchors, texts, kLabelHeight, kLabelRaise);
+  Marker base = baseMarker(in, "impacts");
+  base.pose.orientation.w = 1.0;
+  for (size_t k = 0; k < boxes.size(); ++k) {
+    Marker text = base;
+    text.id = id++;
+    text.type = Marker::TEXT_VIEW_FACING;
+    text.pose.position = point(boxes[k].centre);
+    text.scale.z = kLabelHeight;
+    text.text = texts[k];
+    setColour(text, {1.0f, 1.0f, 1.0f}, 1.0f);
+    out.markers.push_back(text);
+  }
 }
 
 }  // namespace
+
+std::string pairLabel(const vadop::Impact& imp) {
+  char secs[32];
+  std::snprintf(secs, sizeof secs, ": %.2f s", imp.time_to_impact);
+  return label(imp.body_a, imp.link_a) + " <-> " + label(imp.body_b, imp.link_b) + secs;
+}
+
+namespace {
+
+// "r2 in 0.80 s" for the contact that limits a gate, empty when none does.
+std::string limitingContact(const vadop::GateState& s) {
+  if (s.limiting_body.empty()) return "";
+  char secs[48];
+  std::snprintf(secs, sizeof secs, " in %.2f s", s.time_to_contact);
+  return label(s.limiting_body, s.limiting_link) + (std::isfinite(s.time_to_contact) ? secs : "");
+}
+
+}  // namespace
+
+std::string gateDecisionText(const vadop::GateState& s) {
+  using G = vadop::GateState;
+  const std::string contact = limitingContact(s);
+  if (s.reason == G::REASON_CLEAR) return "clear";
+  if (s.reason == G::REASON_STOP) return contact.empty() ? "stop" : "stop: " + contact;
+  if (s.reason == G::REASON_SLOW) {
+    char pct[32];
+    std::snprintf(pct, sizeof pct, "slow %.0f%%", 100.0 * s.scale);
+    return contact.empty() ? std::string(pct) : std::string(pct) + ": " + contact;
+  }
+  return s.detail.empty() ? s.reason : s.reason + ": " + s.detail;
+}
+
+std::array<float, 3> gateDecisionColour(const std::string& reason) {
+  using G = vadop::GateState;
+  if (reason == G::REASON_CLEAR) return {0.1f, 0.8f, 0.1f};
+  if (reason == G::REASON_SLOW) return {1.0f, 0.65f, 0.0f};
+  if (reason == G::REASON_STOP) return {0.9f, 0.1f, 0.1f};
+  if (reason == G::REASON_BAD_COMMAND) return {0.9f, 0.1f, 0.9f};
+  return {0.6f, 0.6f, 0.6f};  // stale, timeout, or anything the gate could not check
+}
+
+visualization_msgs::Marker gateDecisionMarker(const vadop::GateState& state, const std::string& ns,
+                                              const std::string& frame, const ros::Time& stamp,
+                                              const Eigen::Vector3d& position) {
+  Marker m;
+  m.header.frame_id = frame;
+  m.header.stamp = stamp;
+  m.ns = ns;
+  m.id = kGateDecisionId;
+  m.action = Marker::ADD;
+  m.type = Marker::TEXT_VIEW_FACING;
+  m.pose.position = point(position);
+  m.pose.orientation.w = 1.0;
+  m.scale.z = kGateDecisionHeight;
+  m.text = gateDecisionText(state);
+  setColour(m, gateDecisionColour(state.reason), 1.0f);
+  return m;
+}
 
 std::array<float, 3> impactColour(double soonest, double horizon) {
   if (soonest < kRedSeconds) return {0.9f, 0.1f, 0.1f};
@@ -264,6 +354,7 @@ visualization_msgs::MarkerArray buildMarkers(const MarkerInput& in) {
   if (in.impacts) {
     int id = 0;
     for (const vadop::Impact& imp : in.impacts->impacts) addImpactMarkers(out, in, imp, id);
+    addPairLabels(out, in, id);
   }
   return out;
 }

@@ -921,6 +921,23 @@ void MonitorCore::appendCommandMarkers(const CommandCheck& check, const std::str
   out.markers.insert(out.markers.end(), built.markers.begin() + 1, built.markers.end());
 }
 
+void MonitorCore::appendGateDecision(const vadop::GateState& state, size_t body, const std::string& ns,
+                                     visualization_msgs::MarkerArray& out) const {
+  // Above the highest point of its elements' bounding balls, at the middle of their origins.
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -lo;
+  const auto& elements = registry_.elements();
+  for (size_t i = 0; i < elements.size(); ++i) {
+    if (elements[i].body != body || !predictor_.contains(i)) continue;
+    const Eigen::Vector3d p = predictor_.poseAt(i, t0_).translation();
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p + Eigen::Vector3d(0.0, 0.0, predictor_.shape(i).bounding_radius));
+  }
+  if (!std::isfinite(lo.x())) return;
+  const Eigen::Vector3d at(0.5 * (lo.x() + hi.x()), 0.5 * (lo.y() + hi.y()), hi.z() + kGateDecisionRaise);
+  out.markers.push_back(gateDecisionMarker(state, ns, params_.fixed_frame, impacts_.header.stamp, at));
+}
+
 std::string MonitorCore::describe(const vadop::Impact& i) {
   auto label = [](const std::string& body, const std::string& link) {
     return link.empty() ? body : body + "/" + link;

@@ -394,9 +394,10 @@ class MonitorNode : public Monitor {
       impacts_pub_.publish(impacts);
       if (core_->params().publish_markers && markers_pub_.getNumSubscribers() > 0) {
         visualization_msgs::MarkerArray markers = core_->markers();
-        // Each gate's last checked command: its swept volume, namespace "gate/<body>".
+        // Each gate's last checked command (its swept volume) and its decision, namespace "gate/<body>".
         for (const VelocityGate& g : gates_) {
           core_->appendCommandMarkers(g.lastCheck(), "gate/" + g.state().body, markers);
+          core_->appendGateDecision(g.state(), g.body(), "gate/" + g.state().body, markers);
         }
         markers_pub_.publish(markers);
       }

@@ -11,12 +11,19 @@
 // shapes include the padding (boxes and cylinders as their padded bounding primitive).
 // Colour: by the body's soonest time to impact: red below 0.5 s, amber below the horizon,
 // grey when clear.
-// Impacts (namespace "impacts"): a sphere at the contact point, an arrow along the normal
-// (from a to b) and a text "a/link <-> b/link 0.83 s".
+// Impacts (namespace "impacts"): a sphere at each contact point and an arrow along its normal
+// (from a to b); and one text a body pair, "a/link <-> b/link: 0.83 s" of the pair's soonest
+// impact, above its point (in a crowd: stacked in a nearby label's column) so that no two labels
+// overlap (label_layout.h).
+// A gate's decision (gateDecisionMarker): a text above the gated body in the gate's namespace,
+// "stop: r2 in 0.80 s", "slow 40%: r2/arm in 1.30 s", "clear", "stale: <detail>",
+// "timeout: <detail>", "bad_command: <detail>"; green when clear, amber when slow, red when
+// stopped, grey when stale or timed out, magenta for a bad command.
 // Namespaces: one per body (its name), plus "impacts". The array always starts with a
 // DELETEALL marker, so nothing from an earlier cycle lingers.
 #pragma once
 
+#include <vadop/GateState.h>
 #include <vadop/ImpactArray.h>
 #include <vadop/motion.h>
 #include <vadop/shapes.h>
@@ -65,9 +72,30 @@ constexpr int kPathGhosts = 8;
 // Time to impact below which a body is drawn red.
 constexpr double kRedSeconds = 0.5;
 
+// A body pair's label: text height and how far above the impact point it starts (m).
+constexpr double kLabelHeight = 0.18;
+constexpr double kLabelRaise = 0.35;
+
 visualization_msgs::MarkerArray buildMarkers(const MarkerInput& input);
+
+// The label of an impact's pair: "a/link <-> b/link: 0.83 s".
+std::string pairLabel(const vadop::Impact& imp);
 
 // The colour rule above (r, g, b, a = 1).
 std::array<float, 3> impactColour(double soonest, double horizon);
+
+// The id of a gate's decision text in its namespace (above the ids of its swept volume).
+constexpr int kGateDecisionId = 1 << 20;
+// How far above the gated body's top its decision is drawn (m), and the text's height.
+constexpr double kGateDecisionRaise = 0.4;
+constexpr double kGateDecisionHeight = 0.25;
+
+// The text and colour of a gate's decision (the rule above).
+std::string gateDecisionText(const vadop::GateState& state);
+std::array<float, 3> gateDecisionColour(const std::string& reason);
+// The decision's TEXT_VIEW_FACING marker (id kGateDecisionId) at `position`.
+visualization_msgs::Marker gateDecisionMarker(const vadop::GateState& state, const std::string& ns,
+                                              const std::string& frame, const ros::Time& stamp,
+                                              const Eigen::Vector3d& position);
 
 }  // namespace vadop_ros

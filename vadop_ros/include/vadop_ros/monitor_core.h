@@ -188,6 +188,11 @@ class MonitorCore {
   // Markers of a gate's last checked command (CommandCheck::kChecked): the body's swept volume
   // under the gated command over the gate's window, in namespace `ns`, coloured by the limiting
   // contact's time (markers.h's rule); no DELETEALL (appended to markers()'s array).
+  // A gate's decision (markers.h's gateDecisionMarker) in namespace `ns`, above the top of
+  // `body` (index into registry().bodies()) as it stands in the last cycle's world; nothing
+  // when none of its elements is in that world (not monitored yet).
+  void appendGateDecision(const vadop::GateState& state, size_t body, const std::string& ns,
+                          visualization_msgs::MarkerArray& out) const;
   void appendCommandMarkers(const CommandCheck& check, const std::string& ns,
                             visualization_msgs::MarkerArray& out) const;
 
