@@ -47,6 +47,16 @@
 // L s (default: the node's, off; L default 0.5). --paired: a second core
 // without coherence is fed the same messages and cycled each cycle, before or after the first in
 // turn: the per-cycle CPU ratio, robust to the machine's drift (same impacts checked).
+// --scan: a laser at the room's centre (frame "laser", 0.1 m up) publishes a 1,081-beam 270-degree
+// sensor_msgs/LaserScan at 15 Hz of the walls and the bodies (each a circle of 0.28 m, ray-cast);
+// --cloud: a 30,000-point sensor_msgs/PointCloud2 at 10 Hz from the same frame, a third on the
+// floor (below min_z: dropped), a third on the walls, a third on the bodies (voxel 0.05). Each is
+// one sensor of the node's `sensors` source (~sensors: "scan", "cloud"), fed to
+// SensorsSource::onScan / onCloud as its subscription's handler would, in the cycle at or after
+// its stamp; the points on the monitored bodies are filtered there. Their cost is in `feed` and
+// also in the column `sensors` (per cycle, averaged over all cycles), with each message's own
+// median on the line below. The messages are built outside the timed part, from their own
+// random generator (the fleet moves the same with or without them).
 // --threads T: the prediction (broad phase, part boxes, narrow phase) on T threads (~threads;
 // default 1; 0: all cores). With T > 1 the thread's CPU time no longer covers the cycle: read
 // the wall clock.
@@ -55,6 +65,8 @@
 // period at the given rate.
 #include "vadop_ros/monitor_core.h"
 #include "vadop_ros/velocity_gate.h"
+#include "fleet_sensors.h"
+#include "vadop_ros/sensors_source.h"
 #include "wandering_fleet.h"
 
 #include <sensor_msgs/JointState.h>
@@ -75,13 +87,25 @@
 
 namespace {
 
+// The benchmark's tf: only the sensors' frame "laser", fixed at the room's centre
+// (FleetSensors::kLaserHeight up) under the fixed frame "odom"; the bodies need none.
 struct NoTf : vadop_ros::TransformSource {
-  bool lookup(const std::string&, const std::string& source, const ros::Time&, Eigen::Isometry3d&, ros::Time&,
-              std::string& error) override {
+  bool lookup(const std::string& target, const std::string& source, const ros::Time& time, Eigen::Isometry3d& pose,
+              ros::Time& stamp, std::string& error) override {
+    if (target == "odom" && source == "laser") {
+      pose = Eigen::Isometry3d::Identity();
+      pose.translation().z() = vadop_ros::FleetSensors::kLaserHeight;
+      stamp = time;
+      return true;
+    }
     error = "no tf in the benchmark (" + source + ")";
     return false;
   }
   bool concurrent() const override { return true; }
+  bool parent(const std::string& frame, const ros::Time&, std::string& parent) override {
+    parent = "odom";
+    return frame == "laser";
+  }
 };
 
 // CPU time of the calling thread (ms): unaffected by other processes competing for the cores.
@@ -101,6 +125,11 @@ struct Result {
   // quartiles of the per-cycle ratio.
   double cpu_median = 0, paired_median = 0, ratio_median = 0, ratio_p25 = 0, ratio_p75 = 0;
   size_t elements = 0;
+  // --scan / --cloud: the sensors' handling per cycle (ms, mean over every cycle), each message's
+  // median (ms), and the points kept and filtered (on the bodies) of the last message.
+  double sensors_mean = 0, scan_median = 0, cloud_median = 0;
+  size_t scan_kept = 0, cloud_kept = 0;
+  uint64_t scan_filtered = 0, cloud_filtered = 0;
   size_t tracked = 0;     // --tracks: objects in the world at the end
   uint64_t expired = 0;   // --tracks: objects that left over the run
   // Gates: latency of onCommand (ms), scales tried per command, commands slowed / stopped.
@@ -200,6 +229,7 @@ struct Options {
   // instant (no reaction time, others as predicted, no decelerations: the rule before issue 48).
   std::string gate_rule = "held";
   bool tracks = false;
+  bool scan = false, cloud = false;  // --scan, --cloud
   double churn = 0.2;
   int threads = 1;
   double fast = 0.0, ceiling = 0.0;
@@ -227,6 +257,26 @@ vadop_ros::MonitorParams monitorParams(const Options& o) {
   return p;
 }
 
+// --scan, --cloud: the sensors "scan" and "cloud" (the cloud's floor below min_z).
+void addSensors(const Options& o, vadop_ros::MonitorParams& p) {
+  if (o.scan) {
+    vadop_ros::SensorParams s;
+    s.name = "scan";
+    s.type = vadop_ros::SensorType::kScan;
+    s.topic = "/scan";
+    p.sensors.push_back(s);
+  }
+  if (o.cloud) {
+    vadop_ros::SensorParams c;
+    c.name = "cloud";
+    c.type = vadop_ros::SensorType::kCloud;
+    c.topic = "/points";
+    c.voxel = 0.05;
+    c.min_z = vadop_ros::FleetSensors::kFloorZ + 0.1;
+    p.sensors.push_back(c);
+  }
+}
+
 // The node's parameters of a run with n bodies: n robots on odometry (primitives, or K-link
 // URDF robots with --links; the first --gates of them gated), or with --tracks one source of
 // tracked objects.
@@ -238,6 +288,7 @@ vadop_ros::MonitorParams fleetParams(size_t n, const Options& o) {
     t.prefix = "people";
     p.tracks.push_back(t);
   }
+  addSensors(o, p);
   for (size_t i = 0; i < (o.tracks ? 0 : n); ++i) {
     vadop_ros::BodyParams b;
     b.name = "body_" + std::to_string(i);
@@ -425,9 +476,80 @@ void commandGates(std::vector<vadop_ros::VelocityGate>& gates, vadop_ros::Monito
   }
 }
 
+// --scan / --cloud: the sensors' messages, each built (outside the timed part) and fed to the
+// node's sensors source in the first cycle at or after its stamp (15 Hz and 10 Hz of simulated
+// time), as its subscription's handler would.
+class SensorFeed {
+ public:
+  static constexpr double kScanRate = 15.0, kCloudRate = 10.0;
+  static constexpr size_t kCloudPoints = 30000;
+
+  SensorFeed(const Options& o, vadop_ros::MonitorCore& core, const ros::Time& start)
+      : scan_on_(o.scan), cloud_on_(o.cloud), rng_(o.seed + 104729), next_scan_(start), next_cloud_(start) {
+    for (const auto& s : core.bodiesSources()) {
+      if (auto* found = dynamic_cast<vadop_ros::SensorsSource*>(s.get())) source_ = found;
+    }
+    if ((scan_on_ || cloud_on_) && !source_) std::abort();
+  }
+
+  // The messages due at `now` built: scanDue() / cloudDue() say which.
+  void build(const vadop_ros::WanderingFleet& fleet, const ros::Time& now) {
+    scan_due_ = scan_on_ && now >= next_scan_;
+    cloud_due_ = cloud_on_ && now >= next_cloud_;
+    if (scan_due_) scan_ = &sensors_.scan(fleet, now), next_scan_ += ros::Duration(1.0 / kScanRate);
+    if (cloud_due_) cloud_ = &sensors_.cloud(fleet, now, kCloudPoints, rng_), next_cloud_ += ros::Duration(1.0 / kCloudRate);
+  }
+
+  // The due messages into the source: their wall ms into scan_ms / cloud_ms (when measured);
+  // the total. A message the source does not accept is a bug of the bench.
+  double feed(const ros::Time& now, vadop_ros::TransformSource& tf, bool measured, std::vector<double>& scan_ms,
+              std::vector<double>& cloud_ms) {
+    double total = 0.0;
+    if (scan_due_) {
+      const auto t0 = std::chrono::steady_clock::now();
+      if (source_->onScan(0, *scan_, now, tf) != vadop_ros::InputResult::kAccepted) std::abort();
+      total += note(t0, measured, scan_ms);
+    }
+    if (cloud_due_) {
+      const auto t0 = std::chrono::steady_clock::now();
+      if (source_->onCloud(scan_on_ ? 1 : 0, *cloud_, now, tf) != vadop_ros::InputResult::kAccepted) std::abort();
+      total += note(t0, measured, cloud_ms);
+    }
+    return total;
+  }
+
+  // The last message's points kept and the points filtered over the run (on the bodies), into r.
+  void summarize(Result& r) const {
+    if (!source_) return;
+    for (size_t k = 0; k < source_->sensors(); ++k) {
+      const vadop_ros::SensorStatus& st = source_->status(k);
+      const bool is_scan = source_->params(k).type == vadop_ros::SensorType::kScan;
+      (is_scan ? r.scan_kept : r.cloud_kept) = st.points;
+      (is_scan ? r.scan_filtered : r.cloud_filtered) = st.points_filtered_others + st.points_filtered_self;
+    }
+  }
+
+ private:
+  static double note(std::chrono::steady_clock::time_point t0, bool measured, std::vector<double>& into) {
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    if (measured) into.push_back(ms);
+    return ms;
+  }
+
+  const bool scan_on_, cloud_on_;
+  std::mt19937 rng_;  // the cloud's own: the fleet's sequence is the same without sensors
+  vadop_ros::FleetSensors sensors_;
+  vadop_ros::SensorsSource* source_ = nullptr;
+  ros::Time next_scan_, next_cloud_;
+  bool scan_due_ = false, cloud_due_ = false;
+  const sensor_msgs::LaserScan* scan_ = nullptr;
+  const sensor_msgs::PointCloud2* cloud_ = nullptr;
+};
+
 // The measured cycles' times (ms) and counts, summed.
 struct CycleSamples {
   std::vector<double> cycle, cpu, feed, predict, markers, registry;
+  std::vector<double> sensors, scan, cloud;  // per cycle; per message (--scan, --cloud)
   std::vector<double> paired;  // --paired: the shadow core's CPU ms
   double candidates = 0, impacts = 0, ignored_tested = 0, reused = 0, culled = 0;
 
@@ -474,6 +596,9 @@ void summarize(const CycleSamples& s, int cycles, const vadop_ros::MonitorCore& 
   r.predict_mean = mean(s.predict);
   r.registry_mean = mean(s.registry);
   r.markers_mean = mean(s.markers);
+  r.sensors_mean = mean(s.sensors);
+  r.scan_median = s.scan.empty() ? 0.0 : percentile(s.scan, 0.5);
+  r.cloud_median = s.cloud.empty() ? 0.0 : percentile(s.cloud, 0.5);
   r.candidates = s.candidates / cycles;
   r.ignored_tested = s.ignored_tested / cycles;
   r.reused = s.reused / cycles;
@@ -521,15 +646,18 @@ Result run(size_t n, const Options& o) {
   const double dt = 1.0 / o.rate;
   ros::Time now(1000.0);
   CycleSamples samples;
+  SensorFeed sensors(o, core, now);
   for (int c = 0; c < o.warmup + o.cycles; ++c) {
     now += ros::Duration(dt);
     messages.step(dt, now);
+    sensors.build(messages.fleet(), now);
     const bool measured = c >= o.warmup;
     // The paired cycle before or after this one in turn.
     if (shadow && c % 2 == 0) pairedCycle(*shadow, core, messages, now, tf, measured, false, samples);
     const double cpu0 = threadCpuMs();
     const auto t0 = std::chrono::steady_clock::now();
     messages.feed(core, now, tf);
+    const double sensors_ms = sensors.feed(now, tf, measured, samples.scan, samples.cloud);
     const auto t1 = std::chrono::steady_clock::now();
     core.cycle(now, tf);
     const auto t2 = std::chrono::steady_clock::now();
@@ -542,6 +670,7 @@ Result run(size_t n, const Options& o) {
       if (m.markers.empty()) std::abort();
     }
     if (!measured) continue;
+    if (o.scan || o.cloud) samples.sensors.push_back(sensors_ms);
     // Each gated body's planner sends its current twist half a period after the cycle.
     commandGates(gate_list, core, messages.fleet(), now + ros::Duration(0.5 * dt), tf, r);
     samples.add(std::chrono::duration<double, std::milli>(t1 - t0).count(),
@@ -549,6 +678,7 @@ Result run(size_t n, const Options& o) {
   }
   r.n = n;
   summarize(samples, o.cycles, core, o.tracks, r);
+  sensors.summarize(r);
   return r;
 }
 
@@ -602,6 +732,8 @@ bool parseOption(int argc, char** argv, int& i, CommandLine& cl) {
   else if (a == "--churn") o.churn = std::stod(next());
   else if (a == "--noise") o.noise = std::stod(next());
   else if (a == "--paired") o.paired = true;
+  else if (a == "--scan") o.scan = true;
+  else if (a == "--cloud") o.cloud = true;
   else if (a == "--coherence") {
     const std::string v = next();
     const size_t comma = v.find(',');
@@ -622,7 +754,7 @@ int parseCommandLine(int argc, char** argv, CommandLine& cl) {
                    "usage: %s [--bodies 100,1000,5000] [--cycles 150] [--warmup 15] [--rate 30] [--horizon 2] "
                    "[--area 6] [--turn 0.5] [--markers] [--seed 1] [--links K [--joints]] [--gates G [--gate-rule held|braking|instant]] [--tracks [--churn C]] "
                    "[--threads T] [--fast F] [--3d H] [--broadphase vadop|grid|sap|vadop_sap|brute] [--time-slices K] [--noise S] "
-                   "[--coherence C[,L] [--paired]] | "
+                   "[--coherence C[,L] [--paired]] [--scan] [--cloud] | "
                    "--startup 5000,50000\n",
                    argv[0]);
       return a == "--help" || a == "-h" ? 0 : 2;
@@ -643,6 +775,10 @@ bool optionsConsistent(const CommandLine& cl) {
   }
   if (o.paired && !(o.clearance > 0)) {
     std::fprintf(stderr, "--paired compares against coherence off: give --coherence C[,L] with C > 0\n");
+    return false;
+  }
+  if (o.paired && (o.scan || o.cloud)) {
+    std::fprintf(stderr, "--paired feeds odometry only: not with --scan or --cloud\n");
     return false;
   }
   if (o.cycles < 1 || o.warmup < 0 || !(o.rate > 0) || !(o.horizon >= 0) || !(o.area > 0) || !(o.turn >= 0) ||
@@ -669,6 +805,8 @@ void printWorkload(const Options& o) {
   }
   std::printf("  broad phase %s%s%s\n", o.broad_phase.c_str(), o.fast > 0 ? ", a share of fast bodies (5x)" : "",
               o.ceiling > 0 ? ", 3D (climbing and sinking)" : "");
+  if (o.scan) std::printf("  a 1,081-beam LaserScan at 15 Hz from the room's centre (sensor \"scan\")\n");
+  if (o.cloud) std::printf("  a 30,000-point PointCloud2 at 10 Hz, voxel 0.05 m (sensor \"cloud\")\n");
   if (o.noise > 0) std::printf("  odometry twist noise %.3f (m/s, rad/s; 1 sigma, every message)\n", o.noise);
   if (o.clearance > 0) {
     std::printf("  temporal coherence: clearance %.3f m, lookahead %.2f s (~coherence_clearance, ~coherence_lookahead)\n",
@@ -692,6 +830,13 @@ void printResult(const Result& r, const Options& o, double period_ms) {
     std::printf("  paired, the same cycles without coherence (alternating which runs first): CPU ms median %.3f "
                 "against %.3f; per-cycle ratio median %.3f (quartiles %.3f-%.3f)\n",
                 r.cpu_median, r.paired_median, r.ratio_median, r.ratio_p25, r.ratio_p75);
+  }
+  if (o.scan || o.cloud) {
+    std::printf("  sensors: %.3f ms a cycle (in feed); per message median: scan %.3f ms, cloud %.3f ms; "
+                "points of the last message kept: scan %zu, cloud %zu; filtered on the bodies over the run: "
+                "scan %llu, cloud %llu\n",
+                r.sensors_mean, r.scan_median, r.cloud_median, r.scan_kept, r.cloud_kept,
+                static_cast<unsigned long long>(r.scan_filtered), static_cast<unsigned long long>(r.cloud_filtered));
   }
   if (o.tracks) {
     std::printf("  (tracked objects in one array per cycle: %zu in the world at the end, %llu expired over the run; "
