@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """rostest node (rviz_labels.test): the impact labels of a crowded scene with links are readable
 in rviz with rviz/vadop.rviz.
 

@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Starts vadop_monitor on a scenario file's monitor parameters (test/scenario.test).
 
 A scenario file (test/scenarios/*.yaml) holds the monitor's parameters at its top level and the
