@@ -35,13 +35,5 @@ namespace detail {
 // witness points. The witness points' midpoint when nothing meets.
 Eigen::Vector3d contactPatchPoint(const Side& A, const Side& B, const DistanceResult& contact);
 
-// Whether `closing` (a's velocity less b's at the contact point) presses the bodies together
-// along the contact's normal, beyond 1e-9 of its speed: a touching pair's normal comes from
-// closest points a rounding error apart, so a body turning in place against a wall (sliding,
-// exactly) would show a closing speed of that error's size at the patch's centre.
-inline bool pressesIn(const Eigen::Vector3d& closing, const Eigen::Vector3d& normal) {
-  return closing.dot(normal) > 1e-9 * closing.norm();
-}
-
 }  // namespace detail
 }  // namespace vadop

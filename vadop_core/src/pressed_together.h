@@ -11,13 +11,23 @@
 // Internal to vadop_core (World's mover queries).
 #pragma once
 
-#include "contact_patch.h"
 #include "vadop/distance.h"
 #include "vadop/time_of_impact.h"
 
 #include <algorithm>
 
 namespace vadop {
+namespace detail {
+
+// Whether `closing` (a's velocity less b's at the contact point) presses the bodies together
+// along the contact's normal, beyond 1e-9 of its speed: a touching pair's normal comes from
+// closest points a rounding error apart, so a body turning in place against a wall (sliding,
+// exactly) would show a closing speed of that error's size at the patch's centre.
+inline bool pressesIn(const Eigen::Vector3d& closing, const Eigen::Vector3d& normal) {
+  return closing.dot(normal) > 1e-9 * closing.norm();
+}
+
+}  // namespace detail
 
 template <class MotionA, class MotionB>
 bool pressedTogether(const TimeOfImpact& hit, const PreparedShape& a, const MotionA& ma, const PreparedShape& b,
