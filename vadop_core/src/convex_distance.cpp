@@ -12,7 +12,7 @@ namespace detail {
 
 DistanceResult convexDistance(const Convex& A, const Convex& B, const Eigen::Vector3d& guess,
                               double abs_tol, double rel_tol, int max_iter, Eigen::Vector3d* cert,
-                              WarmStart* warm) {
+                              WarmStart* warm, bool penetration) {
   SVert seed[3];
   int seed_n = 0;
   if (warm) {
@@ -57,6 +57,11 @@ DistanceResult convexDistance(const Convex& A, const Convex& B, const Eigen::Vec
     return r;
   }
   r.cores_overlap = true;
+  if (!penetration) {
+    r.distance = -rounding;
+    r.lower_bound = -kInf;
+    return r;
+  }
   const Eigen::Vector3d n = penetrationDirection(A, B, g);
   if (cert) *cert = n;
   r.normal = n;

@@ -21,9 +21,13 @@ namespace detail {
 // certified one the better separating plane).
 // `warm` (primitives only, may be null): started from its simplex, re-posed, when it has one;
 // the final simplex stored back in the cores' body frames (none after an overlap).
+// `penetration` false: when the cores overlap, return at once with cores_overlap, distance
+// minus the roundings (an upper bound of the signed gap: the cores share a point) and
+// lower_bound -inf, without witness points or the penetration direction (EPA), for a caller that only asks
+// whether the gap is below a threshold.
 DistanceResult convexDistance(const Convex& A, const Convex& B, const Eigen::Vector3d& guess,
                               double abs_tol, double rel_tol, int max_iter, Eigen::Vector3d* cert,
-                              WarmStart* warm = nullptr);
+                              WarmStart* warm = nullptr, bool penetration = true);
 
 // The reported contact: near touching, the witness direction of a GJK run stopped at a
 // gap accuracy delta can be off by about sqrt(2 delta / gap) radians (the closest point

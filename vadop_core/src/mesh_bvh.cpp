@@ -80,5 +80,31 @@ void buildBvh(PreparedShapeData& d) {
   }
 }
 
+bool treeMeetsBox(const PreparedShapeData& d, const Eigen::Matrix3d& R, const Eigen::Vector3d& p, const double* box,
+                  double slack) {
+  if (d.root < 0) return false;
+  // The box in the mesh's frame would be a rotated box; the node's centre in the fixed frame is
+  // one product per node instead.
+  int stack[64];
+  int top = 0;
+  stack[top++] = d.root;
+  while (top > 0) {
+    const BvhNode& node = d.nodes[stack[--top]];
+    const Eigen::Vector3d c = R * node.centre + p;
+    double gap2 = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      const double out = std::max({box[k] - c[k], c[k] - box[3 + k], 0.0});
+      gap2 += out * out;
+    }
+    const double r = node.radius + slack;
+    if (gap2 > r * r) continue;
+    if (node.tri >= 0) return true;
+    // Median splits keep the depth under log2(triangles) + 1 < 64.
+    stack[top++] = node.right;
+    stack[top++] = node.left;
+  }
+  return false;
+}
+
 }  // namespace detail
 }  // namespace vadop

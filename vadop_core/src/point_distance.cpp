@@ -1,5 +1,9 @@
 #include "vadop/point_distance.h"
 
+#include "body_side.h"
+#include "convex_distance.h"
+#include "mesh_queries.h"
+
 #include "vadop/distance.h"
 #include "vadop/error.h"
 
@@ -27,12 +31,16 @@ const Shape& PointDistance::shape() const { return shape_->shape(); }
 void PointDistance::bounds(const Eigen::Isometry3d& pose, const Eigen::Vector3d& p, double tolerance, double& lower,
                            double& upper) const {
   if (!p.allFinite()) throw InvalidArgument("point is not finite");
-  Eigen::Isometry3d at = Eigen::Isometry3d::Identity();
-  at.translation() = p;
-  DistanceOptions options;
-  options.tolerance = tolerance;
-  options.relative_tolerance = 0.0;
-  const DistanceResult r = distance(*shape_, pose, *point_, at, options);
+  if (!pose.matrix().allFinite()) throw InvalidArgument("pose is not finite");
+  const detail::Tolerances tol{tolerance, 0.0, DistanceOptions().max_iterations};
+  const detail::Side a = detail::makeSide(shape_->data(), pose.linear(), pose.translation());
+  const detail::Side b = detail::makeSide(point_->data(), Eigen::Matrix3d::Identity(), p);
+  // A solid shape's core holding the point decides "inside": no penetration depth (EPA) is
+  // computed for it, the gap's upper bound is then minus the roundings.
+  const DistanceResult r =
+      a.mesh ? detail::meshDistance(a, b, tol)
+             : detail::convexDistance(a.convex(0), b.convex(0), a.p - b.p, tol.abs_tol, tol.rel_tol, tol.max_iter,
+                                      nullptr, nullptr, false);
   upper = r.distance + kPointRadius;
   lower = r.cores_overlap ? -std::numeric_limits<double>::infinity() : r.lower_bound + kPointRadius;
   if (r.cores_overlap) upper = std::min(upper, 0.0);

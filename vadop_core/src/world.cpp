@@ -1,5 +1,6 @@
 #include "world_engine.h"
 
+#include "mesh_bvh.h"
 #include "name_index.h"
 #include "pressed_together.h"
 #include "pair_certificates.h"
@@ -777,9 +778,35 @@ void WorldEngine::cullBySlices(std::vector<Candidate>& tests, double t0, double 
     const double* a = &slice_boxes_[slice_of_[pair.a].index * stride];
     const double* b = &slice_boxes_[slice_of_[pair.b].index * stride];
     pair.parts = 0;
-    for (int k = 0; k < slices; ++k, a += 6, b += 6) pair.parts |= uint64_t{boxesOverlap(a, b)} << k;
+    for (int k = 0; k < slices; ++k) pair.parts |= uint64_t{boxesOverlap(a + 6 * k, b + 6 * k)} << k;
+    if (pair.parts == 0) return;
+    if (const detail::PreparedShapeData* tree = restingTree(pair.a)) cullByTree(pair.a, *tree, b, pair.parts);
+    if (pair.parts == 0) return;
+    if (const detail::PreparedShapeData* tree = restingTree(pair.b)) cullByTree(pair.b, *tree, a, pair.parts);
   });
   tests.erase(std::remove_if(tests.begin(), tests.end(), [](const Candidate& c) { return c.parts == 0; }), tests.end());
+}
+
+const detail::PreparedShapeData* WorldEngine::restingTree(BodyId id) const {
+  const Record& r = records_[id];
+  if (r.chain || !r.prepared || r.prepared->data().kind != detail::CoreKind::kMesh) return nullptr;
+  const Motion& m = broad_phase_->motion(id);
+  if (!m.linear_velocity.isZero(0.0) || !m.angular_velocity.isZero(0.0)) return nullptr;
+  return &r.prepared->data();
+}
+
+void WorldEngine::cullByTree(BodyId tree_body, const detail::PreparedShapeData& tree, const double* part_boxes,
+                             uint64_t& parts) const {
+  const Motion& m = broad_phase_->motion(tree_body);
+  const Eigen::Matrix3d R = m.orientation.toRotationMatrix();
+  // The narrow phase reports a pair whose gap reaches its tolerance: a leaf that close to a
+  // box is kept.
+  const double slack = config_.toi.tolerance;
+  for (int k = 0; k < config_.time_slices; ++k) {
+    if ((parts >> k & 1) && !detail::treeMeetsBox(tree, R, m.position, part_boxes + 6 * k, slack)) {
+      parts &= ~(uint64_t{1} << k);
+    }
+  }
 }
 
 void WorldEngine::fillPartBoxes(BodyId id, double t0, double t1, double* out) const {

@@ -132,9 +132,17 @@ class WorldEngine {
   };
   // Drops from `tests` the pairs whose boxes over the config_.time_slices parts of [t0, t1]
   // (partBoxes) overlap in none of them (WorldConfig::time_slices), and keeps in `parts` those
-  // in which they do.
+  // in which they do. A pair with a resting mesh or point set (a sensor's points) keeps a part
+  // only where the other's box meets a leaf of the set's tree: the set's own box spans all its
+  // points (a room) and would pair it with every body in it.
   // `filled`: fillAllPartBoxes ran for this window (the boxes are there already).
   void cullBySlices(std::vector<Candidate>& tests, double t0, double t1, bool filled);
+  // The prepared tree of a body that is a mesh or point set at rest (no path, no velocity), else null.
+  const detail::PreparedShapeData* restingTree(BodyId id) const;
+  // Clears the bits of `parts` whose box of `other` (part_boxes: one per part) meets no leaf of
+  // the resting tree of `tree_body`.
+  void cullByTree(BodyId tree_body, const detail::PreparedShapeData& tree, const double* part_boxes,
+                  uint64_t& parts) const;
   // The part boxes of every body (slots in id order) and, in frame_boxes_, the union of each
   // body's parts: the broad phase's boxes in a crowded world's full predict (the path bodies'
   // boxes in pathPairs when there are some), so that no body's swept volume is bounded twice
