@@ -27,6 +27,7 @@ void buildBvh(PreparedShapeData& d) {
   std::vector<int> idx(n);
   std::iota(idx.begin(), idx.end(), 0);
   d.nodes.reserve(2 * n);
+  d.node_boxes.reserve(2 * n);
   // Explicit stack: (begin, end, node index, parent slot) built depth first.
   struct Job {
     int begin, end, node;
@@ -53,6 +54,8 @@ void buildBvh(PreparedShapeData& d) {
     node.lever = lever;
     if (end - begin == 1) node.tri = idx[begin];
     d.nodes.push_back(node);
+    const Eigen::Vector3d half = 0.5 * (hi - lo) + Eigen::Vector3d::Constant(m);
+    d.node_boxes.push_back({node.centre.x(), node.centre.y(), node.centre.z(), half.x(), half.y(), half.z()});
     return static_cast<int>(d.nodes.size()) - 1;
   };
   d.root = makeNode(0, n);
@@ -80,30 +83,48 @@ void buildBvh(PreparedShapeData& d) {
   }
 }
 
-bool treeMeetsBox(const PreparedShapeData& d, const Eigen::Matrix3d& R, const Eigen::Vector3d& p, const double* box,
-                  double slack) {
-  if (d.root < 0) return false;
-  // The box in the mesh's frame would be a rotated box; the node's centre in the fixed frame is
-  // one product per node instead.
-  int stack[64];
+uint64_t partsMeetingTree(const PreparedShapeData& d, const Eigen::Matrix3d& R, const Eigen::Vector3d& p,
+                          const double* part_boxes, uint64_t parts, double slack) {
+  if (d.root < 0 || parts == 0) return 0;
+  const Eigen::Matrix3d absR = R.cwiseAbs();
+  uint64_t met = 0;
+  // Depth first, each node with the parts whose boxes met all its ancestors' boxes.
+  struct Item {
+    int node;
+    uint64_t parts;
+  };
+  Item stack[64];  // median splits keep the depth under log2(triangles) + 1
   int top = 0;
-  stack[top++] = d.root;
+  stack[top++] = {d.root, parts};
   while (top > 0) {
-    const BvhNode& node = d.nodes[stack[--top]];
-    const Eigen::Vector3d c = R * node.centre + p;
-    double gap2 = 0.0;
-    for (int k = 0; k < 3; ++k) {
-      const double out = std::max({box[k] - c[k], c[k] - box[3 + k], 0.0});
-      gap2 += out * out;
+    const Item it = stack[--top];
+    const uint64_t open = it.parts & ~met;  // parts already met need no more search
+    if (open == 0) continue;
+    const std::array<double, 6>& nb = d.node_boxes[it.node];
+    // The node's box turned into the fixed frame: the box about the turned centre with half
+    // extents |R| h (bounds the turned box), grown by the slack.
+    const Eigen::Vector3d c = R * Eigen::Vector3d(nb[0], nb[1], nb[2]) + p;
+    const Eigen::Vector3d h = absR * Eigen::Vector3d(nb[3], nb[4], nb[5]) + Eigen::Vector3d::Constant(slack);
+    const double node_box[6] = {c.x() - h.x(), c.y() - h.y(), c.z() - h.z(), c.x() + h.x(), c.y() + h.y(), c.z() + h.z()};
+    uint64_t here = 0;
+    for (uint64_t bits = open; bits != 0; bits &= bits - 1) {
+      const int k = __builtin_ctzll(bits);
+      const double* b = part_boxes + 6 * k;
+      const bool overlap = b[0] <= node_box[3] && node_box[0] <= b[3] && b[1] <= node_box[4] && node_box[1] <= b[4] &&
+                           b[2] <= node_box[5] && node_box[2] <= b[5];
+      here |= uint64_t{overlap} << k;
     }
-    const double r = node.radius + slack;
-    if (gap2 > r * r) continue;
-    if (node.tri >= 0) return true;
-    // Median splits keep the depth under log2(triangles) + 1 < 64.
-    stack[top++] = node.right;
-    stack[top++] = node.left;
+    if (here == 0) continue;
+    const BvhNode& node = d.nodes[it.node];
+    if (node.tri >= 0) {
+      met |= here;
+      if (met == parts) return met;
+      continue;
+    }
+    stack[top++] = {node.right, here};
+    stack[top++] = {node.left, here};
   }
-  return false;
+  return met;
 }
 
 }  // namespace detail

@@ -8,16 +8,19 @@
 
 #include "shape_core.h"
 
+#include <cstdint>
+
 namespace vadop {
 namespace detail {
 
 void buildBvh(PreparedShapeData& d);
 
-// Whether some leaf's bounding sphere, grown by `slack`, meets the axis-aligned box `box`
-// (min x, y, z, max x, y, z; fixed frame) with the mesh posed at (R, p). False proves that no
-// padded triangle comes within `slack` of the box (each lies inside its leaf's sphere).
-bool treeMeetsBox(const PreparedShapeData& d, const Eigen::Matrix3d& R, const Eigen::Vector3d& p, const double* box,
-                  double slack);
+// Of the parts set in `parts` (bit k: the axis-aligned box part_boxes[6k .. 6k + 5], min x, y,
+// z, max x, y, z, fixed frame), those whose box meets the box of some leaf (its padded
+// triangle's, turned into the fixed frame and grown by `slack`) with the mesh posed at (R, p).
+// A part left out is proved to hold no padded triangle within `slack` of its box.
+uint64_t partsMeetingTree(const PreparedShapeData& d, const Eigen::Matrix3d& R, const Eigen::Vector3d& p,
+                          const double* part_boxes, uint64_t parts, double slack);
 
 }  // namespace detail
 }  // namespace vadop

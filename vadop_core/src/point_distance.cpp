@@ -20,6 +20,29 @@ namespace {
 constexpr double kPointRadius = 1e-3;
 constexpr double kFineTolerance = 1e-10;  // m: gap()'s
 
+// Spheres, capsules and boxes: the exact gap between the shape at `pose` and the point, in
+// closed form (true); false for the other kinds.
+bool closedFormGap(const detail::PreparedShapeData& d, const Eigen::Isometry3d& pose, const Eigen::Vector3d& p,
+                   double& gap) {
+  // The point in the shape's frame (the pose is a rigid transform: its linear part a rotation).
+  const Eigen::Vector3d q = pose.linear().transpose() * (p - pose.translation());
+  switch (d.kind) {
+    case detail::CoreKind::kPoint: gap = q.norm() - d.rounding; return true;
+    case detail::CoreKind::kSegment: {
+      const double z = std::clamp(q.z(), -d.half_length, d.half_length);
+      gap = (q - Eigen::Vector3d(0.0, 0.0, z)).norm() - d.rounding;
+      return true;
+    }
+    case detail::CoreKind::kBox: {
+      const Eigen::Vector3d out = (q.cwiseAbs() - d.half_extents);
+      // Outside: the distance to the box; inside: minus the distance to the nearest face.
+      gap = (out.cwiseMax(0.0).norm() + std::min(out.maxCoeff(), 0.0)) - d.rounding;
+      return true;
+    }
+    default: return false;  // cylinders, convex sets, meshes and point sets: the narrow phase's GJK
+  }
+}
+
 }  // namespace
 
 PointDistance::PointDistance(const Shape& shape)
@@ -32,6 +55,10 @@ void PointDistance::bounds(const Eigen::Isometry3d& pose, const Eigen::Vector3d&
                            double& upper) const {
   if (!p.allFinite()) throw InvalidArgument("point is not finite");
   if (!pose.matrix().allFinite()) throw InvalidArgument("pose is not finite");
+  if (closedFormGap(shape_->data(), pose, p, upper)) {
+    lower = upper;
+    return;
+  }
   const detail::Tolerances tol{tolerance, 0.0, DistanceOptions().max_iterations};
   const detail::Side a = detail::makeSide(shape_->data(), pose.linear(), pose.translation());
   const detail::Side b = detail::makeSide(point_->data(), Eigen::Matrix3d::Identity(), p);

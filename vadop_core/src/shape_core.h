@@ -12,6 +12,7 @@
 
 #include <cmath>
 #include <limits>
+#include <array>
 #include <vector>
 
 namespace vadop {
@@ -44,6 +45,10 @@ struct PreparedShapeData {
   std::vector<Eigen::Vector3d> points;  // convex
   std::vector<Tri> tris;                // mesh
   std::vector<BvhNode> nodes;
+  // Per node (same index): the axis-aligned box of its padded triangles in the body frame, as
+  // centre and half extents (the world's cull of a resting mesh; a long wall's box is far
+  // tighter than its ball).
+  std::vector<std::array<double, 6>> node_boxes;
   int root = -1;
 };
 

@@ -802,11 +802,7 @@ void WorldEngine::cullByTree(BodyId tree_body, const detail::PreparedShapeData& 
   // The narrow phase reports a pair whose gap reaches its tolerance: a leaf that close to a
   // box is kept.
   const double slack = config_.toi.tolerance;
-  for (int k = 0; k < config_.time_slices; ++k) {
-    if ((parts >> k & 1) && !detail::treeMeetsBox(tree, R, m.position, part_boxes + 6 * k, slack)) {
-      parts &= ~(uint64_t{1} << k);
-    }
-  }
+  parts = detail::partsMeetingTree(tree, R, m.position, part_boxes, parts, slack);
 }
 
 void WorldEngine::fillPartBoxes(BodyId id, double t0, double t1, double* out) const {

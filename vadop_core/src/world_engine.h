@@ -139,8 +139,8 @@ class WorldEngine {
   void cullBySlices(std::vector<Candidate>& tests, double t0, double t1, bool filled);
   // The prepared tree of a body that is a mesh or point set at rest (no path, no velocity), else null.
   const detail::PreparedShapeData* restingTree(BodyId id) const;
-  // Clears the bits of `parts` whose box of `other` (part_boxes: one per part) meets no leaf of
-  // the resting tree of `tree_body`.
+  // Clears the bits of `parts` whose box of the other body (part_boxes: one per part) meets no
+  // leaf of the resting tree of `tree_body`.
   void cullByTree(BodyId tree_body, const detail::PreparedShapeData& tree, const double* part_boxes,
                   uint64_t& parts) const;
   // The part boxes of every body (slots in id order) and, in frame_boxes_, the union of each

@@ -621,26 +621,29 @@ TEST(PointSetCorners, SphereAtAWallOfPointsCloserThanTheirRadius) {
 // body's box meets a leaf of the set's tree, posed as the set is: a row of points along the
 // set's x axis, turned 90 deg about z (a row along y at x = 0), and a sphere of 0.1 m crossing
 // it along -x at y = 0.5 m hits the point at y = 0.5 when x = 0.12 (the unturned row would lie
-// along x at y = 0, 0.4 m away from the sphere's whole path); another at y = 1.3, beyond the
-// row's end at 1.0 by more than the two radii, passes.
+// along x at y = 0, 0.4 m away from the sphere's whole path); one at y = 1.11 grazes the row's
+// last point (y = 1) within its radius only (its box never reaches the point's centre) when
+// x^2 + 0.11^2 = 0.12^2; another at y = 1.3, beyond the row's end by more than the two radii,
+// passes.
 TEST(PointSetWorld, ARestingSetIsCulledWhereItIsPosed) {
   std::vector<Vector3d> points;
   for (int i = -100; i <= 100; ++i) points.emplace_back(0.01 * i, 0.0, 0.0);
   const Shape row = vadop::makePointSet(points, 0.02);
   const Quaterniond turn(Eigen::AngleAxisd(0.5 * M_PI, Vector3d::UnitZ()));
-  for (const double y : {0.5, 1.3}) {
+  for (const double y : {0.5, 1.11, 1.3}) {
     vadop::World world;
     world.add("row", row, vadop::makeMotion(Vector3d::Zero(), turn, Vector3d::Zero(), Vector3d::Zero()));
     world.add("ball", vadop::makeSphere(0.1),
               vadop::makeMotion(Vector3d(1.0, y, 0.0), Quaterniond::Identity(), Vector3d(-1.0, 0.0, 0.0),
                                 Vector3d::Zero()));
     const std::vector<vadop::Contact> contacts = world.predict(0.0, 2.0);
-    if (y > 1.0) {
+    if (y > 1.2) {
       EXPECT_TRUE(contacts.empty()) << "y " << y;
       continue;
     }
     ASSERT_EQ(contacts.size(), 1u) << "y " << y;
-    EXPECT_NEAR(contacts[0].impact.time, 1.0 - 0.12, 1e-6);
+    const double x = y == 0.5 ? 0.12 : std::sqrt(0.12 * 0.12 - 0.11 * 0.11);
+    EXPECT_NEAR(contacts[0].impact.time, 1.0 - x, 1e-5) << "y " << y;
   }
 }
 
