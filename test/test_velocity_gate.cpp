@@ -1,6 +1,6 @@
 // VelocityGate: what a gate publishes for each command and when the commands stop (the node
 // only moves messages). The fail-safe rules: NaN/Inf -> zero; state stale or body not
-// monitored -> zero for every command; commands stop for cmd_timeout -> exactly one zero; the
+// monitored -> zero for every command; another body never heard from -> zero; commands stop for cmd_timeout -> exactly one zero; the
 // reasons and the limiting body in the state; the gate's own ignore list.
 #include "vadop_ros/velocity_gate.h"
 #include "fake_tf.h"
@@ -134,6 +134,35 @@ TEST(VelocityGate, NeverForwardsWhatItCannotCheck) {
   }
   core.registry().onOdometry(0, odom(100.8, -20), ros::Time(100.8));
   EXPECT_EQ(gate.onCommand(core, twist(1.0), ros::Time(100.8), tf).linear.x, 1.0);
+}
+
+// Another moving body that has sent no state yet could be anywhere (the check would not see
+// it): zero, naming it, until it has, or when the gate's ignore globs leave it out. A body that
+// has gone stale stands at its last pose (documented) and is checked against.
+TEST(VelocityGate, AnotherBodyNeverHeardFromStopsTheGate) {
+  for (const std::string& extra : {std::string(), std::string(", ignore: [\"b\"]")}) {
+    MonitorCore core = makeCore(extra);
+    FakeTf tf;
+    VelocityGate gate(0, core.registry());
+    core.registry().onOdometry(0, odom(100.0, -20), ros::Time(100.0));
+    core.cycle(ros::Time(100.0), tf);
+    const geometry_msgs::Twist out = gate.onCommand(core, twist(1.0), ros::Time(100.0), tf);
+    if (!extra.empty()) {
+      EXPECT_EQ(out.linear.x, 1.0) << "b ignored";
+      continue;
+    }
+    EXPECT_EQ(out.linear.x, 0.0);
+    EXPECT_EQ(gate.state().reason, "stale");
+    EXPECT_NE(gate.state().detail.find("\"b\" has sent no state yet"), std::string::npos) << gate.state().detail;
+    core.registry().onOdometry(0, odom(100.1, -20), ros::Time(100.1));
+    core.registry().onOdometry(1, odom(100.1, 2), ros::Time(100.1));
+    core.cycle(ros::Time(100.1), tf);
+    EXPECT_EQ(gate.onCommand(core, twist(1.0), ros::Time(100.1), tf).linear.x, 1.0);
+    // b stale (0.5 s without a message), a fresh: b stands at its last pose, the gate checks.
+    core.registry().onOdometry(0, odom(100.9, -20), ros::Time(100.9));
+    core.cycle(ros::Time(100.9), tf);
+    EXPECT_EQ(gate.onCommand(core, twist(1.0), ros::Time(100.9), tf).linear.x, 1.0);
+  }
 }
 
 TEST(VelocityGate, CommandsStoppingGiveExactlyOneZero) {

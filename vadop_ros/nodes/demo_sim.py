@@ -60,12 +60,16 @@ MAST_ORIGIN = (0.1, 0.0, 0.3)
 class Base:
     """A differential base as real ones behave: it executes each command `delay` s after its
     arrival (transport, controller cycle) and ramps its velocity towards it at `lin_acc` (m/s^2)
-    and `ang_acc` (rad/s^2) instead of jumping. Nothing received yet: standing still."""
+    and `ang_acc` (rad/s^2) instead of jumping; a command older than `cmd_timeout` s is dropped
+    for zero (as diff_drive_controller's cmd_vel_timeout: a gate that falls silent, a monitor
+    starved of CPU, stops the base). Nothing received yet: standing still."""
 
-    def __init__(self, delay, lin_acc, ang_acc):
+    def __init__(self, delay, lin_acc, ang_acc, cmd_timeout=0.5):
         self.delay, self.lin_acc, self.ang_acc = delay, lin_acc, ang_acc
+        self.cmd_timeout = cmd_timeout
         self.pending = collections.deque()  # (arrival s, v, w); appended by the subscriber's thread
         self.target_v = self.target_w = 0.0
+        self.target_since = None  # when the command now executed took effect
         self.v = self.w = 0.0
 
     def command(self, arrival, v, w):
@@ -75,7 +79,10 @@ class Base:
         """The base's velocity over the step ending at `now` (the mean of its start and end,
         so that the distance covered while ramping is right)."""
         while self.pending and self.pending[0][0] + self.delay <= now:
-            _, self.target_v, self.target_w = self.pending.popleft()
+            arrival, self.target_v, self.target_w = self.pending.popleft()
+            self.target_since = arrival + self.delay
+        if self.target_since is not None and now - self.target_since > self.cmd_timeout:
+            self.target_v = self.target_w = 0.0
         v0, w0 = self.v, self.w
         self.v = ramp(self.v, self.target_v, self.lin_acc * dt)
         self.w = ramp(self.w, self.target_w, self.ang_acc * dt)

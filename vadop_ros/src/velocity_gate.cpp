@@ -4,6 +4,7 @@
 
 #include <ros/console.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -69,6 +70,21 @@ void VelocityGate::publishZero(const std::string& reason, const std::string& det
   forwarded_ = state_.command_out;
 }
 
+bool VelocityGate::unheardBody(const MonitorCore& core, std::string& why) const {
+  const auto& bodies = core.registry().bodies();
+  for (size_t i = 0; i < bodies.size(); ++i) {
+    const Body& b = bodies[i];
+    // The gate's own body is checked by checkCommand; a body without geometry is never met.
+    if (i == body_ || b.is_static || b.has_state || b.elements.empty()) continue;
+    const bool all_ignored = std::all_of(b.elements.begin(), b.elements.end(),
+                                         [this](size_t e) { return e < ignored_.size() && ignored_[e] != 0; });
+    if (all_ignored) continue;
+    why = "body \"" + b.name + "\" has sent no state yet (it could be anywhere)";
+    return true;
+  }
+  return false;
+}
+
 geometry_msgs::Twist VelocityGate::onCommand(MonitorCore& core, const geometry_msgs::Twist& command,
                                              const ros::Time& now, TransformSource& tf) {
   ++counts_.commands;
@@ -86,8 +102,9 @@ geometry_msgs::Twist VelocityGate::onCommand(MonitorCore& core, const geometry_m
     }
     return state_.command_out;
   }
-  // Blind while a sensor is stale: what it would show is not known.
-  if (std::string why; staleSensor(core, params_, now, why)) {
+  // Blind while a sensor is stale (what it would show is not known) or while a body has never
+  // sent its state (it could be anywhere, and the check would not see it).
+  if (std::string why; staleSensor(core, params_, now, why) || unheardBody(core, why)) {
     ++counts_.unchecked;
     publishZero(vadop::GateState::REASON_STALE, why, command);
     return state_.command_out;

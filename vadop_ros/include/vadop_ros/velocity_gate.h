@@ -1,7 +1,8 @@
 // One velocity gate (~bodies[i].gate): what vadop_monitor publishes on a body's cmd_vel_out for
 // each command on its cmd_vel_in, and when the commands stop. Every finite command is checked
 // by MonitorCore::checkCommand and forwarded scaled to what is clear; a command it cannot check
-// (NaN/Inf, stale state, missing transform, body not monitored yet) becomes a zero Twist; when
+// (NaN/Inf, stale state, missing transform, body not monitored yet, a stale sensor, another
+// moving body not ignored that has sent no state yet) becomes a zero Twist; when
 // commands stop for cmd_timeout, one zero Twist. The check assumes the base executes a command
 // reaction_time after it is published (the last one forwarded goes on meanwhile) and, with the
 // body's max_linear_decel / max_angular_decel, that it can brake to standstill along the
@@ -49,6 +50,9 @@ class VelocityGate {
 
  private:
   void publishZero(const std::string& reason, const std::string& detail, const geometry_msgs::Twist& in);
+  // Some moving body other than the gate's, not left out by its ignore globs, has sent no state
+  // yet; `why` names it.
+  bool unheardBody(const MonitorCore& core, std::string& why) const;
 
   size_t body_;
   GateParams params_;
