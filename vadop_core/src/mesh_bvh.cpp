@@ -26,44 +26,24 @@ void buildBvh(PreparedShapeData& d) {
   }
   std::vector<int> idx(n);
   std::iota(idx.begin(), idx.end(), 0);
+  d.nodes.clear();
   d.nodes.reserve(2 * n);
-  d.node_boxes.reserve(2 * n);
-  // Explicit stack: (begin, end, node index, parent slot) built depth first.
+  // The structure top down (median splits of the centroids along their widest axis): each node
+  // is created before its children, so that one pass in reverse order below sees the children
+  // of every node first.
   struct Job {
     int begin, end, node;
   };
-  auto makeNode = [&](int begin, int end) {
-    BvhNode node;
-    Eigen::Vector3d lo = Eigen::Vector3d::Constant(kInf), hi = Eigen::Vector3d::Constant(-kInf);
-    double lever = 0.0;
-    for (int i = begin; i < end; ++i) {
-      const Tri& t = d.tris[idx[i]];
-      for (int k = 0; k < 3; ++k) {
-        lo = lo.cwiseMin(t.v[k]);
-        hi = hi.cwiseMax(t.v[k]);
-      }
-      lever = std::max(lever, t.lever);
-    }
-    node.centre = 0.5 * (lo + hi);
-    double r = 0.0;
-    for (int i = begin; i < end; ++i) {
-      const Tri& t = d.tris[idx[i]];
-      for (int k = 0; k < 3; ++k) r = std::max(r, (t.v[k] - node.centre).norm());
-    }
-    node.radius = r + m;
-    node.lever = lever;
-    if (end - begin == 1) node.tri = idx[begin];
-    d.nodes.push_back(node);
-    const Eigen::Vector3d half = 0.5 * (hi - lo) + Eigen::Vector3d::Constant(m);
-    d.node_boxes.push_back({node.centre.x(), node.centre.y(), node.centre.z(), half.x(), half.y(), half.z()});
-    return static_cast<int>(d.nodes.size()) - 1;
-  };
-  d.root = makeNode(0, n);
+  d.nodes.emplace_back();
+  d.root = 0;
   std::vector<Job> jobs{{0, n, d.root}};
   while (!jobs.empty()) {
     const Job j = jobs.back();
     jobs.pop_back();
-    if (j.end - j.begin <= 1) continue;
+    if (j.end - j.begin == 1) {
+      d.nodes[j.node].tri = idx[j.begin];
+      continue;
+    }
     Eigen::Vector3d lo = Eigen::Vector3d::Constant(kInf), hi = Eigen::Vector3d::Constant(-kInf);
     for (int i = j.begin; i < j.end; ++i) {
       lo = lo.cwiseMin(centroid[idx[i]]);
@@ -74,12 +54,49 @@ void buildBvh(PreparedShapeData& d) {
     const int mid = j.begin + (j.end - j.begin) / 2;
     std::nth_element(idx.begin() + j.begin, idx.begin() + mid, idx.begin() + j.end,
                      [&](int x, int y) { return centroid[x][axis] < centroid[y][axis]; });
-    const int left = makeNode(j.begin, mid);
-    const int right = makeNode(mid, j.end);
+    const int left = static_cast<int>(d.nodes.size());
+    d.nodes.emplace_back();
+    d.nodes.emplace_back();
     d.nodes[j.node].left = left;
-    d.nodes[j.node].right = right;
+    d.nodes[j.node].right = left + 1;
     jobs.push_back({j.begin, mid, left});
-    jobs.push_back({mid, j.end, right});
+    jobs.push_back({mid, j.end, left + 1});
+  }
+  // The bounds bottom up: a leaf's box, ball (about the box's centre) and lever arm from its
+  // padded triangle exactly; a node's box the union of its children's, its ball the smallest
+  // about its box's centre that holds theirs (a node's ball no longer needs a pass over its
+  // triangles: the tree of a sensor's 10,000 points is rebuilt for every cloud).
+  d.node_boxes.assign(d.nodes.size(), {});
+  for (int i = static_cast<int>(d.nodes.size()) - 1; i >= 0; --i) {
+    BvhNode& node = d.nodes[i];
+    std::array<double, 6>& box = d.node_boxes[i];
+    if (node.tri >= 0) {
+      const Tri& t = d.tris[node.tri];
+      const Eigen::Vector3d lo = t.v[0].cwiseMin(t.v[1]).cwiseMin(t.v[2]);
+      const Eigen::Vector3d hi = t.v[0].cwiseMax(t.v[1]).cwiseMax(t.v[2]);
+      node.centre = 0.5 * (lo + hi);
+      double r = 0.0;
+      for (int k = 0; k < 3; ++k) r = std::max(r, (t.v[k] - node.centre).norm());
+      node.radius = r + m;
+      node.lever = t.lever;
+      const Eigen::Vector3d half = 0.5 * (hi - lo) + Eigen::Vector3d::Constant(m);
+      box = {node.centre.x(), node.centre.y(), node.centre.z(), half.x(), half.y(), half.z()};
+      continue;
+    }
+    const std::array<double, 6>& a = d.node_boxes[node.left];
+    const std::array<double, 6>& b = d.node_boxes[node.right];
+    Eigen::Vector3d lo, hi;
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(a[k] - a[3 + k], b[k] - b[3 + k]);
+      hi[k] = std::max(a[k] + a[3 + k], b[k] + b[3 + k]);
+    }
+    node.centre = 0.5 * (lo + hi);
+    const BvhNode& l = d.nodes[node.left];
+    const BvhNode& r = d.nodes[node.right];
+    node.radius = std::max((l.centre - node.centre).norm() + l.radius, (r.centre - node.centre).norm() + r.radius);
+    node.lever = std::max(l.lever, r.lever);
+    const Eigen::Vector3d half = 0.5 * (hi - lo);
+    box = {node.centre.x(), node.centre.y(), node.centre.z(), half.x(), half.y(), half.z()};
   }
 }
 
