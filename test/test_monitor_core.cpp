@@ -260,6 +260,49 @@ TEST(MonitorCore, CoherenceReusesCertificatesAndReportsTheSameImpacts) {
   EXPECT_GE(reused, 34u);
 }
 
+// The "cycle" status's p95: over the window's cycles (the last CycleTimeWindow::kMaxSamples of
+// a longer window), each window on its own, against the sorted window (brute force).
+TEST(CycleTimeWindow, P95IsTheSortedWindowsValueAtItsRank) {
+  using vadop_ros::CycleTimeWindow;
+  std::mt19937 rng(3);
+  auto value = [](const diagnostic_updater::DiagnosticStatusWrapper& stat, const std::string& key) {
+    for (const auto& kv : stat.values) {
+      if (kv.key == key) return std::stod(kv.value);
+    }
+    return std::numeric_limits<double>::quiet_NaN();
+  };
+  CycleTimeWindow window;
+  {
+    diagnostic_updater::DiagnosticStatusWrapper stat;
+    vadop_ros::CycleStats one;
+    one.cycle_seconds = 0.004;
+    window.add(one);
+    window.report(stat, 30.0);
+    EXPECT_NEAR(value(stat, "cycle time p95 (ms)"), 4.0, 1e-9);
+  }
+  const size_t cap = CycleTimeWindow::kMaxSamples;
+  for (size_t n : {size_t{2}, size_t{3}, size_t{20}, size_t{30}, size_t{101}, cap, cap + 1, 2 * cap + 37}) {
+    // Distinct times 3 us apart (the status shows 1 us), in random order.
+    std::vector<double> times(n);
+    for (size_t k = 0; k < n; ++k) times[k] = 1e-3 + 3e-6 * static_cast<double>(k);
+    std::shuffle(times.begin(), times.end(), rng);
+    for (double t : times) {
+      vadop_ros::CycleStats s;
+      s.cycle_seconds = t;
+      window.add(s);
+    }
+    std::vector<double> last(times.end() - static_cast<std::ptrdiff_t>(std::min(n, cap)), times.end());
+    std::sort(last.begin(), last.end());
+    const double expected = last[static_cast<size_t>(std::lround(0.95 * static_cast<double>(last.size() - 1)))];
+    diagnostic_updater::DiagnosticStatusWrapper stat;
+    window.report(stat, 30.0);
+    EXPECT_NEAR(value(stat, "cycle time p95 (ms)"), expected * 1e3, 1e-6) << n;
+    EXPECT_NEAR(value(stat, "cycle time max (ms)"), *std::max_element(times.begin(), times.end()) * 1e3, 1e-6) << n;
+    EXPECT_EQ(value(stat, "cycles in window"), static_cast<double>(n));
+  }
+  EXPECT_TRUE(std::isnan(CycleTimeWindow::percentile({}, 0.95)));
+}
+
 // The groups and the predicate of Predictor reach the world: pairs left out cost no call.
 TEST(Predictor, GroupsAndIgnoredPairsLeaveCandidatesOutBeforeTheNarrowPhase) {
   using vadop_ros::Predictor;

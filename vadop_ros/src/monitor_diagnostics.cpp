@@ -3,7 +3,9 @@
 #include <diagnostic_msgs/DiagnosticStatus.h>
 
 #include <algorithm>
+#include <cstddef>
 #include <cstdio>
+#include <limits>
 
 namespace vadop_ros {
 namespace {
@@ -18,7 +20,20 @@ std::string fmt(const char* f, double v) {
 
 }  // namespace
 
+double CycleTimeWindow::percentile(std::vector<double> values, double p) {
+  if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const size_t k = std::min(values.size() - 1, static_cast<size_t>(p * static_cast<double>(values.size() - 1) + 0.5));
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
+  return values[k];
+}
+
 void CycleTimeWindow::add(const CycleStats& s) {
+  if (times_.size() < kMaxSamples) {
+    times_.push_back(s.cycle_seconds);
+  } else {
+    times_[next_] = s.cycle_seconds;
+    next_ = (next_ + 1) % kMaxSamples;
+  }
   ++count_;
   sum_ += s.cycle_seconds;
   max_ = std::max(max_, s.cycle_seconds);
@@ -51,6 +66,7 @@ void CycleTimeWindow::report(diagnostic_updater::DiagnosticStatusWrapper& stat, 
   }
   stat.add("cycle time last (ms)", fmt("%.3f", last_.cycle_seconds * 1e3));
   stat.add("cycle time mean (ms)", fmt("%.3f", mean * 1e3));
+  stat.add("cycle time p95 (ms)", fmt("%.3f", percentile(times_, 0.95) * 1e3));
   stat.add("cycle time max (ms)", fmt("%.3f", max_ * 1e3));
   stat.add("predict time last (ms)", fmt("%.3f", last_.predict_seconds * 1e3));
   stat.add("period (ms)", fmt("%.3f", period * 1e3));
@@ -69,6 +85,8 @@ void CycleTimeWindow::report(diagnostic_updater::DiagnosticStatusWrapper& stat, 
   stat.add("ignored pairs tested", last_.ignored_tested);
   count_ = 0;
   sum_ = max_ = 0.0;
+  times_.clear();
+  next_ = 0;
   overruns_ = 0;
   reused_ = 0;
 }

@@ -1,36 +1,42 @@
-// vadop_fleet_driver: a fleet's states through ROS transport, for measuring vadop_monitor as
-// users feed it (launch/fleet_transport.launch). N robots of the benchmarks' wandering fleet
-// (wandering_fleet.h: 6 m^2 of floor per robot, 0.3-1.5 m/s, bouncing off the walls) stepped
-// and published at ~rate Hz, either as one nav_msgs/Odometry topic per robot
-// (~mode odom: /robot_<i>/odom) or as one vadop/BodyStateArray (~mode array: ~states_topic,
-// default /fleet/states, entries "robot_<i>"), in frame "odom", stamped with the time of the
-// tick; every second it logs the rate it achieved. Private parameters: ~n (1000), ~rate (30),
-// ~mode (array), ~states_topic, ~seed (1).
-#include "wandering_fleet.h"
-
-#include <vadop/BodyStateArray.h>
+// The fleet driver (fleet_driver.h): a fleet's states through ROS transport, for measuring and
+// testing vadop_monitor as users feed it (launch/fleet_transport.launch, launch/sharded.launch).
+// N robots of the benchmarks' wandering fleet (wandering_fleet.h: ~area m^2 of floor per robot,
+// 0.3-1.5 m/s, bouncing off the walls of a square room centred on the origin) stepped and
+// published at ~rate Hz, either as one nav_msgs/Odometry topic per robot (~mode odom:
+// /robot_<i>/odom) or as one vadop/BodyStateArray (~mode array: ~states_topic, default
+// /fleet/states, entries "robot_<i>"), in frame "odom", stamped with the time of the tick; every
+// 5 s it logs the rate it achieved. Each message is a new one published as a shared pointer:
+// in a nodelet manager (vadop/FleetDriverNodelet) a subscriber there, such as
+// vadop/MonitorNodelet, gets it without serialization.
+//
+// ~clock_step > 0: a simulated clock for tests whose monitors must all predict from the same
+// state at the same time (nodes with /use_sim_time true follow it). The driver publishes
+// /clock itself, starting at 100 s, and each 1 / ~rate s of wall time: the fleet stepped by
+// ~clock_step and published stamped with the clock's time t; half a period later the clock
+// advances to t + ~clock_step (the monitors' timers fire then, all at that time, all with the
+// state of t: nothing else is published until the next state, half a period later).
+//
+// Private parameters: ~n (1000, >= 1), ~rate (30, (0, 1000] Hz), ~mode (array | odom),
+// ~states_topic (/fleet/states), ~seed (1), ~area (6 m^2, (0, 1e6]), ~clock_step (0 s: the ROS
+// clock; at most 60), ~wait_subscribers (0: before the first state, wait until the states (each
+// odometry topic) and, with a clock, /clock have this many subscribers).
+#include "fleet_driver.h"
 
 #include <nav_msgs/Odometry.h>
-#include <ros/ros.h>
+#include <rosgraph_msgs/Clock.h>
 
+#include <boost/make_shared.hpp>
+
+#include <algorithm>
 #include <cmath>
-#include <random>
-#include <string>
-#include <vector>
+#include <stdexcept>
 
+namespace vadop_ros {
 namespace {
-
-struct Settings {
-  int n = 1000;
-  double rate = 30.0;
-  std::string mode = "array";
-  std::string states_topic = "/fleet/states";
-  int seed = 1;
-};
 
 // A planar robot's pose and body-frame twist into a message's fields.
 template <class Pose, class Twist>
-void fill(const vadop_ros::WanderingFleet::Body& s, Pose& p, Twist& t) {
+void fill(const WanderingFleet::Body& s, Pose& p, Twist& t) {
   p.position.x = s.x;
   p.position.y = s.y;
   p.orientation.z = std::sin(0.5 * s.yaw);
@@ -39,82 +45,131 @@ void fill(const vadop_ros::WanderingFleet::Body& s, Pose& p, Twist& t) {
   t.angular.z = s.w;
 }
 
-class FleetDriver {
- public:
-  FleetDriver(ros::NodeHandle& nh, const Settings& s)
-      : s_(s), rng_(static_cast<unsigned>(s.seed)), fleet_(static_cast<size_t>(s.n), 6.0, 0.5, rng_) {
-    if (s_.mode == "odom") {
-      odom_.reserve(s_.n);
-      for (int i = 0; i < s_.n; ++i) {
-        odom_.push_back(nh.advertise<nav_msgs::Odometry>("/robot_" + std::to_string(i) + "/odom", 5));
-      }
-      odom_msg_.header.frame_id = "odom";
-    } else {
-      array_ = nh.advertise<vadop::BodyStateArray>(s_.states_topic, 2);
-      array_msg_.header.frame_id = "odom";
-      array_msg_.states.resize(s_.n);
-      for (int i = 0; i < s_.n; ++i) array_msg_.states[i].name = "robot_" + std::to_string(i);
-    }
-  }
-
-  // One tick: the fleet stepped by `dt` and published, stamped `now`.
-  void tick(double dt, const ros::Time& now) {
-    fleet_.step(dt, rng_);
-    if (s_.mode == "odom") {
-      odom_msg_.header.stamp = now;
-      for (int i = 0; i < s_.n; ++i) {
-        fill(fleet_[i], odom_msg_.pose.pose, odom_msg_.twist.twist);
-        odom_[i].publish(odom_msg_);
-      }
-    } else {
-      array_msg_.header.stamp = now;
-      for (int i = 0; i < s_.n; ++i) fill(fleet_[i], array_msg_.states[i].pose, array_msg_.states[i].twist);
-      array_.publish(array_msg_);
-    }
-  }
-
- private:
-  Settings s_;
-  std::mt19937 rng_;
-  vadop_ros::WanderingFleet fleet_;
-  std::vector<ros::Publisher> odom_;
-  nav_msgs::Odometry odom_msg_;
-  ros::Publisher array_;
-  vadop::BodyStateArray array_msg_;
-};
+void require(bool ok, const std::string& what) {
+  if (!ok) throw std::invalid_argument(what);
+}
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  ros::init(argc, argv, "vadop_fleet_driver");
-  ros::NodeHandle nh, pnh("~");
-  Settings s;
+FleetDriverSettings FleetDriverSettings::read(const ros::NodeHandle& pnh) {
+  FleetDriverSettings s;
   pnh.param("n", s.n, s.n);
   pnh.param("rate", s.rate, s.rate);
   pnh.param("mode", s.mode, s.mode);
   pnh.param("states_topic", s.states_topic, s.states_topic);
   pnh.param("seed", s.seed, s.seed);
-  if (s.n < 1 || !(s.rate > 0.0 && s.rate <= 1000.0) || (s.mode != "odom" && s.mode != "array")) {
-    ROS_FATAL("vadop_fleet_driver: ~n must be >= 1, ~rate in (0, 1000] Hz and ~mode odom or array (got %d, %g, %s)",
-              s.n, s.rate, s.mode.c_str());
-    return 1;
+  pnh.param("area", s.area, s.area);
+  pnh.param("clock_step", s.clock_step, s.clock_step);
+  pnh.param("wait_subscribers", s.wait_subscribers, s.wait_subscribers);
+  require(s.n >= 1, "~n must be >= 1 (got " + std::to_string(s.n) + ")");
+  require(s.rate > 0.0 && s.rate <= 1000.0, "~rate must be in (0, 1000] Hz (got " + std::to_string(s.rate) + ")");
+  require(s.mode == "odom" || s.mode == "array", "~mode must be odom or array (got \"" + s.mode + "\")");
+  require(s.area > 0.0 && s.area <= 1e6, "~area must be in (0, 1e6] m^2 (got " + std::to_string(s.area) + ")");
+  require(s.clock_step >= 0.0 && s.clock_step <= 60.0,
+          "~clock_step must be in [0, 60] s (got " + std::to_string(s.clock_step) + ")");
+  require(s.wait_subscribers >= 0, "~wait_subscribers must be >= 0 (got " + std::to_string(s.wait_subscribers) + ")");
+  return s;
+}
+
+FleetDriver::FleetDriver(ros::NodeHandle& nh, const FleetDriverSettings& s)
+    : s_(s), rng_(static_cast<unsigned>(s.seed)), fleet_(static_cast<size_t>(s.n), s.area, 0.5, rng_) {
+  if (s_.mode == "odom") {
+    odom_.reserve(s_.n);
+    for (int i = 0; i < s_.n; ++i) {
+      odom_.push_back(nh.advertise<nav_msgs::Odometry>("/robot_" + std::to_string(i) + "/odom", 5));
+    }
+  } else {
+    array_ = nh.advertise<vadop::BodyStateArray>(s_.states_topic, 2);
+    names_.header.frame_id = "odom";
+    names_.states.resize(s_.n);
+    for (int i = 0; i < s_.n; ++i) names_.states[i].name = "robot_" + std::to_string(i);
   }
-  FleetDriver driver(nh, s);
-  ROS_INFO("vadop_fleet_driver: %d robots at %.1f Hz as %s", s.n, s.rate,
-           s.mode == "odom" ? "one nav_msgs/Odometry topic each" : ("one vadop/BodyStateArray on " + s.states_topic).c_str());
-  ros::Rate loop(s.rate);
+  if (s_.clock_step > 0.0) clock_ = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+}
+
+std::string FleetDriver::describe() const {
+  std::string what = std::to_string(s_.n) + " robots at " + std::to_string(s_.rate) + " Hz as " +
+                     (s_.mode == "odom" ? "one nav_msgs/Odometry topic each" : "one vadop/BodyStateArray on " + s_.states_topic);
+  if (s_.clock_step > 0.0) what += ", each state " + std::to_string(s_.clock_step) + " s later on its own /clock";
+  return what;
+}
+
+void FleetDriver::tick(double dt, const ros::Time& stamp) {
+  fleet_.step(dt, rng_);
+  if (s_.mode == "odom") {
+    for (int i = 0; i < s_.n; ++i) {
+      auto m = boost::make_shared<nav_msgs::Odometry>();
+      m->header.stamp = stamp;
+      m->header.frame_id = "odom";
+      fill(fleet_[i], m->pose.pose, m->twist.twist);
+      odom_[i].publish(m);
+    }
+  } else {
+    auto m = boost::make_shared<vadop::BodyStateArray>(names_);
+    m->header.stamp = stamp;
+    for (int i = 0; i < s_.n; ++i) fill(fleet_[i], m->states[i].pose, m->states[i].twist);
+    array_.publish(m);
+  }
+}
+
+bool FleetDriver::waitForSubscribers() {
+  const auto have = [this] {
+    uint32_t states = s_.mode == "odom" ? odom_.front().getNumSubscribers() : array_.getNumSubscribers();
+    for (const ros::Publisher& p : odom_) states = std::min(states, p.getNumSubscribers());
+    const uint32_t clock = clock_ ? clock_.getNumSubscribers() : states;
+    return std::min(states, clock);
+  };
+  const uint32_t wanted = static_cast<uint32_t>(s_.wait_subscribers);
+  ros::WallTime said = ros::WallTime::now();
+  while (running() && have() < wanted) {
+    if ((ros::WallTime::now() - said).toSec() > 5.0) {
+      ROS_INFO("vadop_fleet_driver: waiting for %u subscribers (%u so far)", wanted, have());
+      said = ros::WallTime::now();
+    }
+    ros::WallDuration(0.02).sleep();
+  }
+  return running();
+}
+
+void FleetDriver::runRealTime() {
+  ros::Rate loop(s_.rate);
   ros::WallTime window_start = ros::WallTime::now();
   int ticks = 0;
-  while (ros::ok()) {
-    driver.tick(1.0 / s.rate, ros::Time::now());
+  while (running()) {
+    tick(1.0 / s_.rate, ros::Time::now());
     ++ticks;
     const double elapsed = (ros::WallTime::now() - window_start).toSec();
     if (elapsed >= 5.0) {
-      ROS_INFO("vadop_fleet_driver: %.1f ticks/s (asked %.1f)", ticks / elapsed, s.rate);
+      ROS_INFO("vadop_fleet_driver: %.1f ticks/s (asked %.1f)", ticks / elapsed, s_.rate);
       ticks = 0;
       window_start = ros::WallTime::now();
     }
     loop.sleep();
   }
-  return 0;
 }
+
+void FleetDriver::runSimulatedClock() {
+  rosgraph_msgs::Clock clock;
+  clock.clock = ros::Time(FleetDriverSettings::kClockStart);
+  const ros::Duration step(s_.clock_step);
+  const ros::WallDuration half(0.5 / s_.rate);
+  clock_.publish(clock);
+  while (running()) {
+    tick(s_.clock_step, clock.clock);
+    half.sleep();
+    clock.clock += step;
+    clock_.publish(clock);
+    half.sleep();
+  }
+}
+
+void FleetDriver::run() {
+  if (!waitForSubscribers()) return;
+  if (s_.clock_step > 0.0) {
+    runSimulatedClock();
+  } else {
+    runRealTime();
+  }
+}
+
+}  // namespace vadop_ros

@@ -1,5 +1,5 @@
 // /diagnostics of vadop_monitor (diagnostic_updater tasks):
-//  - "cycle": cycle time (last, mean and max over the reporting window), share of the period,
+//  - "cycle": cycle time (last, mean, p95 and max over the reporting window), share of the period,
 //    elements in the world, narrow-phase candidates (and those answered by certificates, last
 //    cycle and summed over the window: one sampled cycle a second misses a rare reuse), impacts;
 //    WARN when a cycle overran its period, the last prediction recovered by leaving an element
@@ -28,11 +28,21 @@
 
 #include <diagnostic_updater/DiagnosticStatusWrapper.h>
 
+#include <vector>
+
 namespace vadop_ros {
 
-// Accumulates cycle times between two diagnostics reports.
+// Accumulates cycle times between two diagnostics reports: their count, sum, max and the times
+// themselves (for the p95), the latter bounded to the last kMaxSamples cycles of a window (a
+// window is one diagnostics period, about 1 s: 30 cycles at 30 Hz). Not thread-safe: the node
+// adds and reports under its core's mutex.
 class CycleTimeWindow {
  public:
+  static constexpr size_t kMaxSamples = 4096;
+  // The p-quantile (p in [0, 1]) of `values` as fleet_report.py and the gates' latency take it:
+  // the sorted values' element at round(p * (n - 1)); NaN when empty. O(n) (nth_element on a copy).
+  static double percentile(std::vector<double> values, double p);
+
   // Cycles longer than 1 / rate count as overruns.
   void setRate(double rate) { rate_for_overrun_ = rate; }
   void add(const CycleStats& s);
@@ -42,6 +52,8 @@ class CycleTimeWindow {
  private:
   size_t count_ = 0;
   double sum_ = 0.0, max_ = 0.0;
+  std::vector<double> times_;  // seconds: the window's cycles, the last kMaxSamples of them
+  size_t next_ = 0;            // where the next time goes once times_ is full (a ring)
   size_t overruns_ = 0;
   size_t reused_ = 0;  // candidates answered by certificates, summed over the window
   double rate_for_overrun_ = 0.0;
