@@ -10,6 +10,8 @@
 #include "vadop_ros/params.h"
 #include "vadop_ros/velocity_gate.h"
 
+#include "receiving_thread_queue.h"
+
 #include <vadop/GateStateArray.h>
 #include <vadop/ImpactArray.h>
 #include <vadop/MonitorConfig.h>
@@ -95,6 +97,7 @@ class MonitorNode : public Monitor {
     impacts_pub_ = pnh_.advertise<vadop::ImpactArray>("impacts", 10);
     markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("markers", 2);
 
+    setUpIngest(params.ingest_threads);
     const auto subscribe_start = std::chrono::steady_clock::now();
     const size_t moving = subscribeInputs();
     setUpGates();
@@ -148,7 +151,7 @@ class MonitorNode : public Monitor {
                  secondsSince(subscribe_start));
       }
       for (const auto& source : b.sources) {
-        subs_.push_back(source->subscribe({nh_, core_mutex_, core_->registry(), i, tf_source_}));
+        subs_.push_back(source->subscribe({nh_, core_mutex_, core_->registry(), i, tf_source_, ingest_queue_.get()}));
         // Bodies sharing a topic (a fleet array) share its one subscription: the first's.
         if (subs_.back()) sub_of_topic_.emplace(source->topic(), subs_.size() - 1);
       }
@@ -158,6 +161,20 @@ class MonitorNode : public Monitor {
       for (ros::Subscriber& sub : source->subscribe({nh_, core_mutex_, tf_source_})) subs_.push_back(std::move(sub));
     }
     return moving;
+  }
+
+  // The odometry callbacks' queue (~ingest_threads): 0, none (roscpp's receiving thread runs
+  // them as the messages arrive); n, a queue of their own served by n threads. Either way not
+  // the node's queue, where the cycle runs.
+  void setUpIngest(int threads) {
+    if (threads == 0) {
+      ingest_queue_ = std::make_unique<ReceivingThreadQueue>();
+      return;
+    }
+    auto queue = std::make_unique<ros::CallbackQueue>();
+    ingest_spinner_ = std::make_unique<ros::AsyncSpinner>(threads, queue.get());
+    ingest_queue_ = std::move(queue);
+    ingest_spinner_->start();
   }
 
   // A body or obstacle with nothing to monitor (its robot_description missing, unparsable, or
@@ -429,6 +446,9 @@ class MonitorNode : public Monitor {
   Tf2Source tf_source_;
   std::unique_ptr<MonitorCore> core_;
   ros::Publisher impacts_pub_, markers_pub_;
+  // Before subs_ and after core_: destroyed after the subscriptions, the spinner first.
+  std::unique_ptr<ros::CallbackQueueInterface> ingest_queue_;
+  std::unique_ptr<ros::AsyncSpinner> ingest_spinner_;
   std::vector<ros::Subscriber> subs_;
   std::unordered_map<std::string, size_t> sub_of_topic_;  // a moving body's topic: its subscription in subs_
   ros::WallTimer silent_topics_timer_;
