@@ -52,7 +52,7 @@ TEST(IngestThreads, CyclesReadWholeStatesAndLoseNone) {
                         [](const std::string&, std::string&) { return false; }, vadop_ros::makeDefaultMeshLoader());
   vadop_test::FakeTf tf;
   const size_t odo = static_cast<size_t>(registry.find("odo"));
-  constexpr int kMessages = 60000;
+  constexpr int kMessages = 200000;
   std::atomic<bool> done{false};
   uint64_t sent_invalid = 0, sent_old = 0, sent_accepted = 0;
   std::thread callback([&] {

@@ -151,7 +151,8 @@ class MonitorNode : public Monitor {
                  secondsSince(subscribe_start));
       }
       for (const auto& source : b.sources) {
-        subs_.push_back(source->subscribe({nh_, core_mutex_, core_->registry(), i, tf_source_, ingest_queue_.get()}));
+        subs_.push_back(source->subscribe({nh_, core_mutex_, core_->registry(), i, tf_source_, ingest_queue_.get(),
+                                              core_->params().ingest_udp}));
         // Bodies sharing a topic (a fleet array) share its one subscription: the first's.
         if (subs_.back()) sub_of_topic_.emplace(source->topic(), subs_.size() - 1);
       }

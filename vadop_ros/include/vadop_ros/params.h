@@ -176,6 +176,9 @@ struct MonitorParams {
   // Threads that run the odometry callbacks, [0, kMaxIngestThreads]; 0: roscpp's receiving
   // thread runs them as each message arrives (no queue, no thread woken per message).
   int ingest_threads = 0;
+  // Odometry over UDPROS (one datagram a message, no acknowledgements) where the publisher
+  // offers it (roscpp does; rospy does not: TCPROS then), else TCPROS.
+  bool ingest_udp = false;
   // The world's broad phase (vadop::parseBroadPhaseKind): "grid" (the plain swept-AABB grid,
   // default), "vadop", "sap", "vadop_sap" or "brute"; the impacts are the same, the cost
   // differs. grid is the default because, after the cull (time_slices), the velocity-aligned

@@ -122,6 +122,7 @@ class Source {
     // The queue of the callbacks that take no lock (odometry): the node's ingest queue
     // (~ingest_threads); null: nh's.
     ros::CallbackQueueInterface* ingest_queue = nullptr;
+    bool ingest_udp = false;  // odometry over UDPROS where the publisher offers it (~ingest_udp)
   };
   // Subscribes to topic(); each message runs the source's handler under `lock` (odometry: posts
   // into its slot on `ingest_queue`, without the lock), stamped with the node's clock at its

@@ -29,7 +29,9 @@ class OdometrySource : public PoseTwistSource {
         topic_, 20,
         [this, &registry = w.registry, name = &w.registry.bodies().at(w.body).name](
             const nav_msgs::OdometryConstPtr& msg) { onMessage(registry, *name, *msg, ros::Time::now()); });
-    options.transport_hints = ros::TransportHints().tcpNoDelay();
+    // UDPROS when asked for (~ingest_udp) and the publisher offers it, else TCPROS.
+    options.transport_hints =
+        w.ingest_udp ? ros::TransportHints().udp().tcpNoDelay() : ros::TransportHints().tcpNoDelay();
     options.callback_queue = w.ingest_queue;
     return w.nh.subscribe(options);
   }
