@@ -106,6 +106,7 @@ class MonitorNode : public Monitor {
     setUpReconfigure(params);
 
     timer_ = nh_.createTimer(ros::Duration(1.0 / rate_), [this](const ros::TimerEvent&) { onTimer(); });
+    reconnect_start_ = std::chrono::steady_clock::now();
     reconnect_timer_ = nh_.createWallTimer(ros::WallDuration(kReconnectSeconds),
                                            [this](const ros::WallTimerEvent&) { reconnectSilentTopics(); });
     silent_topics_timer_ = nh_.createWallTimer(
@@ -155,7 +156,9 @@ class MonitorNode : public Monitor {
       }
       for (const auto& source : b.sources) {
         subs_.push_back(source->subscribe(wiring(i)));
-        if (std::string(source->kind()) == "odometry") odometry_subs_.push_back({subs_.size() - 1, i, 0});
+        if (std::string(source->kind()) == "odometry") {
+          odometry_subs_.push_back({subs_.size() - 1, i, 0, std::chrono::steady_clock::now()});
+        }
         // Bodies sharing a topic (a fleet array) share its one subscription: the first's.
         if (subs_.back()) sub_of_topic_.emplace(source->topic(), subs_.size() - 1);
       }
@@ -185,22 +188,28 @@ class MonitorNode : public Monitor {
     return {nh_, core_mutex_, core_->registry(), body, tf_source_, ingest_queue_.get(), core_->params().ingest_udp};
   }
 
-  // Odometry subscriptions that did not connect. With thousands of topics, roscpp's negotiations
-  // (two XML-RPC connections each) and the master's publisher updates land on XML-RPC servers
-  // that listen with a backlog of 5; a connection the kernel dropped waits for TCP's SYN
-  // retransmission (1, 3, 7, 15, 31 s). Every kReconnectSeconds, a body still waiting whose
-  // odometry subscription has no publisher connected while the master lists one for its topic
-  // is subscribed again (a fresh negotiation), at most kReconnectBatch a time (each costs two
-  // calls to the master on this thread) and kMaxReconnects times a topic (a publisher of another
-  // type never connects); the timer stops when none is left.
+  // Odometry subscriptions that did not connect within kReconnectAfter. With thousands of topics,
+  // roscpp's negotiations (two XML-RPC connections each) and the master's publisher updates land on
+  // XML-RPC servers that listen with a backlog of 5; a connection the kernel dropped waits for
+  // TCP's SYN retransmission (1, 3, 7, 15, 31 s). Every kReconnectSeconds, a body still waiting
+  // whose odometry subscription has no publisher connected while the master lists one for its topic
+  // is subscribed again (a fresh negotiation), at most kReconnectBatch a time (each costs two calls
+  // to the master on this thread) and kMaxReconnects times a topic (a publisher of another type
+  // never connects); the timer stops when none is left, or kReconnectWindow seconds after start-up
+  // (a publisher that starts later is announced by the master on its own, not in a burst, and a
+  // topic nobody publishes would otherwise cost a call to the master a second).
   void reconnectSilentTopics() {
+    if (secondsSince(reconnect_start_) > kReconnectWindow) {
+      reconnect_timer_.stop();
+      return;
+    }
     std::vector<OdometrySub*> silent;
     {
       std::lock_guard<std::mutex> lock(core_mutex_);
       const auto& bodies = core_->registry().bodies();
       for (OdometrySub& o : odometry_subs_) {
-        if (o.reconnects < kMaxReconnects && bodies[o.body].status.state == BodyState::kWaiting &&
-            subs_[o.sub].getNumPublishers() == 0) {
+        if (o.reconnects < kMaxReconnects && secondsSince(o.since) >= kReconnectAfter &&
+            bodies[o.body].status.state == BodyState::kWaiting && subs_[o.sub].getNumPublishers() == 0) {
           silent.push_back(&o);
         }
       }
@@ -220,6 +229,7 @@ class MonitorNode : public Monitor {
       subs_[o->sub].shutdown();
       subs_[o->sub] = core_->registry().body(o->body).sources.front()->subscribe(wiring(o->body));
       ++o->reconnects;
+      o->since = std::chrono::steady_clock::now();
       ++again;
     }
     if (again > 0) {
@@ -507,11 +517,15 @@ class MonitorNode : public Monitor {
     size_t sub;   // index in subs_
     size_t body;
     int reconnects;
+    std::chrono::steady_clock::time_point since;  // subscribed
   };
   std::vector<OdometrySub> odometry_subs_;
   static constexpr double kReconnectSeconds = 1.0;
   static constexpr size_t kReconnectBatch = 100;
   static constexpr int kMaxReconnects = 3;
+  static constexpr double kReconnectAfter = 2.0;  // s without a publisher connected
+  static constexpr double kReconnectWindow = 60.0;
+  std::chrono::steady_clock::time_point reconnect_start_;
   std::vector<VelocityGate> gates_;
   std::vector<ros::Publisher> gate_pubs_;  // by gate: cmd_vel_out
   std::vector<LatencyWindow> gate_latency_;  // by gate
