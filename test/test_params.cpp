@@ -157,6 +157,15 @@ TEST(Params, TopLevelErrorsNameTheParameter) {
   EXPECT_EQ(errorOf("threads: -1"), "~threads: must be an integer in [0, 256] (0: one per hardware thread), got -1");
   EXPECT_NE(errorOf("threads: 1.5").find("~threads: must be an integer"), std::string::npos);
   EXPECT_EQ(parseParams(yaml("threads: 2")).threads, 2);
+  EXPECT_EQ(parseParams(yaml("{}")).ingest_threads, 0);  // on the receiving thread
+  EXPECT_EQ(errorOf("ingest_threads: 17"),
+            "~ingest_threads: must be an integer in [0, 16] (0: on the receiving thread), got 17");
+  EXPECT_EQ(errorOf("ingest_threads: -1"),
+            "~ingest_threads: must be an integer in [0, 16] (0: on the receiving thread), got -1");
+  EXPECT_EQ(parseParams(yaml("ingest_threads: 2")).ingest_threads, 2);
+  EXPECT_FALSE(parseParams(yaml("{}")).ingest_udp);
+  EXPECT_TRUE(parseParams(yaml("ingest_udp: true")).ingest_udp);
+  EXPECT_NE(errorOf("ingest_udp: 1.5").find("~ingest_udp"), std::string::npos);
   EXPECT_EQ(errorOf("time_slices: 0"), "~time_slices: must be an integer in [1, 64] (1: no cull), got 0");
   EXPECT_EQ(errorOf("time_slices: 65"), "~time_slices: must be an integer in [1, 64] (1: no cull), got 65");
   EXPECT_NE(errorOf("time_slices: 2.5").find("~time_slices: must be an integer"), std::string::npos);

@@ -7,7 +7,9 @@
     mode odom; per array and per entry in mode array; messages = n * rate * seconds, the
     driver's nominal load: its log says the rate it achieved);
   - the share of bodies fresh: "ok" in the monitor's "bodies" diagnostics summary, over ~n
-    (the last report of the window, and the lowest one);
+    (the last report of the window, and the lowest one), and the time from the monitor's
+    process start until a report first says every body is fresh (to within the diagnostics'
+    period);
   - the cycle: mean, p95 and max from the "cycle" diagnostics, whose reports each cover about a
     second of cycles: the mean of their means, the mean of their p95s and the highest p95 (when
     every report's p95 is under a bound, about 5% of all cycles at most are over it: 1 in 30 at
@@ -69,6 +71,15 @@ def node_pid(node, timeout=120.0):
     return int(pid)
 
 
+def start_time(pid):
+    """Wall time (time.time()) at which process `pid` started."""
+    with open("/proc/%d/stat" % pid) as f:
+        ticks = int(f.read().rsplit(")", 1)[1].split()[19])  # starttime: field 22 of the line
+    with open("/proc/uptime") as f:
+        uptime = float(f.read().split()[0])
+    return time.time() - (uptime - ticks / float(os.sysconf("SC_CLK_TCK")))
+
+
 def cpu_seconds(pid):
     """User + system CPU seconds of process `pid` (all its threads)."""
     with open("/proc/%d/stat" % pid) as f:
@@ -92,6 +103,7 @@ class Measure:
         self.state_delays = []
         self.fresh = []  # (ok, summary) of each "bodies" report in the window
         self.cycle_means, self.cycle_p95s, self.cycle_maxes = [], [], []
+        self.all_fresh_at, self.started_at = None, None  # wall times
         states = rospy.get_param("~states_topic", "/fleet/states") if self.mode == "array" else "/robot_0/odom"
         self.subs = [
             rospy.Subscriber(self.node + "/impacts", ImpactArray, self.on_impacts, queue_size=50),
@@ -114,6 +126,11 @@ class Measure:
             self.state_delays.append(time.time() - (secs + nsecs * 1e-9))
 
     def on_diagnostics(self, msg):
+        if self.all_fresh_at is None:
+            for st in msg.status:
+                m = re.match(r"(\d+) ok", st.message) if st.name.endswith(": bodies") else None
+                if m and int(m.group(1)) >= self.n:
+                    self.all_fresh_at = time.time()
         if not self.recording:
             return
         for st in msg.status:
@@ -131,6 +148,7 @@ class Measure:
     def run(self):
         pid = node_pid(self.pid_node)
         driver = node_pid(self.driver_node) if self.driver_node else None
+        self.started_at = start_time(pid)
         rospy.sleep(self.warmup)
         self.recording = True
         cpu0, t0 = cpu_seconds(pid), time.time()
@@ -186,6 +204,11 @@ class Measure:
         ]
         if "driver_cpu_share" in f:
             lines.insert(2, "  driver CPU (the process of %s): %.1f%% of a core" % (self.driver_node, 100 * f["driver_cpu_share"]))
+        if self.all_fresh_at is not None and self.started_at is not None:
+            lines.append("  start-up: every body fresh %.1f s after the monitor started" %
+                         (self.all_fresh_at - self.started_at))
+        else:
+            lines.append("  start-up: not every body fresh within the run")
         print("\n".join(lines))
         sys.stdout.flush()
         return "\n".join(lines)

@@ -428,26 +428,34 @@ std::string BodyRegistry::stampSkewError(const ros::Time& stamp, const ros::Time
   return vadop_ros::stampSkewError(stamp, receipt, max_stamp_skew_);
 }
 
-InputResult BodyRegistry::acceptStamp(Body& b, ros::Time stamp, const ros::Time& receipt, ros::Time& last) {
+InputResult BodyRegistry::stampDecision(ros::Time& stamp, const ros::Time& receipt, bool has_state,
+                                        const ros::Time& last, double max_skew, std::string& why) {
   if (stamp.isZero()) stamp = receipt;
   // Far from the node's clock, ahead or behind: invalid (it would blind the body, or be
   // extrapolated over hours).
-  if (const std::string why = stampSkewError(stamp, receipt); !why.empty()) {
-    rejectInput(b, why, receipt);
-    return InputResult::kInvalid;
-  }
+  why = vadop_ros::stampSkewError(stamp, receipt, max_skew);
+  if (!why.empty()) return InputResult::kInvalid;
   // Out of order / duplicate, but only while the last stamp is not ahead of this receipt by more
   // than the clock may lag the messages (a simulated /clock is published at its own rate, so a
   // message often arrives a few ms before the clock reaches its stamp): a stamp further in the
   // future blocks nothing once the clock has reached it.
-  if (b.has_state && stamp <= last && secondsBetween(last, receipt) <= kClockLag) {
+  if (has_state && stamp <= last && secondsBetween(last, receipt) <= kClockLag) return InputResult::kOutOfOrder;
+  return InputResult::kAccepted;
+}
+
+InputResult BodyRegistry::acceptStamp(Body& b, ros::Time stamp, const ros::Time& receipt, ros::Time& last) {
+  std::string why;
+  const InputResult decision = stampDecision(stamp, receipt, b.has_state, last, max_stamp_skew_, why);
+  if (decision == InputResult::kInvalid) {
+    rejectInput(b, why, receipt);
+  } else if (decision == InputResult::kOutOfOrder) {
     ++b.status.dropped_out_of_order;
     ROS_DEBUG_NAMED("vadop_monitor", "body \"%s\": message with stamp %s ignored (not newer than %s)", b.name.c_str(),
                     stampText(stamp).c_str(), stampText(last).c_str());
-    return InputResult::kOutOfOrder;
+  } else {
+    last = stamp;
   }
-  last = stamp;
-  return InputResult::kAccepted;
+  return decision;
 }
 
 void BodyRegistry::acceptMotion(Body& b, Element& e, const vadop::Motion& m,
@@ -834,7 +842,12 @@ bool BodyRegistry::frameMotion(Body& b, const ros::Time& now, double t_now, doub
   return false;
 }
 
+void BodyRegistry::collect(Body& b) {
+  for (const auto& source : b.sources) source->collect(b, *this);
+}
+
 void BodyRegistry::updateMoving(Body& b, const ros::Time& now, double t_now, double t_check_end, TransformSource& tf) {
+  collect(b);  // what the callbacks posted since the last cycle (source.h: Source::collect)
   if (!startCycle(b)) return;
   // Every source adds its latest message (the velocity source first: the body frame's motion).
   BodyInputs in;

@@ -375,6 +375,9 @@ bool MonitorCore::prepareCheck(size_t body, const ros::Time& now, TransformSourc
   gate_world_wanted_ = true;
   // Mid-prediction the cycle's world is not to be read: the gates keep the world they have.
   if (!gate_world_current_ && !predicting_) syncGateWorld();
+  // The body's latest state, also when it came after the last cycle (its callback posts it
+  // without the node's lock: Source::collect).
+  if (body < registry_.bodies().size()) registry_.collect(body);
   if (!commandCheckable(body, now, state_timeout, out)) return false;
   const Body& b = registry_.bodies()[body];
   if (!registry_.updateBody(body, now, tf)) {

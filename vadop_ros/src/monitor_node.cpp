@@ -10,6 +10,8 @@
 #include "vadop_ros/params.h"
 #include "vadop_ros/velocity_gate.h"
 
+#include "receiving_thread_queue.h"
+
 #include <vadop/GateStateArray.h>
 #include <vadop/ImpactArray.h>
 #include <vadop/MonitorConfig.h>
@@ -36,6 +38,7 @@
 #include <utility>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 namespace vadop_ros {
@@ -95,6 +98,7 @@ class MonitorNode : public Monitor {
     impacts_pub_ = pnh_.advertise<vadop::ImpactArray>("impacts", 10);
     markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("markers", 2);
 
+    setUpIngest(params.ingest_threads);
     const auto subscribe_start = std::chrono::steady_clock::now();
     const size_t moving = subscribeInputs();
     setUpGates();
@@ -102,6 +106,9 @@ class MonitorNode : public Monitor {
     setUpReconfigure(params);
 
     timer_ = nh_.createTimer(ros::Duration(1.0 / rate_), [this](const ros::TimerEvent&) { onTimer(); });
+    reconnect_start_ = std::chrono::steady_clock::now();
+    reconnect_timer_ = nh_.createWallTimer(ros::WallDuration(kReconnectSeconds),
+                                           [this](const ros::WallTimerEvent&) { reconnectSilentTopics(); });
     silent_topics_timer_ = nh_.createWallTimer(
         ros::WallDuration(kFirstMessageWarnSeconds), [this](const ros::WallTimerEvent&) { warnSilentTopics(); },
         /*oneshot=*/true);
@@ -148,7 +155,10 @@ class MonitorNode : public Monitor {
                  secondsSince(subscribe_start));
       }
       for (const auto& source : b.sources) {
-        subs_.push_back(source->subscribe({nh_, core_mutex_, core_->registry(), i, tf_source_}));
+        subs_.push_back(source->subscribe(wiring(i)));
+        if (std::string(source->kind()) == "odometry") {
+          odometry_subs_.push_back({subs_.size() - 1, i, 0, std::chrono::steady_clock::now()});
+        }
         // Bodies sharing a topic (a fleet array) share its one subscription: the first's.
         if (subs_.back()) sub_of_topic_.emplace(source->topic(), subs_.size() - 1);
       }
@@ -158,6 +168,73 @@ class MonitorNode : public Monitor {
       for (ros::Subscriber& sub : source->subscribe({nh_, core_mutex_, tf_source_})) subs_.push_back(std::move(sub));
     }
     return moving;
+  }
+
+  // The odometry callbacks' queue (~ingest_threads): 0, none (roscpp's receiving thread runs
+  // them as the messages arrive); n, a queue of their own served by n threads. Either way not
+  // the node's queue, where the cycle runs.
+  void setUpIngest(int threads) {
+    if (threads == 0) {
+      ingest_queue_ = std::make_unique<ReceivingThreadQueue>();
+      return;
+    }
+    auto queue = std::make_unique<ros::CallbackQueue>();
+    ingest_spinner_ = std::make_unique<ros::AsyncSpinner>(threads, queue.get());
+    ingest_queue_ = std::move(queue);
+    ingest_spinner_->start();
+  }
+
+  Source::Wiring wiring(size_t body) {
+    return {nh_, core_mutex_, core_->registry(), body, tf_source_, ingest_queue_.get(), core_->params().ingest_udp};
+  }
+
+  // Odometry subscriptions that did not connect within kReconnectAfter. With thousands of topics,
+  // roscpp's negotiations (two XML-RPC connections each) and the master's publisher updates land on
+  // XML-RPC servers that listen with a backlog of 5; a connection the kernel dropped waits for
+  // TCP's SYN retransmission (1, 3, 7, 15, 31 s). Every kReconnectSeconds, a body still waiting
+  // whose odometry subscription has no publisher connected while the master lists one for its topic
+  // is subscribed again (a fresh negotiation), at most kReconnectBatch a time (each costs two calls
+  // to the master on this thread) and kMaxReconnects times a topic (a publisher of another type
+  // never connects); the timer stops when none is left, or kReconnectWindow seconds after start-up
+  // (a publisher that starts later is announced by the master on its own, not in a burst, and a
+  // topic nobody publishes would otherwise cost a call to the master a second).
+  void reconnectSilentTopics() {
+    if (secondsSince(reconnect_start_) > kReconnectWindow) {
+      reconnect_timer_.stop();
+      return;
+    }
+    std::vector<OdometrySub*> silent;
+    {
+      std::lock_guard<std::mutex> lock(core_mutex_);
+      const auto& bodies = core_->registry().bodies();
+      for (OdometrySub& o : odometry_subs_) {
+        if (o.reconnects < kMaxReconnects && secondsSince(o.since) >= kReconnectAfter &&
+            bodies[o.body].status.state == BodyState::kWaiting && subs_[o.sub].getNumPublishers() == 0) {
+          silent.push_back(&o);
+        }
+      }
+    }
+    if (silent.empty()) {
+      reconnect_timer_.stop();
+      return;
+    }
+    ros::master::V_TopicInfo published;
+    if (!ros::master::getTopics(published)) return;
+    std::unordered_set<std::string> names;
+    for (const ros::master::TopicInfo& t : published) names.insert(t.name);
+    size_t again = 0;
+    for (OdometrySub* o : silent) {
+      if (again == kReconnectBatch) break;
+      if (names.count(subs_[o->sub].getTopic()) == 0) continue;  // nobody publishes it: nothing to connect to
+      subs_[o->sub].shutdown();
+      subs_[o->sub] = core_->registry().body(o->body).sources.front()->subscribe(wiring(o->body));
+      ++o->reconnects;
+      o->since = std::chrono::steady_clock::now();
+      ++again;
+    }
+    if (again > 0) {
+      ROS_INFO("vadop_monitor: subscribed again to %zu odometry topic(s) whose publisher had not connected", again);
+    }
   }
 
   // A body or obstacle with nothing to monitor (its robot_description missing, unparsable, or
@@ -429,9 +506,26 @@ class MonitorNode : public Monitor {
   Tf2Source tf_source_;
   std::unique_ptr<MonitorCore> core_;
   ros::Publisher impacts_pub_, markers_pub_;
+  // Before subs_ and after core_: destroyed after the subscriptions, the spinner first.
+  std::unique_ptr<ros::CallbackQueueInterface> ingest_queue_;
+  std::unique_ptr<ros::AsyncSpinner> ingest_spinner_;
   std::vector<ros::Subscriber> subs_;
   std::unordered_map<std::string, size_t> sub_of_topic_;  // a moving body's topic: its subscription in subs_
   ros::WallTimer silent_topics_timer_;
+  ros::WallTimer reconnect_timer_;
+  struct OdometrySub {
+    size_t sub;   // index in subs_
+    size_t body;
+    int reconnects;
+    std::chrono::steady_clock::time_point since;  // subscribed
+  };
+  std::vector<OdometrySub> odometry_subs_;
+  static constexpr double kReconnectSeconds = 1.0;
+  static constexpr size_t kReconnectBatch = 100;
+  static constexpr int kMaxReconnects = 3;
+  static constexpr double kReconnectAfter = 2.0;  // s without a publisher connected
+  static constexpr double kReconnectWindow = 60.0;
+  std::chrono::steady_clock::time_point reconnect_start_;
   std::vector<VelocityGate> gates_;
   std::vector<ros::Publisher> gate_pubs_;  // by gate: cmd_vel_out
   std::vector<LatencyWindow> gate_latency_;  // by gate

@@ -457,7 +457,7 @@ void parseObstacles(const XmlRpcValue& list, MonitorParams& out, std::set<std::s
 // The node's own keys and those of the body-set kinds (bodiesSourceKinds(): "tracks").
 std::set<std::string> makeTopLevelKeys() {
   std::set<std::string> keys = {
-      "fixed_frame", "rate", "horizon", "padding", "stale_timeout", "max_stamp_skew", "axes", "phi_deg", "threads", "broad_phase", "time_slices",
+      "fixed_frame", "rate", "horizon", "padding", "stale_timeout", "max_stamp_skew", "axes", "phi_deg", "threads", "ingest_threads", "ingest_udp", "broad_phase", "time_slices",
       "coherence_clearance", "coherence_lookahead",
       "self_collision", "ignore_pairs", "bodies", "static_obstacles", "log_impacts",
       "publish_markers", "region", "region_margin",
@@ -528,6 +528,10 @@ void checkPredictorParams(const MonitorParams& p) {
     fail("~threads", "must be an integer in [0, " + std::to_string(vadop::kMaxThreads) +
                          "] (0: one per hardware thread), got " + std::to_string(p.threads));
   }
+  if (p.ingest_threads < 0 || p.ingest_threads > kMaxIngestThreads) {
+    fail("~ingest_threads", "must be an integer in [0, " + std::to_string(kMaxIngestThreads) +
+                                "] (0: on the receiving thread), got " + std::to_string(p.ingest_threads));
+  }
   if (!(p.coherence_clearance >= 0.0 && p.coherence_clearance <= 10.0)) {
     fail("~coherence_clearance", "must be in [0, 10], got " + num(p.coherence_clearance));
   }
@@ -591,6 +595,8 @@ MonitorParams parseParams(const XmlRpcValue& root) {
   if (const XmlRpcValue* v = member(root, "axes")) p.axes = toInt(*v, "~axes");
   if (const XmlRpcValue* v = member(root, "phi_deg")) p.phi_deg = toDouble(*v, "~phi_deg");
   if (const XmlRpcValue* v = member(root, "threads")) p.threads = toInt(*v, "~threads");
+  if (const XmlRpcValue* v = member(root, "ingest_threads")) p.ingest_threads = toInt(*v, "~ingest_threads");
+  if (const XmlRpcValue* v = member(root, "ingest_udp")) p.ingest_udp = toBool(*v, "~ingest_udp");
   if (const XmlRpcValue* v = member(root, "broad_phase")) p.broad_phase = toString(*v, "~broad_phase");
   if (const XmlRpcValue* v = member(root, "time_slices")) p.time_slices = toInt(*v, "~time_slices");
   if (const XmlRpcValue* v = member(root, "coherence_clearance")) {

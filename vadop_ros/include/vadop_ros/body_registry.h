@@ -300,6 +300,10 @@ class BodyRegistry {
   // at which it arrived (it decides staleness; it replaces a zero stamp). The stamp policy is
   // in the header comment: beyond max_stamp_skew from `receipt` -> kInvalid.
   InputResult onOdometry(size_t body, const nav_msgs::Odometry& msg, const ros::Time& receipt);
+  // What the node's odometry callback does: the message checked and posted into the body's slot,
+  // without collecting it (the next update() or updateBody() does). Any thread, one at a time
+  // per body, concurrently with everything else here (the only entry point that may be).
+  InputResult postOdometry(size_t body, const nav_msgs::Odometry& msg, const ros::Time& receipt);
   InputResult onTwist(size_t body, const geometry_msgs::TwistStamped& msg, const ros::Time& receipt);
   // A fleet's states on the states_topic `topic`: each entry goes to the body of that topic it
   // names, as an odometry message would (its pose in header.frame_id at header.stamp, its twist
@@ -394,6 +398,15 @@ class BodyRegistry {
   // max_stamp_skew -> kInvalid (dropped); not newer than `last` while `last` is not ahead of the
   // receipt by more than kClockLag -> kOutOfOrder (counted); else kAccepted and `last` = stamp.
   InputResult acceptStamp(Body& b, ros::Time stamp, const ros::Time& receipt, ros::Time& last);
+  // The same policy without a body (any thread): `stamp` (zero: set to `receipt`) against the
+  // last accepted stamp `last` (meaningful when `has_state`); kInvalid with `why` set for a
+  // stamp beyond `max_skew`. Counts and warnings are the caller's.
+  static InputResult stampDecision(ros::Time& stamp, const ros::Time& receipt, bool has_state, const ros::Time& last,
+                                   double max_skew, std::string& why);
+  // What the body's callbacks posted since (Source::collect): its latest state, counts and
+  // drops. update() and updateBody() do it; so do the message entry points above, for callers
+  // that feed the registry directly (tests, the bench). Under the node's lock.
+  void collect(size_t body) { collect(bodies_.at(body)); }
   // "" when `stamp` is within max_stamp_skew of `receipt`, else why not ("stamp ... ahead of ...").
   std::string stampSkewError(const ros::Time& stamp, const ros::Time& receipt) const;
   // tf.lookup that never throws (tf2 itself computes ros::Durations from arbitrary stamps).
@@ -424,6 +437,7 @@ class BodyRegistry {
   void checkUniqueIds() const;
   // A dropped message (count_message) or a left-out element: status, throttled warning.
   void rejectInput(Body& b, const std::string& why, const ros::Time& receipt, bool count_message = true);
+  void collect(Body& b);
   void resolveReference(Body& b, const std::string& body_frame);
   void updateStatic(Body& b, const ros::Time& now, double t_now, double t_check_end);
   void updateMoving(Body& b, const ros::Time& now, double t_now, double t_check_end, TransformSource& tf);

@@ -5,7 +5,8 @@
 // topic and behaviour; they differ only in whose callback queue and threads serve it and how
 // a start-up error ends (the node exits, the nodelet stays loaded and idle).
 // It does not spin: its callbacks run on the queue of the node handles it is given (the gates
-// on a queue and thread of their own).
+// on a queue and thread of their own; the odometry callbacks on roscpp's receiving thread, or
+// on a queue of their own with ~ingest_threads threads).
 #pragma once
 
 #include <ros/node_handle.h>

@@ -157,6 +157,8 @@ constexpr double kMaxRate = 1000.0;
 // bodies 5.5 s, 20,000 about 40 s, 50,000 188 s; 20,000 keeps it within about a minute.
 constexpr int kMaxBodies = 20000;
 
+constexpr int kMaxIngestThreads = 16;
+
 struct MonitorParams {
   std::string fixed_frame = "odom";  // a tf2 frame id; a leading '/' is removed
   double rate = 30.0;           // Hz, [kMinRate, kMaxRate]
@@ -171,6 +173,12 @@ struct MonitorParams {
   // Threads of the narrow phase each cycle, [0, vadop::kMaxThreads]; 0: one per hardware thread.
   // The impacts are the same for every count.
   int threads = 0;
+  // Threads that run the odometry callbacks, [0, kMaxIngestThreads]; 0: roscpp's receiving
+  // thread runs them as each message arrives (no queue, no thread woken per message).
+  int ingest_threads = 0;
+  // Odometry over UDPROS (one datagram a message, no acknowledgements) where the publisher
+  // offers it (roscpp does; rospy does not: TCPROS then), else TCPROS.
+  bool ingest_udp = false;
   // The world's broad phase (vadop::parseBroadPhaseKind): "grid" (the plain swept-AABB grid,
   // default), "vadop", "sap", "vadop_sap" or "brute"; the impacts are the same, the cost
   // differs. grid is the default because, after the cull (time_slices), the velocity-aligned

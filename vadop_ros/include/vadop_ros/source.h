@@ -5,7 +5,8 @@
 // sourceKinds() (the registration table: the only place that lists the kinds).
 //
 // A source does: subscribe to its topic (subscribe), check and keep a message (its own typed
-// handler, which the subscription calls under the node's lock), forget it (reset), hand its
+// handler, which the subscription calls under the node's lock, or, for odometry, posts into the
+// body's slot without it: collect), forget it (reset), hand its
 // contribution to the body's motion at a cycle (contribute: a pointer into what it keeps, never
 // a copy, so that a cycle over 10,000 bodies allocates nothing), and report its counts for the
 // diagnostics (describe, counts).
@@ -23,6 +24,7 @@
 #include "vadop_ros/params.h"
 
 #include <Eigen/Geometry>
+#include <ros/callback_queue_interface.h>
 #include <ros/node_handle.h>
 #include <xmlrpcpp/XmlRpcValue.h>
 #include <ros/time.h>
@@ -117,15 +119,24 @@ class Source {
     BodyRegistry& registry;
     size_t body;
     TransformSource& tf;
+    // The queue of the callbacks that take no lock (odometry): the node's ingest queue
+    // (~ingest_threads); null: nh's.
+    ros::CallbackQueueInterface* ingest_queue = nullptr;
+    bool ingest_udp = false;  // odometry over UDPROS where the publisher offers it (~ingest_udp)
   };
-  // Subscribes to topic(); each message runs the source's handler under `lock`, stamped with
-  // the node's clock at its receipt.
+  // Subscribes to topic(); each message runs the source's handler under `lock` (odometry: posts
+  // into its slot on `ingest_queue`, without the lock), stamped with the node's clock at its
+  // receipt.
   virtual ros::Subscriber subscribe(const Wiring& w) = 0;
 
   // Adds what the source keeps to the body's inputs at `now`. False: the body is skipped this
   // cycle (its frame cannot be found; the source said why through BodyRegistry::warnTf).
   virtual bool contribute(Body& b, BodyRegistry& registry, const ros::Time& now, TransformSource& tf,
                           BodyInputs& in) = 0;
+  // Takes what its callback posted since the last call into what contribute reads (the
+  // sources whose callbacks run without the node's lock: odometry, body states), with its
+  // counts and warnings; the node's lock held. Nothing for the others.
+  virtual void collect(Body& /*b*/, BodyRegistry& /*registry*/) {}
   // Forgets every message (time jumped back); keeps the counts.
   virtual void reset() = 0;
   // The velocity state it keeps (odometry, twist), else null.

@@ -60,17 +60,19 @@ class BodyStatesSource : public PoseTwistSource {
         ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
   }
 
-  // Entry `k` of an array on topic(), in `frame` at `stamp`, naming this source's body `b`.
+  // Entry `k` of an array on topic(), in `frame` at `stamp`, naming this source's body `b`:
+  // posted into its slot (under the node's lock here) and collected at once.
   InputResult onEntry(BodyRegistry& registry, Body& b, const ros::Time& stamp, std::string_view frame,
                       const vadop::BodyState& e, size_t k, const ros::Time& receipt) {
     static constexpr PoseTwistFields kFields{"pose.position", "pose.orientation", "twist.linear", "twist.angular"};
     std::string why;
-    if (!checkPoseTwist(e.pose, e.twist, kFields, why)) {
-      return dropInvalid(registry, b, "entry \"" + e.name + "\" (states[" + std::to_string(k) + "] of " + topic_ +
-                                          "): " + why,
-                         receipt);
-    }
-    return accept(registry, b, stamp, frame, b.params.frame, e.pose, e.twist, receipt);
+    const InputResult result =
+        checkPoseTwist(e.pose, e.twist, kFields, why)
+            ? post(registry, b.name, stamp, frame, b.params.frame, e.pose, e.twist, receipt)
+            : postInvalid("entry \"" + e.name + "\" (states[" + std::to_string(k) + "] of " + topic_ + "): " + why,
+                          receipt);
+    collect(b, registry);
+    return result;
   }
 
  private:

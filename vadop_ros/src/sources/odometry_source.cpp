@@ -10,6 +10,7 @@
 #include <nav_msgs/Odometry.h>
 
 #include <stdexcept>
+#include <utility>
 
 namespace vadop_ros {
 namespace {
@@ -20,23 +21,30 @@ class OdometrySource : public PoseTwistSource {
   const char* kind() const override { return "odometry"; }
   const std::string& topic() const override { return topic_; }
 
+  // The callback takes no lock but its slot's (pose_twist_source.h): it runs on the node's
+  // ingest queue, which may be the transport's own thread.
   ros::Subscriber subscribe(const Wiring& w) override {
-    return w.nh.subscribe<nav_msgs::Odometry>(
+    ros::SubscribeOptions options;
+    options.init<nav_msgs::Odometry>(
         topic_, 20,
-        [this, &lock = w.lock, &registry = w.registry, body = w.body](const nav_msgs::OdometryConstPtr& msg) {
-          std::lock_guard<std::mutex> guard(lock);
-          onMessage(registry, registry.body(body), *msg, ros::Time::now());
-        },
-        ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
+        [this, &registry = w.registry, name = &w.registry.bodies().at(w.body).name](
+            const nav_msgs::OdometryConstPtr& msg) { onMessage(registry, *name, *msg, ros::Time::now()); });
+    // UDPROS when asked for (~ingest_udp) and the publisher offers it, else TCPROS.
+    options.transport_hints =
+        w.ingest_udp ? ros::TransportHints().udp().tcpNoDelay() : ros::TransportHints().tcpNoDelay();
+    options.callback_queue = w.ingest_queue;
+    return w.nh.subscribe(options);
   }
 
-  InputResult onMessage(BodyRegistry& registry, Body& b, const nav_msgs::Odometry& msg, const ros::Time& receipt) {
+  // Posts the message into the body's slot (any thread); the cycle collects it.
+  InputResult onMessage(const BodyRegistry& registry, const std::string& body, const nav_msgs::Odometry& msg,
+                        const ros::Time& receipt) {
     static constexpr PoseTwistFields kFields{"pose.pose.position", "pose.pose.orientation", "twist.twist.linear",
                                              "twist.twist.angular"};
     std::string why;
-    if (!checkPoseTwist(msg.pose.pose, msg.twist.twist, kFields, why)) return dropInvalid(registry, b, why, receipt);
-    return accept(registry, b, msg.header.stamp, withoutSlash(msg.header.frame_id), withoutSlash(msg.child_frame_id),
-                  msg.pose.pose, msg.twist.twist, receipt);
+    if (!checkPoseTwist(msg.pose.pose, msg.twist.twist, kFields, why)) return postInvalid(std::move(why), receipt);
+    return post(registry, body, msg.header.stamp, withoutSlash(msg.header.frame_id), withoutSlash(msg.child_frame_id),
+                msg.pose.pose, msg.twist.twist, receipt);
   }
 
  private:
@@ -75,7 +83,13 @@ SourceKind odometrySourceKind() {
 }
 
 InputResult BodyRegistry::onOdometry(size_t bi, const nav_msgs::Odometry& msg, const ros::Time& receipt) {
-  return sourceOf<OdometrySource>(bi, "odom_topic").onMessage(*this, bodies_[bi], msg, receipt);
+  const InputResult result = postOdometry(bi, msg, receipt);
+  collect(bi);
+  return result;
+}
+
+InputResult BodyRegistry::postOdometry(size_t bi, const nav_msgs::Odometry& msg, const ros::Time& receipt) {
+  return sourceOf<OdometrySource>(bi, "odom_topic").onMessage(*this, bodies_[bi].name, msg, receipt);
 }
 
 }  // namespace vadop_ros

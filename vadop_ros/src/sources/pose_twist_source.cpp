@@ -12,41 +12,102 @@ bool PoseTwistSource::checkPoseTwist(const geometry_msgs::Pose& p, const geometr
          checkVector(t.angular, vadop::kMaxAngularSpeed, "rad/s", fields.angular, why);
 }
 
-InputResult PoseTwistSource::dropInvalid(BodyRegistry& registry, Body& b, const std::string& why,
-                                         const ros::Time& receipt) {
-  registry.dropMessage(b, why, receipt);
-  ++counts_.dropped;
+InputResult PoseTwistSource::postInvalid(std::string why, const ros::Time& receipt) {
+  {
+    std::lock_guard<std::mutex> guard(slot_.mutex);
+    ++slot_.invalid;
+    slot_.last_invalid.swap(why);
+    slot_.last_invalid_receipt = receipt;
+  }
+  slot_.pending.store(true, std::memory_order_release);
   return InputResult::kInvalid;
 }
 
-InputResult PoseTwistSource::accept(BodyRegistry& registry, Body& b, const ros::Time& stamp,
-                                    std::string_view pose_frame, std::string_view child_frame,
-                                    const geometry_msgs::Pose& p, const geometry_msgs::Twist& t,
-                                    const ros::Time& receipt) {
-  const InputResult stamp_result = registry.acceptStamp(b, stamp, receipt, state_.stamp);
-  if (stamp_result != InputResult::kAccepted) {
-    counts_.dropped += stamp_result == InputResult::kInvalid ? 1 : 0;
-    return stamp_result;
+InputResult PoseTwistSource::post(const BodyRegistry& registry, const std::string& body, const ros::Time& stamp,
+                                  std::string_view pose_frame, std::string_view child_frame,
+                                  const geometry_msgs::Pose& p, const geometry_msgs::Twist& t,
+                                  const ros::Time& receipt) {
+  std::string why;
+  ros::Time used = stamp;
+  {
+    std::lock_guard<std::mutex> guard(slot_.mutex);
+    const InputResult decision = BodyRegistry::stampDecision(used, receipt, slot_.has_state, slot_.last_stamp,
+                                                             registry.maxStampSkew(), why);
+    if (decision == InputResult::kOutOfOrder) {
+      ++slot_.out_of_order;
+      ROS_DEBUG_NAMED("vadop_monitor", "body \"%s\": message with stamp %u.%09u ignored (not newer than %u.%09u)",
+                      body.c_str(), used.sec, used.nsec, slot_.last_stamp.sec, slot_.last_stamp.nsec);
+    } else if (decision == InputResult::kAccepted) {
+      slot_.has_state = true;
+      slot_.last_stamp = used;
+      VelocityState& s = slot_.state;
+      s.stamp = used;
+      // Assigned in place: the slot's strings keep their storage from message to message.
+      if (pose_frame.empty()) {
+        s.source_frame = registry.fixedFrame();
+      } else {
+        s.source_frame.assign(pose_frame);
+      }
+      s.child_frame.assign(child_frame);
+      s.pose = Eigen::Isometry3d::Identity();
+      s.pose.translation() = Eigen::Vector3d(p.position.x, p.position.y, p.position.z);
+      s.pose.linear() = Eigen::Quaterniond(p.orientation.w, p.orientation.x, p.orientation.y, p.orientation.z)
+                            .normalized()
+                            .toRotationMatrix();
+      s.v = Eigen::Vector3d(t.linear.x, t.linear.y, t.linear.z);
+      s.w = Eigen::Vector3d(t.angular.x, t.angular.y, t.angular.z);
+      slot_.last_receipt = receipt;
+      ++slot_.accepted;
+    }
+    if (decision != InputResult::kInvalid) {
+      slot_.pending.store(true, std::memory_order_release);
+      return decision;
+    }
   }
-  b.has_state = true;
-  // Assigned in place: the body's strings keep their storage from message to message.
-  if (pose_frame.empty()) {
-    state_.source_frame = registry.fixedFrame();
-  } else {
-    state_.source_frame.assign(pose_frame);
+  return postInvalid(std::move(why), receipt);
+}
+
+void PoseTwistSource::collect(Body& b, BodyRegistry& registry) {
+  if (!slot_.pending.load(std::memory_order_acquire)) return;
+  uint64_t accepted, invalid, out_of_order;
+  std::string why;
+  ros::Time invalid_receipt;
+  {
+    std::lock_guard<std::mutex> guard(slot_.mutex);
+    slot_.pending.store(false, std::memory_order_relaxed);
+    accepted = slot_.accepted;
+    invalid = slot_.invalid;
+    out_of_order = slot_.out_of_order;
+    slot_.accepted = slot_.invalid = slot_.out_of_order = 0;
+    // Swapped, not copied: the slot's next message overwrites every field of what it gets back.
+    if (accepted > 0) {
+      std::swap(state_, slot_.state);
+      b.status.last_receipt = slot_.last_receipt;
+    }
+    if (invalid > 0) {
+      why.swap(slot_.last_invalid);
+      invalid_receipt = slot_.last_invalid_receipt;
+    }
   }
-  state_.child_frame.assign(child_frame);
-  state_.pose = Eigen::Isometry3d::Identity();
-  state_.pose.translation() = Eigen::Vector3d(p.position.x, p.position.y, p.position.z);
-  state_.pose.linear() = Eigen::Quaterniond(p.orientation.w, p.orientation.x, p.orientation.y, p.orientation.z)
-                             .normalized()
-                             .toRotationMatrix();
-  state_.v = Eigen::Vector3d(t.linear.x, t.linear.y, t.linear.z);
-  state_.w = Eigen::Vector3d(t.angular.x, t.angular.y, t.angular.z);
-  b.status.last_receipt = receipt;
-  ++b.status.accepted;
-  ++counts_.accepted;
-  return InputResult::kAccepted;
+  if (accepted > 0) b.has_state = true;
+  b.status.accepted += accepted;
+  counts_.accepted += accepted;
+  b.status.dropped_out_of_order += out_of_order;
+  if (invalid > 0) {
+    // Every drop counted; the last one's reason kept and warned about (throttled per body).
+    b.status.dropped_invalid += invalid - 1;
+    registry.dropMessage(b, why, invalid_receipt);
+    counts_.dropped += invalid;
+  }
+}
+
+void PoseTwistSource::reset() {
+  std::lock_guard<std::mutex> guard(slot_.mutex);
+  slot_.has_state = false;
+  slot_.last_stamp = ros::Time();
+  slot_.accepted = slot_.invalid = slot_.out_of_order = 0;
+  slot_.pending.store(false, std::memory_order_relaxed);
+  state_.stamp = ros::Time();
 }
 
 bool PoseTwistSource::contribute(Body& b, BodyRegistry& registry, const ros::Time& now, TransformSource& tf,
