@@ -163,6 +163,7 @@ void WorldEngine::add(const std::string& id, const Shape& shape, const Motion& m
   }
   by_name_->insert(id, bid);
   ++next_key_;
+  if (records_[bid].prepared->data().kind == detail::CoreKind::kMesh) ++meshes_;
 }
 
 void WorldEngine::remove(const std::string& id) {
@@ -171,6 +172,7 @@ void WorldEngine::remove(const std::string& id) {
   broad_phase_->remove(bid);  // strong guarantee; nothing below throws
   by_name_->erase(id, NameOf{records_});
   if (records_[bid].chain) path_bodies_.erase(std::lower_bound(path_bodies_.begin(), path_bodies_.end(), bid));
+  if (records_[bid].prepared->data().kind == detail::CoreKind::kMesh) --meshes_;
   records_[bid] = Record{};
 }
 
@@ -773,13 +775,14 @@ void WorldEngine::cullBySlices(std::vector<Candidate>& tests, double t0, double 
   // A pair's test is a few box comparisons: many to a thread, many at a time.
   constexpr size_t kPairsPerThread = 4096;
   constexpr size_t kPairChunk = 1024;
+  const bool meshes = meshes_ > 0;
   detail::parallelFor(threads_, tests.size(), kPairsPerThread, kPairChunk, [&](size_t i) {
     Candidate& pair = tests[i];
     const double* a = &slice_boxes_[slice_of_[pair.a].index * stride];
     const double* b = &slice_boxes_[slice_of_[pair.b].index * stride];
     pair.parts = 0;
     for (int k = 0; k < slices; ++k) pair.parts |= uint64_t{boxesOverlap(a + 6 * k, b + 6 * k)} << k;
-    if (pair.parts == 0) return;
+    if (pair.parts == 0 || !meshes) return;
     if (const detail::PreparedShapeData* tree = restingTree(pair.a)) cullByTree(pair.a, *tree, b, pair.parts);
     if (pair.parts == 0) return;
     if (const detail::PreparedShapeData* tree = restingTree(pair.b)) cullByTree(pair.b, *tree, a, pair.parts);

@@ -258,6 +258,7 @@ class WorldEngine {
   std::unique_ptr<detail::NameIndex> by_name_;  // names live in records_
   std::vector<BodyId> path_bodies_;  // sorted
   uint64_t next_key_ = 0;
+  size_t meshes_ = 0;  // bodies whose shape is a mesh or point set: without any, no tree cull
   uint64_t serial_ = 0;  // this World's, unique in the process: the Handle's `world`
   size_t last_candidates_ = 0;
   size_t last_reused_ = 0;
