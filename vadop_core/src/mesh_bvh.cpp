@@ -8,64 +8,15 @@
 namespace vadop {
 namespace detail {
 
-void buildBvh(PreparedShapeData& d) {
-  const auto& P = d.shape.points;
-  const auto& T = d.shape.triangles;
+namespace {
+
+// The bounds bottom up: a leaf's box, ball (about the box's centre) and lever arm from its
+// padded triangle exactly; a node's box the union of its children's, its ball the smallest
+// about its box's centre that holds theirs (a node's ball then needs no pass over its
+// triangles: the tree of a sensor's 10,000 points is rebuilt for every cloud). Every node was
+// created before its children: one pass in reverse order meets the children first.
+void fitBounds(PreparedShapeData& d) {
   const double m = d.shape.margin;
-  const int n = static_cast<int>(T.size());
-  d.tris.resize(n);
-  std::vector<Eigen::Vector3d> centroid(n);
-  for (int i = 0; i < n; ++i) {
-    double lever = 0.0;
-    for (int k = 0; k < 3; ++k) {
-      d.tris[i].v[k] = P[T[i][k]];
-      lever = std::max(lever, d.tris[i].v[k].norm());
-    }
-    d.tris[i].lever = lever + m;
-    centroid[i] = (d.tris[i].v[0] + d.tris[i].v[1] + d.tris[i].v[2]) / 3.0;
-  }
-  std::vector<int> idx(n);
-  std::iota(idx.begin(), idx.end(), 0);
-  d.nodes.clear();
-  d.nodes.reserve(2 * n);
-  // The structure top down (median splits of the centroids along their widest axis): each node
-  // is created before its children, so that one pass in reverse order below sees the children
-  // of every node first.
-  struct Job {
-    int begin, end, node;
-  };
-  d.nodes.emplace_back();
-  d.root = 0;
-  std::vector<Job> jobs{{0, n, d.root}};
-  while (!jobs.empty()) {
-    const Job j = jobs.back();
-    jobs.pop_back();
-    if (j.end - j.begin == 1) {
-      d.nodes[j.node].tri = idx[j.begin];
-      continue;
-    }
-    Eigen::Vector3d lo = Eigen::Vector3d::Constant(kInf), hi = Eigen::Vector3d::Constant(-kInf);
-    for (int i = j.begin; i < j.end; ++i) {
-      lo = lo.cwiseMin(centroid[idx[i]]);
-      hi = hi.cwiseMax(centroid[idx[i]]);
-    }
-    int axis = 0;
-    (hi - lo).maxCoeff(&axis);
-    const int mid = j.begin + (j.end - j.begin) / 2;
-    std::nth_element(idx.begin() + j.begin, idx.begin() + mid, idx.begin() + j.end,
-                     [&](int x, int y) { return centroid[x][axis] < centroid[y][axis]; });
-    const int left = static_cast<int>(d.nodes.size());
-    d.nodes.emplace_back();
-    d.nodes.emplace_back();
-    d.nodes[j.node].left = left;
-    d.nodes[j.node].right = left + 1;
-    jobs.push_back({j.begin, mid, left});
-    jobs.push_back({mid, j.end, left + 1});
-  }
-  // The bounds bottom up: a leaf's box, ball (about the box's centre) and lever arm from its
-  // padded triangle exactly; a node's box the union of its children's, its ball the smallest
-  // about its box's centre that holds theirs (a node's ball no longer needs a pass over its
-  // triangles: the tree of a sensor's 10,000 points is rebuilt for every cloud).
   d.node_boxes.assign(d.nodes.size(), {});
   for (int i = static_cast<int>(d.nodes.size()) - 1; i >= 0; --i) {
     BvhNode& node = d.nodes[i];
@@ -98,6 +49,64 @@ void buildBvh(PreparedShapeData& d) {
     const Eigen::Vector3d half = 0.5 * (hi - lo);
     box = {node.centre.x(), node.centre.y(), node.centre.z(), half.x(), half.y(), half.z()};
   }
+}
+
+}  // namespace
+
+void buildBvh(PreparedShapeData& d) {
+  const auto& P = d.shape.points;
+  const auto& T = d.shape.triangles;
+  const double m = d.shape.margin;
+  const int n = static_cast<int>(T.size());
+  d.tris.resize(n);
+  std::vector<Eigen::Vector3d> centroid(n);
+  for (int i = 0; i < n; ++i) {
+    double lever = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      d.tris[i].v[k] = P[T[i][k]];
+      lever = std::max(lever, d.tris[i].v[k].norm());
+    }
+    d.tris[i].lever = lever + m;
+    centroid[i] = (d.tris[i].v[0] + d.tris[i].v[1] + d.tris[i].v[2]) / 3.0;
+  }
+  std::vector<int> idx(n);
+  std::iota(idx.begin(), idx.end(), 0);
+  d.nodes.clear();
+  d.nodes.reserve(2 * n);
+  // The structure top down (median splits of the centroids along their widest axis), each node
+  // created before its children; then their bounds (fitBounds).
+  struct Job {
+    int begin, end, node;
+  };
+  d.nodes.emplace_back();
+  d.root = 0;
+  std::vector<Job> jobs{{0, n, d.root}};
+  while (!jobs.empty()) {
+    const Job j = jobs.back();
+    jobs.pop_back();
+    if (j.end - j.begin == 1) {
+      d.nodes[j.node].tri = idx[j.begin];
+      continue;
+    }
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant(kInf), hi = Eigen::Vector3d::Constant(-kInf);
+    for (int i = j.begin; i < j.end; ++i) {
+      lo = lo.cwiseMin(centroid[idx[i]]);
+      hi = hi.cwiseMax(centroid[idx[i]]);
+    }
+    int axis = 0;
+    (hi - lo).maxCoeff(&axis);
+    const int mid = j.begin + (j.end - j.begin) / 2;
+    std::nth_element(idx.begin() + j.begin, idx.begin() + mid, idx.begin() + j.end,
+                     [&](int x, int y) { return centroid[x][axis] < centroid[y][axis]; });
+    const int left = static_cast<int>(d.nodes.size());
+    d.nodes.emplace_back();
+    d.nodes.emplace_back();
+    d.nodes[j.node].left = left;
+    d.nodes[j.node].right = left + 1;
+    jobs.push_back({j.begin, mid, left});
+    jobs.push_back({mid, j.end, left + 1});
+  }
+  fitBounds(d);
 }
 
 uint64_t partsMeetingTree(const PreparedShapeData& d, const Eigen::Matrix3d& R, const Eigen::Vector3d& p,
