@@ -27,6 +27,7 @@
 #include <ctime>
 #include <limits>
 #include <map>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -332,6 +333,37 @@ TEST(SensorsSource, VoxelFilterKeepsOnePointPerVoxel) {
   EXPECT_EQ(every.points(0).size(), 103u);
 }
 
+// The voxels' and the filter's grid cells (CellTable): the same answers as a std::map over
+// random cells (many repeated) through many resets of growing and shrinking size.
+TEST(CellTable, AgreesWithAMapThroughResets) {
+  std::mt19937 rng(49);
+  vadop_ros::CellTable table;
+  EXPECT_EQ(table.find({0, 0, 0}), nullptr);  // never reset: empty
+  for (int round = 0; round < 200; ++round) {
+    const int n = std::uniform_int_distribution<int>(0, round % 7 == 0 ? 5000 : 60)(rng);
+    table.reset(n);
+    std::map<vadop_ros::CellTable::Cell, uint32_t> truth;
+    std::uniform_int_distribution<int64_t> coord(-4, 4);  // few distinct cells: many repeats
+    for (int i = 0; i < n; ++i) {
+      const vadop_ros::CellTable::Cell c{coord(rng), coord(rng), round % 3 == 0 ? int64_t{1} << 40 : coord(rng)};
+      bool inserted = false;
+      uint32_t& v = table.insert(c, inserted);
+      EXPECT_EQ(inserted, truth.count(c) == 0);
+      v += 1;
+      ++truth[c];
+    }
+    for (int64_t x = -5; x <= 5; ++x) {
+      for (int64_t y = -5; y <= 5; ++y) {
+        const vadop_ros::CellTable::Cell c{x, y, round % 3 == 0 ? int64_t{1} << 40 : 0};
+        const uint32_t* v = table.find(c);
+        const auto it = truth.find(c);
+        ASSERT_EQ(v != nullptr, it != truth.end()) << "round " << round;
+        if (v) EXPECT_EQ(*v, it->second);
+      }
+    }
+  }
+}
+
 TEST(SensorsSource, BadMessagesAreDroppedNamingTheSensorAndFieldAndThePointsKept) {
   SensorsSource src({sensor(SensorType::kScan), sensor(SensorType::kCloud, "depth"), sensor(SensorType::kMap, "floor")},
                     "odom", 5.0);
@@ -528,6 +560,27 @@ TEST(SensorsInTheMonitor, ImpactAgainstAScanOnlyWallAtItsExactTime) {
   // No scan for the timeout: the points leave, and so does the impact.
   core.registry().onOdometry(0, odom(100.7, 0.7, 1.0), ros::Time(100.7));
   EXPECT_TRUE(core.cycle(ros::Time(100.7), tf).impacts.empty());
+}
+
+// A scan's shape is prepared in its callback, grown by the node's padding then; a padding
+// changed before the cycle takes the scan in (dynamic_reconfigure) is the one the world uses.
+TEST(SensorsInTheMonitor, ThePointsEnterTheWorldGrownByThePaddingOfTheCycle) {
+  MonitorCore core = makeCore();
+  FakeTf tf;
+  addLaser(tf);
+  SensorsSource& sensors = sensorsOf(core);
+  ASSERT_TRUE(core.setPadding(0.1));
+  core.registry().onOdometry(0, odom(100.0, 0.0, 1.0), ros::Time(100.0));
+  sensors.onScan(0, wallScan(100.0), ros::Time(100.0), tf);
+  const vadop::ImpactArray& padded = core.cycle(ros::Time(100.0), tf);
+  ASSERT_EQ(padded.impacts.size(), 1u);
+  EXPECT_NEAR(padded.impacts[0].time_to_impact, 3.0 - 0.02 - 0.3 - 0.2, 0.03);  // box and points 0.1 m larger
+  core.registry().onOdometry(0, odom(100.1, 0.1, 1.0), ros::Time(100.1));
+  sensors.onScan(0, wallScan(100.1), ros::Time(100.1), tf);  // prepared with 0.1
+  ASSERT_TRUE(core.setPadding(0.0));
+  const vadop::ImpactArray& bare = core.cycle(ros::Time(100.1), tf);
+  ASSERT_EQ(bare.impacts.size(), 1u);
+  EXPECT_NEAR(bare.impacts[0].time_to_impact, 3.0 - 0.02 - 0.4, 0.03);
 }
 
 TEST(SensorsInTheMonitor, AGateStopsShortOfAScanOnlyWall) {

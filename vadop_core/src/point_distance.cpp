@@ -20,8 +20,8 @@ namespace {
 constexpr double kPointRadius = 1e-3;
 constexpr double kFineTolerance = 1e-10;  // m: gap()'s
 
-// Spheres, capsules and boxes: the exact gap between the shape at `pose` and the point, in
-// closed form (true); false for the other kinds.
+// Spheres, capsules, boxes and cylinders: the exact gap between the shape at `pose` and the
+// point, in closed form (true); false for the other kinds.
 bool closedFormGap(const detail::PreparedShapeData& d, const Eigen::Isometry3d& pose, const Eigen::Vector3d& p,
                    double& gap) {
   // The point in the shape's frame (the pose is a rigid transform: its linear part a rotation).
@@ -39,7 +39,13 @@ bool closedFormGap(const detail::PreparedShapeData& d, const Eigen::Isometry3d& 
       gap = (out.cwiseMax(0.0).norm() + std::min(out.maxCoeff(), 0.0)) - d.rounding;
       return true;
     }
-    default: return false;  // cylinders, convex sets, meshes and point sets: the narrow phase's GJK
+    case detail::CoreKind::kCylinder: {
+      // The box's rule in the plane of the axis and the point: radial and axial excess.
+      const double dr = std::sqrt(q.x() * q.x() + q.y() * q.y()) - d.cyl_radius, dz = std::abs(q.z()) - d.half_length;
+      gap = std::hypot(std::max(dr, 0.0), std::max(dz, 0.0)) + std::min(std::max(dr, dz), 0.0) - d.rounding;
+      return true;
+    }
+    default: return false;  // convex sets, meshes and point sets: the narrow phase's GJK
   }
 }
 

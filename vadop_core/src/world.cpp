@@ -131,20 +131,29 @@ void WorldEngine::requireEngine(const char* operation) const {
 }
 
 void WorldEngine::add(const std::string& id, const Shape& shape, const Motion& motion, uint64_t user) {
-  ++epoch_;  // the others' braking paths (brakingOf) are made again
   requireEngine("add");
   const std::string what = "add body " + quoted(id);
   if (id.empty()) throw InvalidArgument("add: the body id must not be empty");
   if (findBody(id) != kUnknownBody) throw InvalidArgument(what + ": a body with this id already exists");
   validateShape(shape, what + ": shape");
-  validateMotion(motion, what + ": motion");
+  add(id, PreparedShape(shape), motion, user);
+}
+
+void WorldEngine::add(const std::string& id, const PreparedShape& prepared, const Motion& motion, uint64_t user) {
+  ++epoch_;  // the others' braking paths (brakingOf) are made again
+  requireEngine("add");
+  const std::string what = "add body " + quoted(id);
+  if (id.empty()) throw InvalidArgument("add: the body id must not be empty");
+  if (findBody(id) != kUnknownBody) throw InvalidArgument(what + ": a body with this id already exists");
+  validateMotion(motion, what + ": motion");  // the shape was validated when it was prepared
+  const Shape& shape = prepared.shape();
 
   // Everything that can fail happens before the first change (strong guarantee).
   Record rec;
   rec.name = id;
   rec.key = next_key_;
   rec.user = user;
-  rec.prepared.emplace(shape);
+  rec.prepared.emplace(prepared);  // shares the prepared data
   // Padded by the narrow phase's tolerance: every pair the narrow phase can report as touching
   // (gap <= tolerance) then has intersecting swept volumes, hence is a candidate for every
   // (complete) broad phase, and the result does not depend on the broad phase chosen.
@@ -291,6 +300,7 @@ const WorldEngine::Record& WorldEngine::record(const std::string& id, const char
 }
 
 const Shape& WorldEngine::shape(const std::string& id) const { return record(id, "shape").prepared->shape(); }
+const PreparedShape& WorldEngine::prepared(const std::string& id) const { return *record(id, "prepared").prepared; }
 
 const Motion& WorldEngine::motion(const std::string& id) const {
   const BodyId b = bodyId(id, "motion");  // first: a moved-from World has no broad phase

@@ -45,6 +45,7 @@ class WorldEngine {
   WorldEngine& operator=(const WorldEngine&) = delete;
 
   void add(const std::string& id, const Shape& shape, const Motion& motion, uint64_t user);
+  void add(const std::string& id, const PreparedShape& shape, const Motion& motion, uint64_t user);
   void remove(const std::string& id);
   void setMotion(const std::string& id, const Motion& motion);
   Handle handle(const std::string& id) const;
@@ -60,6 +61,7 @@ class WorldEngine {
   size_t size() const;
   std::vector<std::string> ids() const;
   const Shape& shape(const std::string& id) const;
+  const PreparedShape& prepared(const std::string& id) const;
   const Motion& motion(const std::string& id) const;
   uint64_t key(const std::string& id) const;
   std::vector<Contact> predict(double t0, double horizon);

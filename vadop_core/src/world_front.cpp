@@ -2,9 +2,15 @@
 // which holds the bodies and the engines. One indirection a call, none per pair or body.
 #include "vadop/world.h"
 
+#include "vadop/error.h"
+
 #include "world_engine.h"
 
 namespace vadop {
+
+std::shared_ptr<const PreparedShape> prepareShape(const Shape& shape) {
+  return std::make_shared<const PreparedShape>(shape);
+}
 
 World::World(const WorldConfig& config) : engine_(std::make_unique<WorldEngine>(config)) {}
 World::~World() = default;
@@ -26,6 +32,11 @@ const WorldEngine& World::engine() const {
 void World::add(const std::string& id, const Shape& shape, const Motion& motion, uint64_t user) {
   engine().add(id, shape, motion, user);
 }
+void World::add(const std::string& id, const std::shared_ptr<const PreparedShape>& shape, const Motion& motion,
+                uint64_t user) {
+  if (!shape) throw InvalidArgument("add body \"" + id + "\": no prepared shape (null)");
+  engine().add(id, *shape, motion, user);
+}
 void World::remove(const std::string& id) { engine().remove(id); }
 void World::setMotion(const std::string& id, const Motion& motion) { engine().setMotion(id, motion); }
 World::Handle World::handle(const std::string& id) const { return engine().handle(id); }
@@ -44,6 +55,9 @@ bool World::contains(const std::string& id) const { return engine().contains(id)
 size_t World::size() const { return engine().size(); }
 std::vector<std::string> World::ids() const { return engine().ids(); }
 const Shape& World::shape(const std::string& id) const { return engine().shape(id); }
+std::shared_ptr<const PreparedShape> World::prepared(const std::string& id) const {
+  return std::make_shared<const PreparedShape>(engine().prepared(id));  // shares the prepared data
+}
 const Motion& World::motion(const std::string& id) const { return engine().motion(id); }
 uint64_t World::key(const std::string& id) const { return engine().key(id); }
 

@@ -89,8 +89,8 @@ TEST(PointDistance, MatchesTheClosedFormsAndTheBruteForceOverPoints) {
         ++outside;
       } else if (s.type != vadop::ShapeType::kMesh) {  // a point set is a surface: a point in a ball is near it
         EXPECT_LE(got, 1e-9);
-        // Spheres, capsules and boxes are answered in closed form: minus the exact depth.
-        if (s.type != vadop::ShapeType::kCylinder) EXPECT_NEAR(got, truth, 1e-9);
+        // Spheres, capsules, boxes and cylinders are answered in closed form: minus the exact depth.
+        EXPECT_NEAR(got, truth, 1e-9);
         ++inside;
       } else {
         EXPECT_LE(got, 1e-6);

@@ -29,6 +29,7 @@
 #include "vadop/timed_path.h"
 #include "vadop/world.h"
 
+#include "shape_core.h"  // the tree's nodes (src/)
 #include "toi_scenes.h"
 
 #include <gtest/gtest.h>
@@ -644,6 +645,89 @@ TEST(PointSetWorld, ARestingSetIsCulledWhereItIsPosed) {
     ASSERT_EQ(contacts.size(), 1u) << "y " << y;
     const double x = y == 0.5 ? 0.12 : std::sqrt(0.12 * 0.12 - 0.11 * 0.11);
     EXPECT_NEAR(contacts[0].impact.time, 1.0 - x, 1e-5) << "y " << y;
+  }
+}
+
+// Points repeated many times over (a sensor's beams returning the same spot: more copies than
+// the tree splits exactly) and rows sharing one coordinate: a sphere driven at each copied spot
+// touches it when its centre is 0.1 + 0.02 m from it, as the brute force over the distinct points
+// says, through World::predict and timeOfImpact alike.
+TEST(PointSetCorners, RepeatedPointsAndSharedCoordinates) {
+  std::vector<Vector3d> points;
+  for (int copy = 0; copy < 300; ++copy) points.emplace_back(2.0, 0.0, 0.0);
+  for (int copy = 0; copy < 150; ++copy) points.emplace_back(2.5, 1.0, 0.0);
+  for (int i = 0; i < 200; ++i) points.emplace_back(3.0, -1.0 + 0.001 * (i % 7), 0.0);  // x shared by all
+  const PartSet set = pointSet("repeated", points, 0.02);
+  const Shape ball = vadop::makeSphere(0.1);
+  for (const Vector3d& target : {Vector3d(2.0, 0.0, 0.0), Vector3d(2.5, 1.0, 0.0), Vector3d(3.0, -0.997, 0.0)}) {
+    const Motion m = vadop::makeMotion(Vector3d(0.0, target.y(), 0.0), Quaterniond::Identity(),
+                                       Vector3d(1.0, 0.0, 0.0), Vector3d::Zero());
+    double exact = kInf;  // the brute force: the first point whose ball the sphere reaches along +x
+    for (const Vector3d& p : points) {
+      const double dy = p.y() - target.y(), reach2 = 0.12 * 0.12 - dy * dy;
+      if (reach2 >= 0.0) exact = std::min(exact, p.x() - std::sqrt(reach2));
+    }
+    const TimeOfImpact t = vadop::timeOfImpact(ball, m, set.shape, rest(set.centre), 0.0, 4.0);
+    ASSERT_TRUE(t.hit) << target.transpose();
+    EXPECT_LE(t.time, exact + 1e-12) << target.transpose();
+    EXPECT_GE(t.time, exact - 1e-6) << target.transpose();
+    vadop::World world;
+    world.add("set", set.shape, rest(set.centre));
+    world.add("ball", ball, m);
+    const std::vector<vadop::Contact> contacts = world.predict(0.0, 4.0);
+    ASSERT_EQ(contacts.size(), 1u) << target.transpose();
+    EXPECT_NEAR(contacts[0].impact.time, exact, 1e-6) << target.transpose();
+  }
+}
+
+// The tree itself (mesh_bvh.h), for point sets of 1 to 20,000 points with repeated points and
+// shared coordinates: every point in exactly one leaf, every node's box holds its children's
+// and its ball their balls, and the depth within the traversals' bound (128 levels).
+TEST(PointSetTree, EveryPointInOneLeafAndEveryNodeHoldsItsChildren) {
+  Rng r(4905);
+  for (const int n : {1, 2, 3, 64, 65, 1000, 20000}) {
+    std::vector<Vector3d> points;
+    for (int i = 0; i < n; ++i) {
+      if (i % 5 == 0 && i > 0) {
+        points.push_back(points[r.integer(0, i - 1)]);  // a repeat
+      } else {
+        points.emplace_back(std::round(r.uni(-20.0, 20.0) * 10.0) / 10.0, r.uni(-20.0, 20.0), 0.3);
+      }
+    }
+    const PreparedShape prepared(vadop::makePointSet(points, 0.02));
+    const vadop::detail::PreparedShapeData& d = prepared.data();
+    std::vector<int> seen(n, 0);
+    int deepest = 0;
+    std::vector<std::pair<int, int>> stack{{d.root, 1}};
+    while (!stack.empty()) {
+      const auto [i, depth] = stack.back();
+      stack.pop_back();
+      deepest = std::max(deepest, depth);
+      const vadop::detail::BvhNode& node = d.nodes[i];
+      if (node.tri >= 0) {
+        ++seen[node.tri];
+        // A leaf: its ball and box hold its point's ball.
+        const Vector3d p = points[node.tri];
+        EXPECT_LE((p - node.centre).norm() + 0.02, node.radius + 1e-12);
+        for (int k = 0; k < 3; ++k) {
+          EXPECT_LE(std::abs(p[k] - d.node_boxes[i][k]) + 0.02, d.node_boxes[i][3 + k] + 1e-12);
+        }
+        continue;
+      }
+      for (const int c : {node.left, node.right}) {
+        const vadop::detail::BvhNode& child = d.nodes[c];
+        EXPECT_LE((child.centre - node.centre).norm() + child.radius, node.radius + 1e-12);
+        for (int k = 0; k < 3; ++k) {
+          EXPECT_LE(std::abs(d.node_boxes[c][k] - d.node_boxes[i][k]) + d.node_boxes[c][3 + k],
+                    d.node_boxes[i][3 + k] + 1e-12);
+        }
+        stack.push_back({c, depth + 1});
+      }
+    }
+    EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), n) << n << " points";
+    // Median splits (sampled): about log2(n) + 1 levels; a split that peeled off one point at
+    // a time would give n.
+    EXPECT_LE(deepest, static_cast<int>(std::ceil(2.0 * std::log2(n))) + 2) << n << " points";
   }
 }
 

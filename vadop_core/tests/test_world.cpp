@@ -61,6 +61,37 @@ TEST(World, HeadOnSpheres) {
   EXPECT_NEAR(later[0].impact.time, t, 1e-12);
 }
 
+// A shape prepared once (prepareShape, or another World's prepared()) enters several Worlds
+// without being prepared again: they share its data, and predict as with the shape itself.
+TEST(World, APreparedShapeIsSharedAndPredictsAsTheShape) {
+  std::vector<Eigen::Vector3d> points;
+  for (int i = 0; i < 500; ++i) points.emplace_back(3.0, -2.5 + 0.01 * i, 0.0);
+  const Shape wall = makePointSet(points, 0.02);
+  World plain, first, second;
+  plain.add("wall", wall, still({0, 0, 0}));
+  first.add("wall", prepareShape(wall), still({0, 0, 0}));
+  second.add("wall", first.prepared("wall"), still({0, 0, 0}));
+  EXPECT_EQ(&first.shape("wall"), &second.shape("wall"));  // one prepared shape, not a copy
+  EXPECT_NE(&plain.shape("wall"), &first.shape("wall"));
+  for (World* w : {&plain, &first, &second}) w->add("ball", makeSphere(0.2), moving({0, 0.013, 0}, {1, 0, 0}));
+  const auto expected = plain.predict(0.0, 4.0);
+  ASSERT_EQ(expected.size(), 1u);
+  for (World* w : {&first, &second}) {
+    const auto got = w->predict(0.0, 4.0);
+    ASSERT_EQ(got.size(), 1u);
+    EXPECT_EQ(got[0].impact.time, expected[0].impact.time);
+    EXPECT_EQ(got[0].impact.point, expected[0].impact.point);
+  }
+  // Refused as any add: no shape, a used id, a bad motion; the world unchanged.
+  EXPECT_THROW(first.add("none", std::shared_ptr<const vadop::PreparedShape>(), still({0, 0, 0})), InvalidArgument);
+  EXPECT_THROW(first.add("wall", first.prepared("wall"), still({0, 0, 0})), InvalidArgument);
+  Motion bad = still({0, 0, 0});
+  bad.linear_velocity.x() = NAN;
+  EXPECT_THROW(first.add("w2", first.prepared("wall"), bad), InvalidArgument);
+  EXPECT_THROW(first.prepared("unknown"), InvalidArgument);
+  EXPECT_EQ(first.size(), 2u);
+}
+
 // A contact's closing speed, (v_a - v_b) . normal at its point and time, follows each body's
 // own motion, path or chain: the head-on pair closes at 1 + 2 m/s whether the two move with
 // one motion each or along paths; a body turning about its origin closes at w x r there.

@@ -97,6 +97,8 @@ MonitorCore::MonitorCore(const MonitorParams& params, const ParamReader& read_pa
     if (auto* tracks = dynamic_cast<Tracks*>(body_sources_.back().get())) tracks_ = tracks;
     if (auto* sensors = dynamic_cast<SensorsSource*>(body_sources_.back().get())) {
       sensors->setFilterProvider([this] { return filterSnapshot(); });
+      sensors->setPadding(params.padding);
+      sensors_ = sensors;
     }
   }
   for (const BodyParams& b : params.bodies) gate_world_wanted_ = gate_world_wanted_ || b.has_gate;
@@ -162,10 +164,15 @@ void MonitorCore::syncGateWorld() {
     }
     const bool is_static = !isSourced(i) && registry_.bodies()[elements[i].body].is_static;
     const std::string& id = isSourced(i) ? sourced_in_world_[i - setBase()] : elements[i].id;
-    // The shape as in the cycle's world (padded): used when the element enters.
-    if (!gate_predictor_.set(i, id, predictor_.shape(i), predictor_.motion(i), error,
-                             is_static ? kStaticGroup : kMovingGroup, is_static ? ~kStaticGroup : ~0u,
-                             predictor_.chain(i))) {
+    // The shape as the cycle's world prepared it (padded; a point set's tree shared, not built
+    // again): read only when the element enters.
+    const uint32_t group = is_static ? kStaticGroup : kMovingGroup, mask = is_static ? ~kStaticGroup : ~0u;
+    const bool ok = gate_predictor_.contains(i)
+                        ? gate_predictor_.set(i, id, predictor_.shape(i), predictor_.motion(i), error, group, mask,
+                                              predictor_.chain(i))
+                        : gate_predictor_.set(i, id, predictor_.prepared(i), predictor_.motion(i), error, group, mask,
+                                              predictor_.chain(i));
+    if (!ok) {
       gate_predictor_.unset(i);  // the cycle's world took it: cannot happen but for memory
       continue;
     }
@@ -206,6 +213,7 @@ RuntimeSettings MonitorCore::reconfigure(const RuntimeSettings& requested, std::
   if (!refuse(rangeCheck("padding", requested.padding, 0.0, kMaxPadding, params_.padding, "m")) &&
       !refuse(selfMarginCheck(params_, requested.padding)) && requested.padding != params_.padding) {
     params_.padding = requested.padding;
+    if (sensors_) sensors_->setPadding(params_.padding);
     // Shapes change: every element leaves the world and comes back, padded anew, at the next
     // cycle (World has no setShape). Not under a predicting world's feet: then at the next
     // cycle's start.
@@ -534,10 +542,17 @@ size_t MonitorCore::syncSourcedBodies(size_t j, double t_now, const ros::Time& n
     }
     if (why.empty()) {
       const bool fresh = !predictor_.contains(element);
-      // Not copied while in the world (set uses the shape on entry only): a sensor's is large.
-      const vadop::Shape padded = fresh && params_.padding > 0.0 ? vadop::inflate(t.shape, params_.padding) : vadop::Shape();
-      const vadop::Shape& shape = fresh && params_.padding > 0.0 ? padded : t.shape;
-      if (!predictor_.set(element, t.name, shape, m, error, kMovingGroup, ~0u)) why = "refused by the world: " + error;
+      bool ok = false;
+      if (fresh && t.prepared && t.prepared_padding == params_.padding) {  // prepared by its source
+        ok = predictor_.set(element, t.name, t.prepared, m, error, kMovingGroup, ~0u);
+      } else {
+        // Not copied while in the world (set uses the shape on entry only): a sensor's is large.
+        const vadop::Shape padded =
+            fresh && params_.padding > 0.0 ? vadop::inflate(t.shape, params_.padding) : vadop::Shape();
+        ok = predictor_.set(element, t.name, fresh && params_.padding > 0.0 ? padded : t.shape, m, error,
+                            kMovingGroup, ~0u);
+      }
+      if (!ok) why = "refused by the world: " + error;
       sourced_shape_version_[k] = t.shape_version;
     }
     if (!why.empty()) {

@@ -65,12 +65,24 @@ Predictor::~Predictor() = default;
 bool Predictor::set(size_t i, const std::string& id, const vadop::Shape& shape, const vadop::Motion& motion,
                     std::string& error, uint32_t group, uint32_t mask,
                     const std::shared_ptr<const vadop::LinkChain>& chain) {
+  return enter(i, id, [&] { impl_->world.add(id, shape, motion, i); }, motion, error, group, mask, chain);
+}
+
+bool Predictor::set(size_t i, const std::string& id, const std::shared_ptr<const vadop::PreparedShape>& shape,
+                    const vadop::Motion& motion, std::string& error, uint32_t group, uint32_t mask,
+                    const std::shared_ptr<const vadop::LinkChain>& chain) {
+  return enter(i, id, [&] { impl_->world.add(id, shape, motion, i); }, motion, error, group, mask, chain);
+}
+
+bool Predictor::enter(size_t i, const std::string& id, const std::function<void()>& add, const vadop::Motion& motion,
+                      std::string& error, uint32_t group, uint32_t mask,
+                      const std::shared_ptr<const vadop::LinkChain>& chain) {
   if (i >= impl_->slots.size()) impl_->slots.resize(i + 1);
   Impl::Slot& s = impl_->slots[i];
   try {
     if (!s.in) {
       // Contacts, the pair filter and the queries' skip carry i back (the world's `user`).
-      impl_->world.add(id, shape, motion, i);
+      add();
       impl_->world.setFilter(id, group, mask);  // the id is in: does not throw
       s.in = true;
       s.id = id;
@@ -142,6 +154,9 @@ std::vector<double> Predictor::pathTimes(size_t i, double t0, double t1) const {
   return times;
 }
 const vadop::Shape& Predictor::shape(size_t i) const { return impl_->world.shape(impl_->slots.at(i).id); }
+std::shared_ptr<const vadop::PreparedShape> Predictor::prepared(size_t i) const {
+  return impl_->world.prepared(impl_->slots.at(i).id);
+}
 size_t Predictor::size() const { return impl_->world.size(); }
 size_t Predictor::lastCandidateCount() const { return impl_->world.lastCandidateCount(); }
 size_t Predictor::lastSliceCulledCount() const { return impl_->world.lastSliceCulledCount(); }

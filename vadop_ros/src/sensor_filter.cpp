@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <utility>
 
 namespace vadop_ros {
 namespace {
@@ -105,12 +106,6 @@ int carrierOf(const FilterSnapshot& snapshot, const std::string& frame, const ro
   return origin ? holderOf(snapshot, secondsBetween(stamp, snapshot.base), *origin) : -1;
 }
 
-size_t SensorFilter::CellHash::operator()(const Cell& c) const {
-  const uint64_t h = static_cast<uint64_t>(c[0]) * 73856093ull ^ static_cast<uint64_t>(c[1]) * 19349663ull ^
-                     static_cast<uint64_t>(c[2]) * 83492791ull;
-  return static_cast<size_t>(h);
-}
-
 SensorFilter::Cell SensorFilter::cellOf(const Eigen::Vector3d& p) const {
   return {static_cast<int64_t>(std::floor(p.x() / cell_)), static_cast<int64_t>(std::floor(p.y() / cell_)),
           static_cast<int64_t>(std::floor(p.z() / cell_))};
@@ -142,30 +137,66 @@ void SensorFilter::cull(const FilterSnapshot& snapshot, double t, int self, doub
   }
 }
 
+bool SensorFilter::cellRange(const Candidate& c, Cell& a, Cell& b) const {
+  const double r = std::sqrt(c.reach2);
+  a = cellOf(c.centre - Eigen::Vector3d::Constant(r));
+  b = cellOf(c.centre + Eigen::Vector3d::Constant(r));
+  // In doubles: a large body over small cells would overflow the product of integers.
+  double cells = 1.0;
+  for (int k = 0; k < 3; ++k) cells *= static_cast<double>(b[k] - a[k] + 1);
+  return cells <= kMaxCellsPerCandidate;
+}
+
 void SensorFilter::bin() {
-  grid_.clear();
   big_.clear();
   // Cells of about a typical candidate's diameter: most candidates span a few cells.
   std::vector<double> reach;
   for (const Candidate& c : candidates_) reach.push_back(std::sqrt(c.reach2));
   std::nth_element(reach.begin(), reach.begin() + reach.size() / 2, reach.end());
   cell_ = std::max(2.0 * reach[reach.size() / 2], 1e-3);
+  // Two passes over the candidates' cells: count each cell's candidates (a cell's index in
+  // order of its first visit), then place them side by side.
+  const auto forEachCell = [](const Cell& a, const Cell& b, auto&& f) {
+    for (int64_t x = a[0]; x <= b[0]; ++x) {
+      for (int64_t y = a[1]; y <= b[1]; ++y) {
+        for (int64_t z = a[2]; z <= b[2]; ++z) f(Cell{x, y, z});
+      }
+    }
+  };
+  size_t visits = 0;
   for (uint32_t k = 0; k < candidates_.size(); ++k) {
-    const double r = std::sqrt(candidates_[k].reach2);
-    const Cell a = cellOf(candidates_[k].centre - Eigen::Vector3d::Constant(r));
-    const Cell b = cellOf(candidates_[k].centre + Eigen::Vector3d::Constant(r));
-    // In doubles: a large body over small cells would overflow the product of integers.
-    double cells = 1.0;
-    for (int k = 0; k < 3; ++k) cells *= static_cast<double>(b[k] - a[k] + 1);
-    if (cells > kMaxCellsPerCandidate) {
+    Cell a, b;
+    if (!cellRange(candidates_[k], a, b)) {
       big_.push_back(k);
       continue;
     }
-    for (int64_t x = a[0]; x <= b[0]; ++x) {
-      for (int64_t y = a[1]; y <= b[1]; ++y) {
-        for (int64_t z = a[2]; z <= b[2]; ++z) grid_[{x, y, z}].push_back(k);
+    visits += static_cast<size_t>((b[0] - a[0] + 1) * (b[1] - a[1] + 1) * (b[2] - a[2] + 1));
+  }
+  grid_.reset(visits);
+  starts_.clear();
+  for (const Candidate& c : candidates_) {
+    Cell a, b;
+    if (!cellRange(c, a, b)) continue;
+    forEachCell(a, b, [this](const Cell& cell) {
+      bool fresh = false;
+      uint32_t& index = grid_.insert(cell, fresh);
+      if (fresh) {
+        index = static_cast<uint32_t>(starts_.size());
+        starts_.push_back(0);
       }
-    }
+      ++starts_[index];
+    });
+  }
+  // Counts -> starts (exclusive prefix sums), then each candidate at its cell's next place.
+  uint32_t total = 0;
+  for (uint32_t& s : starts_) total += std::exchange(s, total);
+  starts_.push_back(total);
+  binned_.assign(total, 0);
+  std::vector<uint32_t> next(starts_.begin(), starts_.end() - 1);
+  for (uint32_t k = 0; k < candidates_.size(); ++k) {
+    Cell a, b;
+    if (!cellRange(candidates_[k], a, b)) continue;
+    forEachCell(a, b, [&](const Cell& cell) { binned_[next[*grid_.find(cell)]++] = k; });
   }
 }
 
@@ -175,9 +206,9 @@ bool SensorFilter::holds(const FilterSnapshot& snapshot, const Candidate& c, con
 }
 
 const SensorFilter::Candidate* SensorFilter::holder(const FilterSnapshot& snapshot, const Eigen::Vector3d& p) const {
-  if (const auto it = grid_.find(cellOf(p)); it != grid_.end()) {
-    for (const uint32_t k : it->second) {
-      if (holds(snapshot, candidates_[k], p)) return &candidates_[k];
+  if (const uint32_t* cell = grid_.find(cellOf(p))) {
+    for (uint32_t i = starts_[*cell]; i < starts_[*cell + 1]; ++i) {
+      if (holds(snapshot, candidates_[binned_[i]], p)) return &candidates_[binned_[i]];
     }
   }
   for (const uint32_t k : big_) {

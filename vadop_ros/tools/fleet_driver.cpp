@@ -19,7 +19,10 @@
 // Private parameters: ~n (1000, >= 1), ~rate (30, (0, 1000] Hz), ~mode (array | odom),
 // ~states_topic (/fleet/states), ~seed (1), ~area (6 m^2, (0, 1e6]), ~clock_step (0 s: the ROS
 // clock; at most 60), ~wait_subscribers (0: before the first state, wait until the states (each
-// odometry topic) and, with a clock, /clock have this many subscribers).
+// odometry topic) and, with a clock, /clock have this many subscribers), ~sensors (false: also
+// a laser and a depth sensor at the room's centre, frame "laser" 0.1 m above "odom" (the launch
+// file publishes that transform): a 1,081-beam sensor_msgs/LaserScan on /scan at 15 Hz and a
+// 30,000-point sensor_msgs/PointCloud2 on /points at 10 Hz, the bench's (fleet_sensors.h)).
 #include "fleet_driver.h"
 
 #include <nav_msgs/Odometry.h>
@@ -61,6 +64,7 @@ FleetDriverSettings FleetDriverSettings::read(const ros::NodeHandle& pnh) {
   pnh.param("area", s.area, s.area);
   pnh.param("clock_step", s.clock_step, s.clock_step);
   pnh.param("wait_subscribers", s.wait_subscribers, s.wait_subscribers);
+  pnh.param("sensors", s.sensors, s.sensors);
   require(s.n >= 1, "~n must be >= 1 (got " + std::to_string(s.n) + ")");
   require(s.rate > 0.0 && s.rate <= 1000.0, "~rate must be in (0, 1000] Hz (got " + std::to_string(s.rate) + ")");
   require(s.mode == "odom" || s.mode == "array", "~mode must be odom or array (got \"" + s.mode + "\")");
@@ -85,12 +89,37 @@ FleetDriver::FleetDriver(ros::NodeHandle& nh, const FleetDriverSettings& s)
     for (int i = 0; i < s_.n; ++i) names_.states[i].name = "robot_" + std::to_string(i);
   }
   if (s_.clock_step > 0.0) clock_ = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  if (s_.sensors) {
+    scan_ = nh.advertise<sensor_msgs::LaserScan>("/scan", 2);
+    cloud_ = nh.advertise<sensor_msgs::PointCloud2>("/points", 2);
+    cloud_rng_.seed(static_cast<unsigned>(s.seed) + 104729u);
+  }
+}
+
+void FleetDriver::publishSensors(const ros::Time& stamp) {
+  constexpr double kScanRate = 15.0, kCloudRate = 10.0;
+  constexpr size_t kCloudPoints = 30000;
+  // Due at `next`: then `next` a period on (from now, when the first or more than a period late).
+  const auto due = [&stamp](ros::Time& next, double rate) {
+    if (stamp < next) return false;
+    const ros::Duration period(1.0 / rate);
+    next = (next.isZero() || stamp - next > period) ? stamp + period : next + period;
+    return true;
+  };
+  if (due(next_scan_, kScanRate)) {
+    scan_.publish(boost::make_shared<sensor_msgs::LaserScan>(sensors_.scan(fleet_, stamp)));
+  }
+  if (due(next_cloud_, kCloudRate)) {
+    cloud_.publish(
+        boost::make_shared<sensor_msgs::PointCloud2>(sensors_.cloud(fleet_, stamp, kCloudPoints, cloud_rng_)));
+  }
 }
 
 std::string FleetDriver::describe() const {
   std::string what = std::to_string(s_.n) + " robots at " + std::to_string(s_.rate) + " Hz as " +
                      (s_.mode == "odom" ? "one nav_msgs/Odometry topic each" : "one vadop/BodyStateArray on " + s_.states_topic);
   if (s_.clock_step > 0.0) what += ", each state " + std::to_string(s_.clock_step) + " s later on its own /clock";
+  if (s_.sensors) what += ", with a laser scan (/scan, 15 Hz) and a depth cloud (/points, 10 Hz)";
   return what;
 }
 
@@ -110,6 +139,7 @@ void FleetDriver::tick(double dt, const ros::Time& stamp) {
     for (int i = 0; i < s_.n; ++i) fill(fleet_[i], m->states[i].pose, m->states[i].twist);
     array_.publish(m);
   }
+  if (s_.sensors) publishSensors(stamp);
 }
 
 bool FleetDriver::waitForSubscribers() {

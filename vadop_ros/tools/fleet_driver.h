@@ -4,6 +4,7 @@
 // reads). It does not subscribe to anything and knows nothing of the monitor.
 #pragma once
 
+#include "fleet_sensors.h"
 #include "wandering_fleet.h"
 
 #include <vadop/BodyStateArray.h>
@@ -26,6 +27,7 @@ struct FleetDriverSettings {
   double area = 6.0;                // m^2 of floor per robot
   double clock_step = 0.0;          // s; > 0: the driver's own simulated clock, on /clock
   int wait_subscribers = 0;         // before the first state: this many subscribers of the states
+  bool sensors = false;             // also the bench's laser scan (/scan, 15 Hz) and cloud (/points, 10 Hz)
   static constexpr double kClockStart = 100.0;  // s, the simulated clock's first time
 
   // The private parameters; throws std::invalid_argument naming the one out of range.
@@ -57,6 +59,12 @@ class FleetDriver {
   WanderingFleet fleet_;
   std::vector<ros::Publisher> odom_;
   ros::Publisher array_, clock_;
+  // ~sensors: what a laser and a depth sensor at the room's centre see, published when due.
+  void publishSensors(const ros::Time& stamp);
+  FleetSensors sensors_;
+  ros::Publisher scan_, cloud_;
+  ros::Time next_scan_, next_cloud_;
+  std::mt19937 cloud_rng_;  // the cloud's own: the fleet's sequence is the same without sensors
   vadop::BodyStateArray names_;  // the entries' names, copied into each published array
   std::atomic<bool> stop_{false};
 };

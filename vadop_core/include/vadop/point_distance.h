@@ -5,7 +5,7 @@
 // immutable; copies share the prepared data). The gap is the narrow phase's own (distance.h,
 // GJK on the shape's core, its rounding and margin subtracted exactly): for a solid shape a
 // point inside gives a negative gap (an estimate of minus its depth; exact, as every gap, for
-// spheres, capsules and boxes, which are answered in closed form), for a mesh or point set,
+// spheres, capsules, boxes and cylinders, answered in closed form), for a mesh or point set,
 // surfaces as everywhere in the library, the distance to the nearest triangle or point ball.
 // It does not cull: a caller with many shapes tests their bounding spheres first
 // (Shape::bounding_radius about the pose's origin).

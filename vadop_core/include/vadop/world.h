@@ -151,6 +151,11 @@ struct Contact {
   double closing_speed = 0.0;
 };
 
+// A shape prepared for the narrow phase (validated; a mesh's or point set's bounding-volume
+// tree built: about 2.5 ms for 10,000 points on one core), immutable and shareable by any number
+// of Worlds and threads. Throws InvalidArgument as validateShape.
+std::shared_ptr<const PreparedShape> prepareShape(const Shape& shape);
+
 class World {
  public:
   // Throws vadop::InvalidArgument for a bad configuration (tolerance; for kVadop axes, phi,
@@ -169,6 +174,12 @@ class World {
   // caller's key of the body, returned in every Contact and MoverContact that involves it (the
   // World does not read it; several bodies may share one).
   void add(const std::string& id, const Shape& shape, const Motion& motion, uint64_t user = 0);
+  // The same with the shape prepared beforehand (prepareShape(), or another World's prepared()):
+  // the narrow phase's data (a mesh's or point set's tree) is shared, not built again. A large
+  // shape entering two Worlds (a sensor's points in a monitor's cycle and in its gates') is
+  // prepared once, and where the caller chooses (a sensor's message callback, not the cycle).
+  void add(const std::string& id, const std::shared_ptr<const PreparedShape>& shape, const Motion& motion,
+           uint64_t user = 0);
   // Throws when the id is unknown.
   void remove(const std::string& id);
   // A new velocity (or pose): takes effect at the next predict (and ends a path). Throws when
@@ -228,6 +239,9 @@ class World {
   // Ids in insertion order.
   std::vector<std::string> ids() const;
   const Shape& shape(const std::string& id) const;
+  // The body's shape as prepared for the narrow phase (immutable; add() into another World
+  // shares it). Throws when the id is unknown.
+  std::shared_ptr<const PreparedShape> prepared(const std::string& id) const;
   // The body's motion; for a body on a path, the first piece of its path (at rest at the first
   // keyframe): see path(); for a link of a chain, the first piece of its base's path.
   const Motion& motion(const std::string& id) const;

@@ -34,6 +34,8 @@
 
 namespace vadop_ros {
 
+class SensorsSource;
+
 struct CycleStats {
   ros::Time stamp;
   double cycle_seconds = 0.0;    // wall time of the whole cycle (registry + world + message)
@@ -288,6 +290,7 @@ class MonitorCore {
   std::vector<PairFilter::Matches> element_matches_;  // ~ignore_pairs per element (elements())
   std::vector<std::unique_ptr<BodiesSource>> body_sources_;
   Tracks* tracks_ = nullptr;  // the one of kind "tracks" in body_sources_
+  SensorsSource* sensors_ = nullptr;  // the one of kind "sensors" (told the padding)
   // Per source body's element (k = element - setBase()): its body's name in the worlds (""
   // when out), its ~ignore_pairs matches, its soonest time to impact in the last cycle.
   std::vector<std::string> sourced_in_world_;

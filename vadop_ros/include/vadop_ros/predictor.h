@@ -62,6 +62,11 @@ class Predictor {
   bool set(size_t i, const std::string& id, const vadop::Shape& shape, const vadop::Motion& motion,
            std::string& error, uint32_t group = 1u, uint32_t mask = 0xffffffffu,
            const std::shared_ptr<const vadop::LinkChain>& chain = nullptr);
+  // The same with the shape as another Predictor's world prepared it (prepared()): shared, not
+  // built again (a sensor's point set enters the cycle's world and the gates').
+  bool set(size_t i, const std::string& id, const std::shared_ptr<const vadop::PreparedShape>& shape,
+           const vadop::Motion& motion, std::string& error, uint32_t group = 1u, uint32_t mask = 0xffffffffu,
+           const std::shared_ptr<const vadop::LinkChain>& chain = nullptr);
   void unset(size_t i);
   // Every element leaves the world (padding changed: they come back with new shapes).
   void clear();
@@ -74,6 +79,7 @@ class Predictor {
   Eigen::Isometry3d poseAt(size_t i, double t) const;
   std::vector<double> pathTimes(size_t i, double t0, double t1) const;
   const vadop::Shape& shape(size_t i) const;    // as given to the world (padded)
+  std::shared_ptr<const vadop::PreparedShape> prepared(size_t i) const;  // the same, prepared
 
   // Pairs of elements (a added to the world first) never given to the narrow phase: called on
   // each candidate pair that passes the groups and masks, before the narrow phase, in predict
@@ -156,6 +162,9 @@ class Predictor {
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
+  // set's body: `add` puts the element into the world when it is not in yet.
+  bool enter(size_t i, const std::string& id, const std::function<void()>& add, const vadop::Motion& motion,
+             std::string& error, uint32_t group, uint32_t mask, const std::shared_ptr<const vadop::LinkChain>& chain);
 };
 
 }  // namespace vadop_ros

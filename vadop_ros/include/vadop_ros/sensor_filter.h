@@ -19,6 +19,7 @@
 #pragma once
 
 #include "vadop_ros/body_registry.h"  // TransformSource
+#include "vadop_ros/cell_table.h"
 
 #include <vadop/motion.h>
 #include <vadop/point_distance.h>
@@ -93,10 +94,7 @@ class SensorFilter {
     size_t item = 0;
     bool self = false;
   };
-  using Cell = std::array<int64_t, 3>;
-  struct CellHash {
-    size_t operator()(const Cell& c) const;
-  };
+  using Cell = CellTable::Cell;
   // The items whose grown bounding sphere meets the box [lo, hi].
   void cull(const FilterSnapshot& snapshot, double t, int self, double margin, double self_margin,
             const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);
@@ -107,8 +105,13 @@ class SensorFilter {
   const Candidate* holder(const FilterSnapshot& snapshot, const Eigen::Vector3d& p) const;
   bool holds(const FilterSnapshot& snapshot, const Candidate& c, const Eigen::Vector3d& p) const;
 
+  // The candidates' corners' cells (bin's two passes visit them).
+  bool cellRange(const Candidate& c, Cell& a, Cell& b) const;
+
   std::vector<Candidate> candidates_;
-  std::unordered_map<Cell, std::vector<uint32_t>, CellHash> grid_;
+  // The grid: a cell's index (grid_) -> its candidates binned_[starts_[i], starts_[i + 1]).
+  CellTable grid_;
+  std::vector<uint32_t> starts_, binned_;
   std::vector<uint32_t> big_;
   double cell_ = 1.0;
 };

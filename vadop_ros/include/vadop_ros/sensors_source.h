@@ -39,6 +39,7 @@
 #pragma once
 
 #include "vadop_ros/body_registry.h"  // TransformSource, InputResult
+#include "vadop_ros/cell_table.h"
 #include "vadop_ros/params.h"
 #include "vadop_ros/sensor_filter.h"
 #include "vadop_ros/source.h"
@@ -54,11 +55,11 @@
 #include <ros/time.h>
 
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
-#include <unordered_set>
 #include <utility>
 #include <vector>
 
@@ -119,17 +120,16 @@ class SensorsSource : public BodiesSource {
   const std::vector<Eigen::Vector3d>& points(size_t sensor) const { return points_.at(sensor); }
   bool stale(size_t sensor, const ros::Time& now) const;
   void setMaxStampSkew(double seconds) { max_stamp_skew_ = seconds; }
+  // The node's ~padding: each message's shape is prepared grown by it (SourcedBody::prepared),
+  // in the message's callback. Any thread; a message prepared before a change is prepared again
+  // by the cycle.
+  void setPadding(double padding) { padding_.store(padding); }
 
   // A map's height band in the fixed frame: [min_z, max_z], a side not given 2 m from the
   // other, neither given [0, 2] m.
   static std::pair<double, double> mapBand(const SensorParams& p);
 
  private:
-  // A voxel's integer coordinates (64 bits: a 1 mm voxel at kMaxCoordinate overflows 32).
-  using Voxel = std::array<int64_t, 3>;
-  struct VoxelHash {
-    size_t operator()(const Voxel& v) const;
-  };
   // One sensor's message as prepared without the node's lock (prepare*: its own Work, the
   // parameters and tf only), so that the gates do not wait while a large cloud's points and
   // shape are built; commit then takes it under the lock. A subscription's callbacks never run
@@ -147,10 +147,12 @@ class SensorsSource : public BodiesSource {
     std::vector<Eigen::Vector3d> points;  // kept, in the fixed frame
     bool has_shape = false;    // false: no point kept
     vadop::Shape shape;        // about the points' centroid
+    std::shared_ptr<const vadop::PreparedShape> prepared;  // shape grown by prepared_padding
+    double prepared_padding = 0.0;
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
     laser_geometry::LaserProjection projector;  // its cache of a scan's angles
     sensor_msgs::PointCloud2 projected;         // a scan's projection
-    std::unordered_set<Voxel, VoxelHash> voxels;  // the voxels met in a cloud
+    CellTable voxels;  // the voxels met in a cloud
   };
   // The header's stamp (skew) and frame (`to_fixed`: into the fixed frame); false and w.why
   // when the message is to be dropped.
@@ -185,6 +187,7 @@ class SensorsSource : public BodiesSource {
   std::vector<char> emptied_;  // per sensor: its last accepted message had no point (leaves)
   std::vector<std::unique_ptr<Work>> work_;  // per sensor (LaserProjection does not move)
   FilterProvider filter_provider_;
+  std::atomic<double> padding_{0.0};
 };
 
 }  // namespace vadop_ros

@@ -43,6 +43,10 @@ namespace diagnostic_updater {
 class DiagnosticStatusWrapper;
 }
 
+namespace vadop {
+class PreparedShape;  // vadop/world.h: prepareShape
+}
+
 namespace vadop_ros {
 
 class BodyRegistry;
@@ -190,6 +194,12 @@ struct SourcedBody {
   // Bumped by the source whenever `shape` changes in a living slot (a sensor's new points): the
   // world keeps an element's shape from its entry, so MonitorCore re-enters the element then.
   uint64_t shape_version = 0;
+  // Optional: `shape` grown by `prepared_padding` and prepared for the narrow phase by the
+  // source, off the cycle (a sensor's point set: its tree built in the message's callback, not
+  // under the node's lock). MonitorCore takes it while the node's padding is still that one;
+  // otherwise it pads and prepares `shape` itself.
+  std::shared_ptr<const vadop::PreparedShape> prepared;
+  double prepared_padding = 0.0;
 };
 
 // An input that brings a set of bodies (the kind's topics, their latest messages, the bodies

@@ -5,6 +5,7 @@
 #include "source_problem.h"
 
 #include <vadop/error.h>
+#include <vadop/world.h>
 #include <vadop/shapes.h>
 
 #include <diagnostic_msgs/DiagnosticStatus.h>
@@ -165,13 +166,6 @@ bool SensorsSource::admit(size_t sensor, const Eigen::Vector3d& p, Work& w) cons
   return p.z() >= sp.min_z && p.z() <= sp.max_z;
 }
 
-size_t SensorsSource::VoxelHash::operator()(const Voxel& v) const {
-  // Large odd multipliers (as in spatial hashing): neighbouring voxels spread over the buckets.
-  const uint64_t h = static_cast<uint64_t>(v[0]) * 73856093ull ^ static_cast<uint64_t>(v[1]) * 19349663ull ^
-                     static_cast<uint64_t>(v[2]) * 83492791ull;
-  return static_cast<size_t>(h);
-}
-
 void SensorsSource::buildShape(size_t sensor, Work& w, const Eigen::Vector3d& box, const Eigen::Matrix3d& turn) const {
   if (w.points.empty()) return;
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
@@ -186,6 +180,13 @@ void SensorsSource::buildShape(size_t sensor, Work& w, const Eigen::Vector3d& bo
   } catch (const vadop::InvalidArgument& e) {  // cannot happen: the points are finite and in range
     w.why = std::string("points refused by the library: ") + e.what();
     return;
+  }
+  // The tree built here, in the message's callback (outside the node's lock), for the world.
+  w.prepared_padding = padding_.load();
+  try {
+    w.prepared = vadop::prepareShape(w.prepared_padding > 0.0 ? vadop::inflate(w.shape, w.prepared_padding) : w.shape);
+  } catch (const vadop::InvalidArgument&) {  // not expected (a valid shape, padding in range)
+    w.prepared = nullptr;                     // the cycle prepares it, reporting why
   }
   w.has_shape = true;
   w.pose = Eigen::Isometry3d::Identity();
@@ -225,6 +226,8 @@ InputResult SensorsSource::commit(size_t sensor, Work& w, const ros::Time& recei
   b.name = params_[sensor].name;
   b.link.clear();
   std::swap(b.shape, w.shape);  // no copy of a large shape under the lock
+  b.prepared = std::move(w.prepared);
+  b.prepared_padding = w.prepared_padding;
   b.pose = w.pose;
   b.v.setZero();
   b.w.setZero();
@@ -270,14 +273,16 @@ void SensorsSource::prepareCloud(size_t sensor, const sensor_msgs::PointCloud2& 
     w.why = why;
     return;
   }
-  w.voxels.clear();
   const double voxel = params_[sensor].voxel;
+  if (voxel > 0.0) w.voxels.reset(static_cast<size_t>(msg.width) * msg.height);
   // At most one point per voxel of the fixed frame's grid: true the first time one is met.
   const auto firstInVoxel = [&w, voxel](const Eigen::Vector3d& p) {
     if (!(voxel > 0.0)) return true;
-    const Voxel key = {static_cast<int64_t>(std::floor(p.x() / voxel)), static_cast<int64_t>(std::floor(p.y() / voxel)),
-                       static_cast<int64_t>(std::floor(p.z() / voxel))};
-    return w.voxels.insert(key).second;
+    bool first = false;
+    w.voxels.insert({static_cast<int64_t>(std::floor(p.x() / voxel)), static_cast<int64_t>(std::floor(p.y() / voxel)),
+                     static_cast<int64_t>(std::floor(p.z() / voxel))},
+                    first);
+    return first;
   };
   sensor_msgs::PointCloud2ConstIterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z");
   for (; x != x.end(); ++x, ++y, ++z) {

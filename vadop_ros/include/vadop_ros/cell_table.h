@@ -1,0 +1,89 @@
+// A map from integer grid cells (x, y, z) to a uint32_t, for grids rebuilt with every sensor
+// message: a cloud's voxels (at most one point each) and the sensor filter's bins of bodies.
+// Open addressing with linear probing over a power-of-two table kept at most half full, emptied
+// by a generation count instead of a pass over the table, and kept from message to message: no
+// allocation per cell (node-based hash maps allocated one per voxel, 2 ms of a 30,000-point
+// cloud). It does not grow while filled: reset() sizes it for the insertions to come, and
+// inserting more than that aborts (a caller's bug, never the message's).
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <cstdlib>
+#include <vector>
+
+namespace vadop_ros {
+
+class CellTable {
+ public:
+  // 64 bits a coordinate: a 1 mm cell at the library's largest coordinate overflows 32.
+  using Cell = std::array<int64_t, 3>;
+
+  // Empty, with room for up to `insertions` cells.
+  void reset(size_t insertions) {
+    int bits = 4;
+    while ((size_t{1} << bits) < 2 * insertions) ++bits;
+    if (bits != bits_) {
+      bits_ = bits;
+      cells_.assign(size_t{1} << bits, Cell{});
+      values_.assign(size_t{1} << bits, 0);
+      generation_.assign(size_t{1} << bits, 0);
+      current_ = 0;
+    }
+    if (++current_ == 0) {  // wrapped: a stale slot's mark could equal the new one
+      std::fill(generation_.begin(), generation_.end(), 0);
+      current_ = 1;
+    }
+    room_ = (size_t{1} << bits) / 2;
+  }
+
+  // The cell's value, 0 when it was not in (then `inserted` is true; a new cell's value is 0).
+  uint32_t& insert(const Cell& c, bool& inserted) {
+    for (size_t k = slot(c);; k = (k + 1) & mask()) {
+      if (generation_[k] != current_) {
+        if (room_ == 0) std::abort();  // more cells than reset() was told: the caller's bug
+        --room_;
+        generation_[k] = current_;
+        cells_[k] = c;
+        values_[k] = 0;
+        inserted = true;
+        return values_[k];
+      }
+      if (cells_[k] == c) {
+        inserted = false;
+        return values_[k];
+      }
+    }
+  }
+
+  // The cell's value, or null when it is not in.
+  const uint32_t* find(const Cell& c) const {
+    if (bits_ == 0) return nullptr;
+    for (size_t k = slot(c);; k = (k + 1) & mask()) {
+      if (generation_[k] != current_) return nullptr;
+      if (cells_[k] == c) return &values_[k];
+    }
+  }
+
+ private:
+  size_t mask() const { return (size_t{1} << bits_) - 1; }
+  size_t slot(const Cell& c) const {
+    // Large odd multipliers (as in spatial hashing), then Fibonacci hashing's top bits:
+    // neighbouring cells spread over the table.
+    const uint64_t h = (static_cast<uint64_t>(c[0]) * 73856093ull ^ static_cast<uint64_t>(c[1]) * 19349663ull ^
+                        static_cast<uint64_t>(c[2]) * 83492791ull) *
+                       0x9e3779b97f4a7c15ull;
+    return static_cast<size_t>(h >> (64 - bits_));
+  }
+
+  std::vector<Cell> cells_;
+  std::vector<uint32_t> values_;
+  std::vector<uint32_t> generation_;  // a slot is taken when it equals current_
+  uint32_t current_ = 0;
+  int bits_ = 0;
+  size_t room_ = 0;
+};
+
+}  // namespace vadop_ros
