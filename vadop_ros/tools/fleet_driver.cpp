@@ -20,8 +20,8 @@
 // ~states_topic (/fleet/states), ~seed (1), ~area (6 m^2, (0, 1e6]), ~clock_step (0 s: the ROS
 // clock; at most 60), ~wait_subscribers (0: before the first state, wait until the states (each
 // odometry topic) and, with a clock, /clock have this many subscribers), ~sensors (false: also
-// a laser and a depth sensor at the room's centre, frame "laser" 0.1 m above "odom" (the launch
-// file publishes that transform): a 1,081-beam sensor_msgs/LaserScan on /scan at 15 Hz and a
+// a laser and a depth sensor at the room's centre, frame "laser" 0.1 m above "odom" (a static
+// transform the driver publishes): a 1,081-beam sensor_msgs/LaserScan on /scan at 15 Hz and a
 // 30,000-point sensor_msgs/PointCloud2 on /points at 10 Hz, the bench's (fleet_sensors.h)).
 #include "fleet_driver.h"
 
@@ -93,6 +93,14 @@ FleetDriver::FleetDriver(ros::NodeHandle& nh, const FleetDriverSettings& s)
     scan_ = nh.advertise<sensor_msgs::LaserScan>("/scan", 2);
     cloud_ = nh.advertise<sensor_msgs::PointCloud2>("/points", 2);
     cloud_rng_.seed(static_cast<unsigned>(s.seed) + 104729u);
+    geometry_msgs::TransformStamped laser;
+    laser.header.stamp = ros::Time::now();
+    laser.header.frame_id = "odom";
+    laser.child_frame_id = "laser";
+    laser.transform.translation.z = FleetSensors::kLaserHeight;
+    laser.transform.rotation.w = 1.0;
+    laser_tf_ = std::make_unique<tf2_ros::StaticTransformBroadcaster>();
+    laser_tf_->sendTransform(laser);
   }
 }
 

@@ -10,8 +10,10 @@
 #include <vadop/BodyStateArray.h>
 
 #include <ros/ros.h>
+#include <tf2_ros/static_transform_broadcaster.h>
 
 #include <atomic>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -63,6 +65,7 @@ class FleetDriver {
   void publishSensors(const ros::Time& stamp);
   FleetSensors sensors_;
   ros::Publisher scan_, cloud_;
+  std::unique_ptr<tf2_ros::StaticTransformBroadcaster> laser_tf_;  // "laser" in "odom"
   ros::Time next_scan_, next_cloud_;
   std::mt19937 cloud_rng_;  // the cloud's own: the fleet's sequence is the same without sensors
   vadop::BodyStateArray names_;  // the entries' names, copied into each published array
