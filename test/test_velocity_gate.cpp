@@ -162,6 +162,12 @@ TEST(VelocityGate, AnotherBodyNeverHeardFromStopsTheGate) {
     core.registry().onOdometry(0, odom(100.9, -20), ros::Time(100.9));
     core.cycle(ros::Time(100.9), tf);
     EXPECT_EQ(gate.onCommand(core, twist(1.0), ros::Time(100.9), tf).linear.x, 1.0);
+    // Time jumps back (a bag restarted): every state forgotten; b unheard again stops the gate.
+    core.reset();
+    core.registry().onOdometry(0, odom(50.0, -20), ros::Time(50.0));
+    core.cycle(ros::Time(50.0), tf);
+    EXPECT_EQ(gate.onCommand(core, twist(1.0), ros::Time(50.0), tf).linear.x, 0.0);
+    EXPECT_NE(gate.state().detail.find("\"b\" has sent no state yet"), std::string::npos) << gate.state().detail;
   }
 }
 

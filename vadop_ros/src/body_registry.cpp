@@ -1004,6 +1004,7 @@ const char* motionSource(const Body& b) {
 }
 
 void BodyRegistry::reset() {
+  ++resets_;
   has_base_ = false;
   first_update_ = ros::Time();
   for (Body& b : bodies_) {

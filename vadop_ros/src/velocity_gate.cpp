@@ -70,9 +70,14 @@ void VelocityGate::publishZero(const std::string& reason, const std::string& det
   forwarded_ = state_.command_out;
 }
 
-bool VelocityGate::unheardBody(const MonitorCore& core, std::string& why) const {
+bool VelocityGate::unheardBody(const MonitorCore& core, std::string& why) {
+  if (heard_resets_ != core.registry().resets()) {
+    heard_resets_ = core.registry().resets();
+    heard_upto_ = 0;
+  }
   const auto& bodies = core.registry().bodies();
-  for (size_t i = 0; i < bodies.size(); ++i) {
+  for (; heard_upto_ < bodies.size(); ++heard_upto_) {
+    const size_t i = heard_upto_;
     const Body& b = bodies[i];
     // The gate's own body is checked by checkCommand; a body without geometry is never met.
     if (i == body_ || b.is_static || b.has_state || b.elements.empty()) continue;

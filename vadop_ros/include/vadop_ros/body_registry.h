@@ -351,6 +351,8 @@ class BodyRegistry {
 
   // Forgets every state (time jumped backwards, e.g. a bag restarted); keeps the geometry.
   void reset();
+  // How many resets so far: a body's has_state turns false only through one.
+  uint64_t resets() const { return resets_; }
 
   // The library works in seconds since a base time, set by the first update (or reset) and
   // moved to `now` by update() whenever |seconds(now)| exceeds kRebaseAfterSeconds (every
@@ -486,6 +488,7 @@ class BodyRegistry {
   bool has_base_ = false;
   ros::Time first_update_;
   uint64_t rebases_ = 0;
+  uint64_t resets_ = 0;
   double max_stamp_skew_ = 5.0;  // MonitorParams' default until setMaxStampSkew
   std::shared_ptr<BodyStatesRoutes> states_routes_;  // null until bodyStatesRoutes()
 };

@@ -52,9 +52,14 @@ class VelocityGate {
   void publishZero(const std::string& reason, const std::string& detail, const geometry_msgs::Twist& in);
   // Some moving body other than the gate's, not left out by its ignore globs, has sent no state
   // yet; `why` names it.
-  bool unheardBody(const MonitorCore& core, std::string& why) const;
+  bool unheardBody(const MonitorCore& core, std::string& why);
 
   size_t body_;
+  // unheardBody's cursor: the bodies before it have been heard since the registry's reset
+  // number heard_resets_ (has_state turns false only on a reset), so a command looks at each
+  // body about once, not a fleet's 10,000 each time.
+  size_t heard_upto_ = 0;
+  uint64_t heard_resets_ = ~uint64_t{0};
   GateParams params_;
   std::vector<char> ignored_;  // by registry element: matched by params_.ignore
   vadop::GateState state_;
