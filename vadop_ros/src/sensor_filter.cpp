@@ -154,8 +154,8 @@ void SensorFilter::bin() {
   for (const Candidate& c : candidates_) reach.push_back(std::sqrt(c.reach2));
   std::nth_element(reach.begin(), reach.begin() + reach.size() / 2, reach.end());
   cell_ = std::max(2.0 * reach[reach.size() / 2], 1e-3);
-  // Two passes over the candidates' cells: count each cell's candidates (a cell's index in
-  // order of its first visit), then place them side by side.
+  // One pass over the candidates' cells: each cell's index (in order of its first visit), its
+  // count and the (cell, candidate) pairs; then the pairs placed side by side by cell.
   const auto forEachCell = [](const Cell& a, const Cell& b, auto&& f) {
     for (int64_t x = a[0]; x <= b[0]; ++x) {
       for (int64_t y = a[1]; y <= b[1]; ++y) {
@@ -174,10 +174,11 @@ void SensorFilter::bin() {
   }
   grid_.reset(visits);
   starts_.clear();
-  for (const Candidate& c : candidates_) {
+  pairs_.clear();
+  for (uint32_t k = 0; k < candidates_.size(); ++k) {
     Cell a, b;
-    if (!cellRange(c, a, b)) continue;
-    forEachCell(a, b, [this](const Cell& cell) {
+    if (!cellRange(candidates_[k], a, b)) continue;
+    forEachCell(a, b, [this, k](const Cell& cell) {
       bool fresh = false;
       uint32_t& index = grid_.insert(cell, fresh);
       if (fresh) {
@@ -185,19 +186,16 @@ void SensorFilter::bin() {
         starts_.push_back(0);
       }
       ++starts_[index];
+      pairs_.push_back({index, k});
     });
   }
   // Counts -> starts (exclusive prefix sums), then each candidate at its cell's next place.
   uint32_t total = 0;
   for (uint32_t& s : starts_) total += std::exchange(s, total);
   starts_.push_back(total);
-  binned_.assign(total, 0);
-  std::vector<uint32_t> next(starts_.begin(), starts_.end() - 1);
-  for (uint32_t k = 0; k < candidates_.size(); ++k) {
-    Cell a, b;
-    if (!cellRange(candidates_[k], a, b)) continue;
-    forEachCell(a, b, [&](const Cell& cell) { binned_[next[*grid_.find(cell)]++] = k; });
-  }
+  binned_.resize(total);
+  next_.assign(starts_.begin(), starts_.end() - 1);
+  for (const auto& [cell, k] : pairs_) binned_[next_[cell]++] = k;
 }
 
 bool SensorFilter::holds(const FilterSnapshot& snapshot, const Candidate& c, const Eigen::Vector3d& p) const {

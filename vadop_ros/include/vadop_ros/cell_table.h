@@ -21,11 +21,13 @@ class CellTable {
   // 64 bits a coordinate: a 1 mm cell at the library's largest coordinate overflows 32.
   using Cell = std::array<int64_t, 3>;
 
-  // Empty, with room for up to `insertions` cells.
+  // Empty, with room for up to `insertions` cells. The table grows as needed and shrinks only
+  // when four times too large: a count that wanders about a power of two does not reallocate
+  // it at every message.
   void reset(size_t insertions) {
     int bits = 4;
     while ((size_t{1} << bits) < 2 * insertions) ++bits;
-    if (bits != bits_) {
+    if (bits > bits_ || bits + 2 < bits_) {
       bits_ = bits;
       cells_.assign(size_t{1} << bits, Cell{});
       values_.assign(size_t{1} << bits, 0);
@@ -36,7 +38,7 @@ class CellTable {
       std::fill(generation_.begin(), generation_.end(), 0);
       current_ = 1;
     }
-    room_ = (size_t{1} << bits) / 2;
+    room_ = (size_t{1} << bits_) / 2;
   }
 
   // The cell's value, 0 when it was not in (then `inserted` is true; a new cell's value is 0).

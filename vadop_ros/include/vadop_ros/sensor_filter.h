@@ -32,6 +32,7 @@
 #include <memory>
 #include <string>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace vadop {
@@ -112,6 +113,8 @@ class SensorFilter {
   // The grid: a cell's index (grid_) -> its candidates binned_[starts_[i], starts_[i + 1]).
   CellTable grid_;
   std::vector<uint32_t> starts_, binned_;
+  std::vector<std::pair<uint32_t, uint32_t>> pairs_;  // bin's (cell index, candidate)
+  std::vector<uint32_t> next_;                        // bin's next place in each cell
   std::vector<uint32_t> big_;
   double cell_ = 1.0;
 };
