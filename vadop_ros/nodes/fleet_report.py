@@ -16,6 +16,8 @@
     30 Hz), the highest max; and from each ImpactArray (stamped with its cycle's time) the time
     until it arrives here: mean and p95 (the cycle's work plus one transport hop), and the
     ImpactArray rate;
+  - with ~sensors: each sensor's messages accepted and dropped over the window and its points
+    kept at the end (the monitor's "sensors" diagnostics);
   - the age of the states: from each state message on the first robot's topic (read raw: only
     its header's stamp is decoded) the time until it arrives here, mean and p95 (a second
     subscriber of the same transport); a cycle uses a state of that age plus up to one driver
@@ -24,8 +26,9 @@ Private parameters: n (1000), rate (30, the driver's), mode (array | odom), seco
 window), warmup (5, before it), states_topic (/fleet/states), node (/vadop_monitor),
 pid_node (~node: the node whose process is measured, e.g. /fleet_manager), driver_node (empty:
 also measure this node's process, the driver in a process of its own: "driver CPU"),
-state_age (true: measure the states' age, a second subscriber of their topic), check (false: as
-a rostest, fail unless every figure was measured and every body is fresh).
+state_age (true: measure the states' age, a second subscriber of their topic), sensors (false:
+the monitor has sensors; report them), check (false: as a rostest, fail unless every figure was
+measured and every body is fresh, and with sensors every sensor took messages and dropped none).
 """
 import math
 import os
@@ -104,6 +107,8 @@ class Measure:
         self.fresh = []  # (ok, summary) of each "bodies" report in the window
         self.cycle_means, self.cycle_p95s, self.cycle_maxes = [], [], []
         self.all_fresh_at, self.started_at = None, None  # wall times
+        self.sensors = rospy.get_param("~sensors", False)
+        self.sensor_values, self.sensor_start, self.sensor_end = {}, {}, {}  # "sensors" diagnostics
         states = rospy.get_param("~states_topic", "/fleet/states") if self.mode == "array" else "/robot_0/odom"
         self.subs = [
             rospy.Subscriber(self.node + "/impacts", ImpactArray, self.on_impacts, queue_size=50),
@@ -131,6 +136,9 @@ class Measure:
                 m = re.match(r"(\d+) ok", st.message) if st.name.endswith(": bodies") else None
                 if m and int(m.group(1)) >= self.n:
                     self.all_fresh_at = time.time()
+        for st in msg.status:
+            if st.name.endswith(": sensors"):
+                self.sensor_values = {kv.key: kv.value for kv in st.values}
         if not self.recording:
             return
         for st in msg.status:
@@ -151,12 +159,14 @@ class Measure:
         self.started_at = start_time(pid)
         rospy.sleep(self.warmup)
         self.recording = True
+        self.sensor_start = dict(self.sensor_values)
         cpu0, t0 = cpu_seconds(pid), time.time()
         driver0 = cpu_seconds(driver) if driver else 0.0
         rospy.sleep(self.seconds)
         cpu1, t1 = cpu_seconds(pid), time.time()
         driver1 = cpu_seconds(driver) if driver else 0.0
         self.recording = False
+        self.sensor_end = dict(self.sensor_values)
         f = self.figures(cpu1 - cpu0, t1 - t0)
         if driver:
             f["driver_cpu_share"] = (driver1 - driver0) / (t1 - t0)
@@ -183,7 +193,19 @@ class Measure:
             "state_delay_p95_ms": percentile(self.state_delays, 0.95) * 1e3,
         }
         f["state_age_at_cycle_mean_ms"] = f["state_delay_mean_ms"] + 0.5e3 / self.rate
+        if self.sensors:
+            for name in self.sensorNames():
+                for what in ("messages accepted", "messages dropped"):
+                    key = "%s: %s" % (name, what)
+                    f["sensor %s" % key] = (float(self.sensor_end.get(key, "nan")) -
+                                            float(self.sensor_start.get(key, "nan")))
+                f["sensor %s: points" % name] = float(self.sensor_end.get("%s: points" % name, "nan"))
+            if not self.sensorNames():
+                f["sensors"] = float("nan")  # no "sensors" diagnostics seen
         return f
+
+    def sensorNames(self):
+        return sorted(k[:-len(": messages accepted")] for k in self.sensor_end if k.endswith(": messages accepted"))
 
     def report(self, f):
         lines = [
@@ -204,6 +226,10 @@ class Measure:
         ]
         if "driver_cpu_share" in f:
             lines.insert(2, "  driver CPU (the process of %s): %.1f%% of a core" % (self.driver_node, 100 * f["driver_cpu_share"]))
+        for name in self.sensorNames() if self.sensors else []:
+            lines.append("  sensor %s: %.0f messages accepted, %.0f dropped in the window; %.0f points kept" %
+                         (name, f["sensor %s: messages accepted" % name], f["sensor %s: messages dropped" % name],
+                          f["sensor %s: points" % name]))
         if self.all_fresh_at is not None and self.started_at is not None:
             lines.append("  start-up: every body fresh %.1f s after the monitor started" %
                          (self.all_fresh_at - self.started_at))
@@ -226,6 +252,9 @@ class FleetTransportSmoke(unittest.TestCase):
         self.assertEqual(f["fresh_share_last"], 1.0, text)
         self.assertTrue(0.0 < f["cycle_p95_ms"] <= f["cycle_p95_max_ms"] <= f["cycle_max_ms"], text)
         self.assertIn("node CPU", text)
+        for name in m.sensorNames() if m.sensors else []:
+            self.assertGreater(f["sensor %s: messages accepted" % name], 0, text)
+            self.assertEqual(f["sensor %s: messages dropped" % name], 0, text)
 
 
 def main():
