@@ -54,6 +54,10 @@ class Mistakes(unittest.TestCase):
         silent = self.lines(Log.WARN, 'body "b"', "/b/odm", "no node publishes")
         self.assertEqual(len(silent), 1, "no single WARN naming body b and /b/odm: %s" % self.logs)
         self.assertEqual(self.lines(Log.WARN, 'body "a"'), [], "body a was published: %s" % self.logs)
+        # b and c_0 .. c_11 silent: the first 10 named one a line, the other 3 in one line.
+        self.assertEqual(len(self.lines(Log.WARN, "no node publishes", "is the topic right")), 10, self.logs)
+        rest = self.lines(Log.WARN, "3 more bodies", '"c_9" (/c_9/odom)', "no node publishes their topics")
+        self.assertEqual(len(rest), 1, "no single WARN for the 3 other silent bodies: %s" % self.logs)
         with self.lock:
             last = self.bodies[-1] if self.bodies else None
         self.assertIsNotNone(last, "no bodies diagnostics")

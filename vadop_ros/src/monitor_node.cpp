@@ -257,16 +257,30 @@ class MonitorNode : public Monitor {
   }
 
   // kFirstMessageWarnSeconds after start-up: a WARN for each moving body still waiting whose
-  // topic no node publishes (a wrong odom_topic is otherwise silent; diagnostics warn too).
+  // topic no node publishes (a wrong odom_topic is otherwise silent; diagnostics warn too): one
+  // warning a body for the first kSilentNamed of them, then one line for the rest (a fleet whose
+  // driver still advertises its 3,000 topics would otherwise print thousands).
+  static constexpr size_t kSilentNamed = 10;
   void warnSilentTopics() {
     std::lock_guard<std::mutex> lock(core_mutex_);
+    size_t silent = 0;
+    std::string first_unnamed;
     for (const Body& b : core_->registry().bodies()) {
       if (b.is_static || b.status.state != BodyState::kWaiting || b.sources.empty()) continue;
       const auto sub = sub_of_topic_.find(b.sources.front()->topic());  // the velocity source: its state
       if (sub == sub_of_topic_.end() || subs_[sub->second].getNumPublishers() > 0) continue;
+      if (++silent > kSilentNamed) {
+        if (first_unnamed.empty()) first_unnamed = "\"" + b.name + "\" (" + subs_[sub->second].getTopic() + ")";
+        continue;
+      }
       ROS_WARN("vadop_monitor: body \"%s\": no node publishes %s %.0f s after start-up (waiting for its first "
                "message; is the topic right?)",
                b.name.c_str(), subs_[sub->second].getTopic().c_str(), kFirstMessageWarnSeconds);
+    }
+    if (silent > kSilentNamed) {
+      ROS_WARN("vadop_monitor: %zu more bodies, from %s on: no node publishes their topics %.0f s after start-up "
+               "(waiting for their first messages; diagnostics \"bodies\" lists those waiting)",
+               silent - kSilentNamed, first_unnamed.c_str(), kFirstMessageWarnSeconds);
     }
   }
 
