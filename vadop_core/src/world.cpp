@@ -130,22 +130,24 @@ void WorldEngine::requireEngine(const char* operation) const {
   if (!broad_phase_) throw InvalidArgument(std::string(operation) + ": this World was moved from");
 }
 
-void WorldEngine::add(const std::string& id, const Shape& shape, const Motion& motion, uint64_t user) {
+void WorldEngine::requireNewId(const std::string& id) const {
   requireEngine("add");
-  const std::string what = "add body " + quoted(id);
   if (id.empty()) throw InvalidArgument("add: the body id must not be empty");
-  if (findBody(id) != kUnknownBody) throw InvalidArgument(what + ": a body with this id already exists");
-  validateShape(shape, what + ": shape");
+  if (findBody(id) != kUnknownBody) {
+    throw InvalidArgument("add body " + quoted(id) + ": a body with this id already exists");
+  }
+}
+
+void WorldEngine::add(const std::string& id, const Shape& shape, const Motion& motion, uint64_t user) {
+  requireNewId(id);  // before the shape is prepared (a large mesh's tree)
+  validateShape(shape, "add body " + quoted(id) + ": shape");
   add(id, PreparedShape(shape), motion, user);
 }
 
 void WorldEngine::add(const std::string& id, const PreparedShape& prepared, const Motion& motion, uint64_t user) {
   ++epoch_;  // the others' braking paths (brakingOf) are made again
-  requireEngine("add");
-  const std::string what = "add body " + quoted(id);
-  if (id.empty()) throw InvalidArgument("add: the body id must not be empty");
-  if (findBody(id) != kUnknownBody) throw InvalidArgument(what + ": a body with this id already exists");
-  validateMotion(motion, what + ": motion");  // the shape was validated when it was prepared
+  requireNewId(id);
+  validateMotion(motion, "add body " + quoted(id) + ": motion");  // the shape was validated when prepared
   const Shape& shape = prepared.shape();
 
   // Everything that can fail happens before the first change (strong guarantee).

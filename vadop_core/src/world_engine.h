@@ -187,6 +187,8 @@ class WorldEngine {
   struct NameOf;  // the name of a BodyId (in its record), for by_name_
   // Throws InvalidArgument when this World was moved from (no broad phase).
   void requireEngine(const char* operation) const;
+  // Throws InvalidArgument (naming add) when `id` is empty or taken, or this World was moved from.
+  void requireNewId(const std::string& id) const;
   std::vector<Contact> run(double t0, double horizon, const std::vector<BodyId>* only);
   // t0 + horizon; throws, naming `operation`, for a window that is not finite or out of range.
   double checkedWindow(const char* operation, double t0, double horizon) const;
