@@ -62,21 +62,9 @@ struct Predictor::Impl {
 Predictor::Predictor(const PredictorConfig& config) : impl_(std::make_unique<Impl>(config)) {}
 Predictor::~Predictor() = default;
 
-bool Predictor::set(size_t i, const std::string& id, const vadop::Shape& shape, const vadop::Motion& motion,
-                    std::string& error, uint32_t group, uint32_t mask,
-                    const std::shared_ptr<const vadop::LinkChain>& chain) {
-  return enter(i, id, [&] { impl_->world.add(id, shape, motion, i); }, motion, error, group, mask, chain);
-}
-
-bool Predictor::set(size_t i, const std::string& id, const std::shared_ptr<const vadop::PreparedShape>& shape,
-                    const vadop::Motion& motion, std::string& error, uint32_t group, uint32_t mask,
-                    const std::shared_ptr<const vadop::LinkChain>& chain) {
-  return enter(i, id, [&] { impl_->world.add(id, shape, motion, i); }, motion, error, group, mask, chain);
-}
-
-bool Predictor::enter(size_t i, const std::string& id, const std::function<void()>& add, const vadop::Motion& motion,
-                      std::string& error, uint32_t group, uint32_t mask,
-                      const std::shared_ptr<const vadop::LinkChain>& chain) {
+template <class Add>
+bool Predictor::enter(size_t i, const std::string& id, const Add& add, const vadop::Motion& motion, std::string& error,
+                      uint32_t group, uint32_t mask, const std::shared_ptr<const vadop::LinkChain>& chain) {
   if (i >= impl_->slots.size()) impl_->slots.resize(i + 1);
   Impl::Slot& s = impl_->slots[i];
   try {
@@ -106,6 +94,18 @@ bool Predictor::enter(size_t i, const std::string& id, const std::function<void(
     error = e.what();
     return false;
   }
+}
+
+bool Predictor::set(size_t i, const std::string& id, const vadop::Shape& shape, const vadop::Motion& motion,
+                    std::string& error, uint32_t group, uint32_t mask,
+                    const std::shared_ptr<const vadop::LinkChain>& chain) {
+  return enter(i, id, [&] { impl_->world.add(id, shape, motion, i); }, motion, error, group, mask, chain);
+}
+
+bool Predictor::set(size_t i, const std::string& id, const std::shared_ptr<const vadop::PreparedShape>& shape,
+                    const vadop::Motion& motion, std::string& error, uint32_t group, uint32_t mask,
+                    const std::shared_ptr<const vadop::LinkChain>& chain) {
+  return enter(i, id, [&] { impl_->world.add(id, shape, motion, i); }, motion, error, group, mask, chain);
 }
 
 void Predictor::setIgnored(std::function<bool(size_t a, size_t b)> ignored) {

@@ -164,8 +164,9 @@ void SensorFilter::bin() {
     }
   };
   size_t visits = 0;
+  ranges_.resize(candidates_.size());
   for (uint32_t k = 0; k < candidates_.size(); ++k) {
-    Cell a, b;
+    auto& [a, b] = ranges_[k];
     if (!cellRange(candidates_[k], a, b)) {
       big_.push_back(k);
       continue;
@@ -175,10 +176,12 @@ void SensorFilter::bin() {
   grid_.reset(visits);
   starts_.clear();
   pairs_.clear();
-  for (uint32_t k = 0; k < candidates_.size(); ++k) {
-    Cell a, b;
-    if (!cellRange(candidates_[k], a, b)) continue;
-    forEachCell(a, b, [this, k](const Cell& cell) {
+  for (uint32_t k = 0, big = 0; k < candidates_.size(); ++k) {
+    if (big < big_.size() && big_[big] == k) {  // big_ is in candidate order
+      ++big;
+      continue;
+    }
+    forEachCell(ranges_[k].first, ranges_[k].second, [this, k](const Cell& cell) {
       bool fresh = false;
       uint32_t& index = grid_.insert(cell, fresh);
       if (fresh) {

@@ -162,9 +162,11 @@ class Predictor {
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
-  // set's body: `add` puts the element into the world when it is not in yet.
-  bool enter(size_t i, const std::string& id, const std::function<void()>& add, const vadop::Motion& motion,
-             std::string& error, uint32_t group, uint32_t mask, const std::shared_ptr<const vadop::LinkChain>& chain);
+  // set's body: `add()` puts the element into the world when it is not in yet. A template (not
+  // std::function): set runs for every element every cycle, and the callable would be allocated.
+  template <class Add>
+  bool enter(size_t i, const std::string& id, const Add& add, const vadop::Motion& motion, std::string& error,
+             uint32_t group, uint32_t mask, const std::shared_ptr<const vadop::LinkChain>& chain);
 };
 
 }  // namespace vadop_ros

@@ -106,13 +106,15 @@ class SensorFilter {
   const Candidate* holder(const FilterSnapshot& snapshot, const Eigen::Vector3d& p) const;
   bool holds(const FilterSnapshot& snapshot, const Candidate& c, const Eigen::Vector3d& p) const;
 
-  // The candidates' corners' cells (bin's two passes visit them).
+  // The cells of the candidate's grown sphere's box, from a to b; false when there are more than
+  // kMaxCellsPerCandidate (the candidate then goes to big_).
   bool cellRange(const Candidate& c, Cell& a, Cell& b) const;
 
   std::vector<Candidate> candidates_;
   // The grid: a cell's index (grid_) -> its candidates binned_[starts_[i], starts_[i + 1]).
   CellTable grid_;
   std::vector<uint32_t> starts_, binned_;
+  std::vector<std::pair<Cell, Cell>> ranges_;          // bin's cellRange of each candidate
   std::vector<std::pair<uint32_t, uint32_t>> pairs_;  // bin's (cell index, candidate)
   std::vector<uint32_t> next_;                        // bin's next place in each cell
   std::vector<uint32_t> big_;
