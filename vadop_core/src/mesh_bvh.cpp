@@ -18,8 +18,7 @@ struct Item {
 // returns k in [1, n) with every item before k at or below every item from k on along that axis.
 // Ranges up to kExact items are split at the exact median (nth_element); larger ones at the
 // median of kSamples evenly spaced items, in one partition pass instead of nth_element's
-// several (a sensor's 10,000-point tree is rebuilt for every cloud); the halves stay near even
-// (test_point_set bounds the depth).
+// several; the halves stay near even (test_point_set bounds the depth).
 int splitItems(Item* items, int n) {
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(kInf), hi = Eigen::Vector3d::Constant(-kInf);
   for (int i = 0; i < n; ++i) {
@@ -92,6 +91,73 @@ void fitBounds(PreparedShapeData& d) {
   }
 }
 
+// Large sets: the items in the order of their centroids' Morton codes (10 bits an axis over
+// the items' largest extent), sorted in three radix passes. The code of a cell of the
+// implicit octree over that extent is a prefix, so a range of sorted items whose first and last
+// codes first differ at bit b splits where bit b turns to 1: each node is an octree cell, split
+// in two along one axis, and the build is linear after the sort. Items sharing one code (within
+// a 1/1024th of the extent on every axis) split at their middle. The depth stays under
+// 30 + log2(n) + 1.
+int mortonSplit(const uint32_t* codes, int begin, int end) {
+  const uint32_t first = codes[begin], last = codes[end - 1];
+  if (first == last) return (begin + end) / 2;
+  const uint32_t bit = uint32_t{1} << (31 - __builtin_clz(first ^ last));
+  // The first item with that bit set (the codes below it agree with `first` above it).
+  return static_cast<int>(std::partition_point(codes + begin, codes + end, [bit](uint32_t c) { return (c & bit) == 0; }) -
+                          codes);
+}
+
+// Spreads the low 10 bits of x to every third bit (bit k to bit 3k).
+uint32_t spreadBits(uint32_t x) {
+  x &= 0x3ffu;
+  x = (x | (x << 16)) & 0x030000ffu;
+  x = (x | (x << 8)) & 0x0300f00fu;
+  x = (x | (x << 4)) & 0x030c30c3u;
+  x = (x | (x << 2)) & 0x09249249u;
+  return x;
+}
+
+// The items' triangles in Morton order of their centroids (tri_order) and their codes.
+void mortonOrder(const std::vector<Item>& items, std::vector<int>& tri_order, std::vector<uint32_t>& codes) {
+  const int n = static_cast<int>(items.size());
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(kInf), hi = Eigen::Vector3d::Constant(-kInf);
+  for (const Item& it : items) {
+    lo = lo.cwiseMin(it.centroid);
+    hi = hi.cwiseMax(it.centroid);
+  }
+  // One scale for the three axes: the octree's cells are cubes, so a flat set's first splits
+  // are across its wide axes (per-axis scales would split a 20 m x 20 m x 1 m slab across its
+  // height as early as across its width).
+  const double extent = (hi - lo).maxCoeff();
+  const double scale = extent > 0.0 ? 1023.0 / extent : 0.0;
+  std::vector<uint32_t> key(n), key_tmp(n);
+  std::vector<int> tri(n), tri_tmp(n);
+  for (int i = 0; i < n; ++i) {
+    uint32_t code = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double q = std::min(1023.0, std::max(0.0, (items[i].centroid[k] - lo[k]) * scale));
+      code |= spreadBits(static_cast<uint32_t>(q)) << k;
+    }
+    key[i] = code;
+    tri[i] = items[i].tri;
+  }
+  // Least significant digit first, 10 bits a pass (stable: equal codes keep their order).
+  for (int shift = 0; shift < 30; shift += 10) {
+    uint32_t count[1025] = {};
+    for (int i = 0; i < n; ++i) ++count[((key[i] >> shift) & 0x3ffu) + 1];
+    for (int b = 0; b < 1024; ++b) count[b + 1] += count[b];
+    for (int i = 0; i < n; ++i) {
+      const uint32_t at = count[(key[i] >> shift) & 0x3ffu]++;
+      key_tmp[at] = key[i];
+      tri_tmp[at] = tri[i];
+    }
+    key.swap(key_tmp);
+    tri.swap(tri_tmp);
+  }
+  tri_order = std::move(tri);
+  codes = std::move(key);
+}
+
 }  // namespace
 
 void buildBvh(PreparedShapeData& d) {
@@ -114,8 +180,15 @@ void buildBvh(PreparedShapeData& d) {
   }
   d.nodes.clear();
   d.nodes.reserve(2 * n);
-  // The structure top down (median splits of the centroids along their widest axis), each node
-  // created before its children; then their bounds (fitBounds).
+  // The structure top down, each node created before its children; then their bounds
+  // (fitBounds). Up to kMedianMax triangles (a robot's meshes, built once): median splits of
+  // the centroids along their widest axis. Beyond (a sensor's points, rebuilt for every
+  // message): Morton order, in linear time after the sort (mortonSplit).
+  constexpr int kMedianMax = 2048;
+  const bool morton = n > kMedianMax;
+  std::vector<int> tri_order;
+  std::vector<uint32_t> codes;
+  if (morton) mortonOrder(items, tri_order, codes);
   struct Job {
     int begin, end, node;
   };
@@ -126,10 +199,11 @@ void buildBvh(PreparedShapeData& d) {
     const Job j = jobs.back();
     jobs.pop_back();
     if (j.end - j.begin == 1) {
-      d.nodes[j.node].tri = items[j.begin].tri;
+      d.nodes[j.node].tri = morton ? tri_order[j.begin] : items[j.begin].tri;
       continue;
     }
-    const int mid = splitItems(items.data() + j.begin, j.end - j.begin) + j.begin;
+    const int mid = morton ? mortonSplit(codes.data(), j.begin, j.end)
+                           : splitItems(items.data() + j.begin, j.end - j.begin) + j.begin;
     const int left = static_cast<int>(d.nodes.size());
     d.nodes.emplace_back();
     d.nodes.emplace_back();
@@ -151,7 +225,7 @@ uint64_t partsMeetingTree(const PreparedShapeData& d, const Eigen::Matrix3d& R, 
     int node;
     uint64_t parts;
   };
-  Item stack[64];  // median splits keep the depth under log2(triangles) + 1
+  Item stack[64];  // the depth stays under 30 + log2(triangles) + 1 (buildBvh)
   int top = 0;
   stack[top++] = {d.root, parts};
   while (top > 0) {

@@ -680,12 +680,48 @@ TEST(PointSetCorners, RepeatedPointsAndSharedCoordinates) {
   }
 }
 
-// The tree itself (mesh_bvh.h), for point sets of 1 to 20,000 points with repeated points and
-// shared coordinates: every point in exactly one leaf, every node's box holds its children's
-// and its ball their balls, and the depth within the traversals' bound (128 levels).
+// The tree itself (mesh_bvh.h): every point in exactly one leaf, every node's box holds its
+// children's and its ball their balls; returns the depth (levels).
+int checkPointSetTree(const vadop::detail::PreparedShapeData& d, const std::vector<Vector3d>& points, double radius) {
+  const int n = static_cast<int>(points.size());
+  std::vector<int> seen(n, 0);
+  int deepest = 0;
+  std::vector<std::pair<int, int>> stack{{d.root, 1}};
+  while (!stack.empty()) {
+    const auto [i, depth] = stack.back();
+    stack.pop_back();
+    deepest = std::max(deepest, depth);
+    const vadop::detail::BvhNode& node = d.nodes[i];
+    if (node.tri >= 0) {
+      ++seen[node.tri];
+      // A leaf: its ball and box hold its point's ball.
+      const Vector3d p = points[node.tri];
+      EXPECT_LE((p - node.centre).norm() + radius, node.radius + 1e-12);
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_LE(std::abs(p[k] - d.node_boxes[i][k]) + radius, d.node_boxes[i][3 + k] + 1e-12);
+      }
+      continue;
+    }
+    for (const int c : {node.left, node.right}) {
+      const vadop::detail::BvhNode& child = d.nodes[c];
+      EXPECT_LE((child.centre - node.centre).norm() + child.radius, node.radius + 1e-12);
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_LE(std::abs(d.node_boxes[c][k] - d.node_boxes[i][k]) + d.node_boxes[c][3 + k],
+                  d.node_boxes[i][3 + k] + 1e-12);
+      }
+      stack.push_back({c, depth + 1});
+    }
+  }
+  EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), n) << n << " points";
+  return deepest;
+}
+
+// Point sets of 1 to 20,000 points with repeated points and shared coordinates (up to 2,048 the
+// median splits, beyond them the Morton order's): the tree holds them, and its depth stays about
+// log2(n).
 TEST(PointSetTree, EveryPointInOneLeafAndEveryNodeHoldsItsChildren) {
   Rng r(4905);
-  for (const int n : {1, 2, 3, 64, 65, 1000, 20000}) {
+  for (const int n : {1, 2, 3, 64, 65, 1000, 2048, 2049, 20000}) {
     std::vector<Vector3d> points;
     for (int i = 0; i < n; ++i) {
       if (i % 5 == 0 && i > 0) {
@@ -695,39 +731,38 @@ TEST(PointSetTree, EveryPointInOneLeafAndEveryNodeHoldsItsChildren) {
       }
     }
     const PreparedShape prepared(vadop::makePointSet(points, 0.02));
-    const vadop::detail::PreparedShapeData& d = prepared.data();
-    std::vector<int> seen(n, 0);
-    int deepest = 0;
-    std::vector<std::pair<int, int>> stack{{d.root, 1}};
-    while (!stack.empty()) {
-      const auto [i, depth] = stack.back();
-      stack.pop_back();
-      deepest = std::max(deepest, depth);
-      const vadop::detail::BvhNode& node = d.nodes[i];
-      if (node.tri >= 0) {
-        ++seen[node.tri];
-        // A leaf: its ball and box hold its point's ball.
-        const Vector3d p = points[node.tri];
-        EXPECT_LE((p - node.centre).norm() + 0.02, node.radius + 1e-12);
-        for (int k = 0; k < 3; ++k) {
-          EXPECT_LE(std::abs(p[k] - d.node_boxes[i][k]) + 0.02, d.node_boxes[i][3 + k] + 1e-12);
-        }
-        continue;
-      }
-      for (const int c : {node.left, node.right}) {
-        const vadop::detail::BvhNode& child = d.nodes[c];
-        EXPECT_LE((child.centre - node.centre).norm() + child.radius, node.radius + 1e-12);
-        for (int k = 0; k < 3; ++k) {
-          EXPECT_LE(std::abs(d.node_boxes[c][k] - d.node_boxes[i][k]) + d.node_boxes[c][3 + k],
-                    d.node_boxes[i][3 + k] + 1e-12);
-        }
-        stack.push_back({c, depth + 1});
-      }
-    }
-    EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), n) << n << " points";
-    // Median splits (sampled): about log2(n) + 1 levels; a split that peeled off one point at
-    // a time would give n.
+    const int deepest = checkPointSetTree(prepared.data(), points, 0.02);
+    // About log2(n) + 1 levels; a split that peeled off one point at a time would give n.
     EXPECT_LE(deepest, static_cast<int>(std::ceil(2.0 * std::log2(n))) + 2) << n << " points";
+  }
+}
+
+// The Morton order's corners: 5,000 points within 0.1 mm and one 100 m away (most codes equal:
+// those split at their middle), so the depth stays within the 30 code bits + log2(n) + 1 that
+// the traversals' fixed stacks allow (64); and a flat set (20 m x 20 m x 1 m) whose first
+// split is across its width, not its height (cells are cubes: per-axis scales would cut the
+// slab in two thin slabs first).
+TEST(PointSetTree, MortonOrderOfAClusterAndOfAFlatSet) {
+  Rng r(4906);
+  std::vector<Vector3d> cluster;
+  for (int i = 0; i < 5000; ++i) cluster.emplace_back(r.uni(0.0, 1e-4), r.uni(0.0, 1e-4), r.uni(0.0, 1e-4));
+  cluster.emplace_back(100.0, 0.0, 0.0);
+  const PreparedShape clustered(vadop::makePointSet(cluster, 0.02));
+  const int deepest = checkPointSetTree(clustered.data(), cluster, 0.02);
+  EXPECT_LE(deepest, 30 + static_cast<int>(std::ceil(std::log2(cluster.size()))) + 1);
+  EXPECT_LT(deepest, 64);
+
+  std::vector<Vector3d> slab;
+  for (int i = 0; i < 5000; ++i) slab.emplace_back(r.uni(-10.0, 10.0), r.uni(-10.0, 10.0), r.uni(0.0, 1.0));
+  const PreparedShape flat(vadop::makePointSet(slab, 0.02));
+  const vadop::detail::PreparedShapeData& d = flat.data();
+  checkPointSetTree(d, slab, 0.02);
+  const vadop::detail::BvhNode& root = d.nodes[d.root];
+  for (const int c : {root.left, root.right}) {
+    // Each half spans the slab's full height (half extent about 0.5 + 0.02) and about half its
+    // width along x or y.
+    EXPECT_GT(d.node_boxes[c][5], 0.5) << "child " << c;
+    EXPECT_LT(std::min(d.node_boxes[c][3], d.node_boxes[c][4]), 5.5) << "child " << c;
   }
 }
 
