@@ -784,11 +784,13 @@ void WorldEngine::cullBySlices(std::vector<Candidate>& tests, double t0, double 
   if (slices <= 1 || tests.empty() || !(t1 > t0)) return;
   const size_t stride = 6 * static_cast<size_t>(slices);
   if (!filled) fillPartBoxesOfPairs(tests, t0, t1);
-  // A pair's test is a few box comparisons: many to a thread, many at a time.
-  constexpr size_t kPairsPerThread = 4096;
-  constexpr size_t kPairChunk = 1024;
+  // A pair's test is a few box comparisons: many to a thread, many at a time. With a resting
+  // mesh (a sensor's points) a pair may descend its tree, some 50 times the comparisons: every
+  // body is a candidate of a room-wide point set, so those go to the threads from far fewer.
   const bool meshes = meshes_ > 0;
-  detail::parallelFor(threads_, tests.size(), kPairsPerThread, kPairChunk, [&](size_t i) {
+  const size_t pairs_per_thread = meshes ? 256 : 4096;
+  const size_t pair_chunk = meshes ? 64 : 1024;
+  detail::parallelFor(threads_, tests.size(), pairs_per_thread, pair_chunk, [&](size_t i) {
     Candidate& pair = tests[i];
     const double* a = &slice_boxes_[slice_of_[pair.a].index * stride];
     const double* b = &slice_boxes_[slice_of_[pair.b].index * stride];
