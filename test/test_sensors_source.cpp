@@ -607,6 +607,33 @@ TEST(SensorsInTheMonitor, AGateStopsShortOfAScanOnlyWall) {
   EXPECT_EQ(gate.counts().unchecked, 0u);
 }
 
+// The laser is not on the robot (a fixed laser 1 m ahead): points near the robot would be
+// dropped with filter_margin (0.1), a wall too. A gated robot creeping at 0.2 m/s towards the
+// wall must still stop short of it: points beside a gated body are dropped only within
+// self_margin (0.02), which its padding (0.03) exceeds.
+TEST(SensorsInTheMonitor, AGatedRobotCreepingToAWallSeenByAnotherSensorStopsShortOfIt) {
+  MonitorCore core = makeCore("padding: 0.03\n", ", gate: {cmd_vel_in: /in, cmd_vel_out: /out}");
+  FakeTf tf;
+  addLaser(tf);
+  SensorsSource& sensors = sensorsOf(core);
+  vadop_ros::VelocityGate gate(0, core.registry());
+  geometry_msgs::Twist forward;
+  forward.linear.x = 0.2;
+  double x = 1.6, v = 0.0, closest_gap = 1e9;
+  for (int k = 0; k < 120; ++k) {  // 12 s at 10 Hz, the robot doing what the gate lets through
+    const double t = 100.0 + 0.1 * k;
+    core.registry().onOdometry(0, odom(t, x, v), ros::Time(t));
+    sensors.onScan(0, wallScan(t), ros::Time(t), tf);
+    core.cycle(ros::Time(t), tf);
+    v = gate.onCommand(core, forward, ros::Time(t), tf).linear.x;
+    x += 0.1 * v;
+    closest_gap = std::min(closest_gap, 3.0 - 0.02 - (x + 0.3));
+  }
+  EXPECT_GT(closest_gap, 0.0) << "the robot reached the wall's points";
+  EXPECT_LT(closest_gap, 0.1);  // it crept within filter_margin of the wall
+  EXPECT_EQ(gate.counts().unchecked, 0u);
+}
+
 TEST(SensorsInTheMonitor, GatesPublishZeroWhileAScanIsStaleUnlessTheyIgnoreIt) {
   for (const std::string& ignore : {std::string(""), std::string("\"lidar\""), std::string("\"lidar/*\"")}) {
     MonitorCore core = makeCore("padding: 0.03\n", ", gate: {cmd_vel_in: /in, cmd_vel_out: /out, ignore: [" + ignore + "]}");

@@ -34,7 +34,10 @@ std::shared_ptr<const FilterSnapshot> makeFilterSnapshot(const BodyRegistry& reg
   const auto& bodies = registry.bodies();
   const auto& elements = registry.elements();
   cache.resize(elements.size());
-  for (size_t b = 0; b < bodies.size(); ++b) snap->owners.push_back(bodies[b].name);
+  for (size_t b = 0; b < bodies.size(); ++b) {
+    snap->owners.push_back(bodies[b].name);
+    snap->gated.push_back(bodies[b].params.has_gate ? 1 : 0);
+  }
   snap->monitored = bodies.size();
   for (size_t b = 0; b < bodies.size(); ++b) {
     if (bodies[b].is_static) continue;
@@ -57,6 +60,7 @@ std::shared_ptr<const FilterSnapshot> makeFilterSnapshot(const BodyRegistry& reg
       vadop::Motion m = twistMotion(t.pose, t.v, t.w, registry.seconds(t.stamp));
       snap->items.push_back({snap->owners.size(), std::make_shared<const vadop::PointDistance>(t.shape), m, nullptr});
       snap->owners.push_back(t.name);
+      snap->gated.push_back(0);
     } catch (const vadop::InvalidArgument&) {
       // Out of the library's range: the cycle leaves it out of the world too; it filters nothing.
     }
@@ -117,7 +121,7 @@ void SensorFilter::cull(const FilterSnapshot& snapshot, double t, int self, doub
   for (size_t i = 0; i < snapshot.items.size(); ++i) {
     const FilterSnapshot::Item& item = snapshot.items[i];
     const bool is_self = static_cast<int>(item.owner) == self;
-    const double m = is_self ? self_margin : margin;
+    const double m = is_self || snapshot.gated[item.owner] ? self_margin : margin;
     Candidate c;
     try {
       c.pose = item.chain ? item.chain->poseAt(t) : item.motion.poseAt(t);

@@ -5,7 +5,9 @@
 // is predicted from its own motion instead. The sensor's own body (the monitored body whose
 // tf frame, or one of whose link frames, the message's frame hangs from; when none does, the
 // monitored body whose element's bounding sphere holds the sensor's origin) uses self_margin,
-// every other body filter_margin (self_margin, the smaller by default: a wrong guess keeps points).
+// and so does every body with a gate (its padding exceeds self_margin: a wall beside it is
+// never taken for it), every other body filter_margin (self_margin, the smaller by default: a
+// wrong guess keeps points).
 // Pose at the stamp: each element's motion of the last cycle (the twist from its latest state,
 // or its plan / joint chain) evaluated at the stamp: extrapolated back from its latest state
 // when the stamp is before it, which is exact for a body that kept its velocity since. An
@@ -56,6 +58,11 @@ struct FilterSnapshot {
   std::vector<Item> items;
   std::vector<std::string> owners;  // a monitored body's or tracked object's name
   size_t monitored = 0;             // owners [0, monitored) are the registry's bodies
+  // Per owner: a body with a gate. Points beside it are dropped only within self_margin,
+  // whichever sensor saw them: its padding exceeds that margin (checkSelfMargins), so its gate
+  // stops it before a wall there could be taken for it (with filter_margin, a sensor not on the
+  // robot would drop a wall's points as the robot neared them and its gate would drive it in).
+  std::vector<char> gated;
   // The monitored bodies' tf frames (body frame, links' tf frames) -> owner.
   std::unordered_map<std::string, size_t> frame_owner;
 };
