@@ -1,6 +1,6 @@
 // What a laser and a depth sensor at the centre of the wandering fleet's room see (the bench's
 // --scan and --cloud): a planar LaserScan ray-cast against the room's walls and the bodies,
-// each body taken as a vertical cylinder of radius kBodyRadius (cheap: each body fills only
+// each body taken as a vertical cylinder of radius kBodyRadius, within every bench shape (cheap: each body fills only
 // the beams its circle spans), and a PointCloud2 of points on the floor, the walls and the
 // bodies (the same circles). Both in the frame "laser", kLaserHeight m above the fixed frame's
 // origin (the room's centre), unrotated. It does not model occlusion in the cloud, noise or
@@ -23,7 +23,10 @@ namespace vadop_ros {
 
 class FleetSensors {
  public:
-  static constexpr double kBodyRadius = 0.28;  // m: within every bench shape grown by filter_margin
+  // m: within every bench shape (sphere 0.3, box 0.6 x 0.4, cylinder 0.3, capsule 0.2) in the
+  // laser's plane and the cloud's band, so the filter drops a body's points with any margin:
+  // self_margin too, which gated bodies are filtered with by every sensor.
+  static constexpr double kBodyRadius = 0.2;
   static constexpr double kLaserHeight = 0.1;  // m: the scan's plane cuts every body
   static constexpr double kFloorZ = -0.5;      // m: below every body (the cloud's min_z drops it)
   static constexpr double kWallHeight = 2.0;   // m
