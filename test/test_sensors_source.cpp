@@ -632,6 +632,54 @@ TEST(SensorsInTheMonitor, AGatedRobotCreepingToAWallSeenByAnotherSensorStopsShor
   EXPECT_EQ(gate.counts().unchecked, 0u);
 }
 
+// A body without a gate ("parked", a 0.6 m box 2 cm from the wall) takes the wall's points
+// within filter_margin of it with it: a hole in the wall beside it. A gated robot driving at
+// the wall right beside the parked body, square to it or turned 45 degrees (a corner first),
+// still stops short of the wall's points: it cannot come close enough to the parked body for
+// any of its parts to reach the hole.
+TEST(SensorsInTheMonitor, AGatedRobotBesideABodyAtAWallStopsShortOfTheWall) {
+  const std::string text = R"(
+horizon: 3.0
+padding: 0.03
+bodies:
+  - {name: robot, odom_topic: /robot/odom, shape: {type: box, size: [0.6, 0.6, 0.4]}, gate: {cmd_vel_in: /in, cmd_vel_out: /out}}
+  - {name: parked, odom_topic: /parked/odom, shape: {type: box, size: [0.6, 0.6, 0.4]}}
+sensors:
+  - {name: lidar, type: scan, topic: /scan}
+)";
+  // (yaw, the robot's lateral offset from the parked body's centre line)
+  for (const auto& [yaw, y] : {std::pair<double, double>{0.0, 0.7}, std::pair<double, double>{M_PI / 4, 0.62}}) {
+    MonitorCore core(vadop_ros::parseParams(vadop_test::yaml(text)), [](const std::string&, std::string&) { return false; });
+    vadop_ros::VelocityGate gate(0, core.registry());
+    FakeTf tf;
+    addLaser(tf);
+    SensorsSource& sensors = sensorsOf(core);
+    geometry_msgs::Twist forward;
+    forward.linear.x = 0.2;
+    double x = 1.5, v = 0.0, front_most = -1e9;
+    const double c = std::cos(yaw), sn = std::sin(yaw);
+    for (int k = 0; k < 120; ++k) {  // 12 s at 10 Hz
+      const double t = 100.0 + 0.1 * k;
+      nav_msgs::Odometry o = odom(t, x, v);  // the twist in the body frame
+      o.pose.pose.position.y = y;
+      o.pose.pose.orientation.z = std::sin(yaw / 2);
+      o.pose.pose.orientation.w = std::cos(yaw / 2);
+      core.registry().onOdometry(0, o, ros::Time(t));
+      core.registry().onOdometry(1, odom(t, 2.66, 0.0), ros::Time(t));
+      sensors.onScan(0, wallScan(t), ros::Time(t), tf);
+      core.cycle(ros::Time(t), tf);
+      v = gate.onCommand(core, forward, ros::Time(t), tf).linear.x;
+      x += 0.1 * v * c;
+      for (const int i : {-1, 1}) {
+        for (const int j : {-1, 1}) front_most = std::max(front_most, x + 0.3 * i * c - 0.3 * j * sn);
+      }
+    }
+    EXPECT_LT(front_most, 3.0 - 0.02) << "yaw " << yaw << ": the robot reached the wall's points";
+    EXPECT_GT(front_most, 2.5) << "yaw " << yaw << ": the robot did not drive towards the wall";
+    EXPECT_GT(sensors.status(0).points_filtered_others, 0u);  // the hole is there
+  }
+}
+
 TEST(SensorsInTheMonitor, GatesPublishZeroWhileAScanIsStaleUnlessTheyIgnoreIt) {
   for (const std::string& ignore : {std::string(""), std::string("\"lidar\""), std::string("\"lidar/*\"")}) {
     MonitorCore core = makeCore("padding: 0.03\n", ", gate: {cmd_vel_in: /in, cmd_vel_out: /out, ignore: [" + ignore + "]}");
