@@ -784,9 +784,10 @@ void WorldEngine::cullBySlices(std::vector<Candidate>& tests, double t0, double 
   if (slices <= 1 || tests.empty() || !(t1 > t0)) return;
   const size_t stride = 6 * static_cast<size_t>(slices);
   if (!filled) fillPartBoxesOfPairs(tests, t0, t1);
-  // A pair's test is a few box comparisons: many to a thread, many at a time. With a resting
-  // mesh (a sensor's points) a pair may descend its tree, some 50 times the comparisons: every
-  // body is a candidate of a room-wide point set, so those go to the threads from far fewer.
+  // A pair's test is a few box comparisons: many to a thread, many at a time. With a mesh in
+  // the world, a pair with a resting one (a sensor's points) also descends its tree, some 50
+  // times the comparisons, and every body is a candidate of a room-wide point set: the pairs go
+  // to the threads from far fewer (any mesh counts: a moving one only costs the threads' start).
   const bool meshes = meshes_ > 0;
   const size_t pairs_per_thread = meshes ? 256 : 4096;
   const size_t pair_chunk = meshes ? 64 : 1024;

@@ -2,8 +2,8 @@
 // --scan and --cloud): a planar LaserScan ray-cast against the room's walls and the bodies,
 // each body taken as a vertical cylinder of radius kBodyRadius, within every bench shape
 // (cheap: each body fills only the beams its circle spans), and a PointCloud2 of points on the
-// floor, the walls and the bodies (the same circles). Both in the frame "laser", kLaserHeight m above the fixed frame's
-// origin (the room's centre), unrotated. It does not model occlusion in the cloud, noise or
+// floor, the walls and the bodies (the same circles). Both in the frame "laser", kLaserHeight m
+// above the fixed frame's origin (the room's centre), unrotated. It does not model occlusion in the cloud, noise or
 // the bodies' true shapes: it is a workload of the right size and spread, not a sensor model.
 #pragma once
 
