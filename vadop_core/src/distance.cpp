@@ -32,7 +32,7 @@ void checkPose(const Eigen::Isometry3d& pose, const char* what) {
 }  // namespace
 }  // namespace detail
 
-PreparedShape::PreparedShape(const Shape& shape) {
+PreparedShape::PreparedShape(const Shape& shape, int threads) {
   validateShape(shape, "shape");
   auto d = std::make_shared<detail::PreparedShapeData>();
   d->shape = shape;
@@ -75,7 +75,7 @@ PreparedShape::PreparedShape(const Shape& shape) {
         }
       }
       d->kind = detail::CoreKind::kMesh;
-      detail::buildBvh(*d);
+      detail::buildBvh(*d, threads);
       break;
     }
   }

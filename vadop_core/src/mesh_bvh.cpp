@@ -1,6 +1,8 @@
 // A mesh's sphere tree. See mesh_bvh.h.
 #include "mesh_bvh.h"
 
+#include "vadop/detail/parallel_for.h"
+
 #include <algorithm>
 #include <vector>
 
@@ -8,6 +10,11 @@ namespace vadop {
 namespace detail {
 
 namespace {
+
+// Items a thread takes at least, and at a time, where the build shares out its work (a
+// sensor's points, rebuilt for every message; a robot's meshes stay on one thread).
+constexpr int kPerThread = 2048;
+constexpr size_t kChunk = 1024;
 
 struct Item {
   Eigen::Vector3d centroid;
@@ -50,15 +57,15 @@ int splitItems(Item* items, int n) {
   return k;
 }
 
-// The bounds bottom up: a leaf's box, ball (about the box's centre) and lever arm from its
-// padded triangle exactly; a node's box the union of its children's, its ball the smallest
-// about its box's centre that holds theirs (a node's ball then needs no pass over its
-// triangles: the tree of a sensor's 10,000 points is rebuilt for every cloud). Every node was
-// created before its children: one pass in reverse order meets the children first.
-void fitBounds(PreparedShapeData& d) {
+// The bounds bottom up of the nodes [begin, end) (their children within the range, or fitted
+// before): a leaf's box, ball (about the box's centre) and lever arm from its padded triangle
+// exactly; a node's box the union of its children's, its ball the smallest about its box's
+// centre that holds theirs (a node's ball then needs no pass over its triangles: the tree of a
+// sensor's 10,000 points is rebuilt for every cloud). Every node is created before its
+// children: one pass in reverse order meets the children first.
+void fitBounds(PreparedShapeData& d, int begin, int end) {
   const double m = d.shape.margin;
-  d.node_boxes.assign(d.nodes.size(), {});
-  for (int i = static_cast<int>(d.nodes.size()) - 1; i >= 0; --i) {
+  for (int i = end - 1; i >= begin; --i) {
     BvhNode& node = d.nodes[i];
     std::array<double, 6>& box = d.node_boxes[i];
     if (node.tri >= 0) {
@@ -118,7 +125,7 @@ uint32_t spreadBits(uint32_t x) {
 }
 
 // The items' triangles in Morton order of their centroids (tri_order) and their codes.
-void mortonOrder(const std::vector<Item>& items, std::vector<int>& tri_order, std::vector<uint32_t>& codes) {
+void mortonOrder(const std::vector<Item>& items, int threads, std::vector<int>& tri_order, std::vector<uint32_t>& codes) {
   const int n = static_cast<int>(items.size());
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(kInf), hi = Eigen::Vector3d::Constant(-kInf);
   for (const Item& it : items) {
@@ -132,7 +139,7 @@ void mortonOrder(const std::vector<Item>& items, std::vector<int>& tri_order, st
   const double scale = extent > 0.0 ? 1023.0 / extent : 0.0;
   std::vector<uint32_t> key(n), key_tmp(n);
   std::vector<int> tri(n), tri_tmp(n);
-  for (int i = 0; i < n; ++i) {
+  parallelFor(threads, n, kPerThread, kChunk, [&](size_t i) {
     uint32_t code = 0;
     for (int k = 0; k < 3; ++k) {
       const double q = std::min(1023.0, std::max(0.0, (items[i].centroid[k] - lo[k]) * scale));
@@ -140,7 +147,7 @@ void mortonOrder(const std::vector<Item>& items, std::vector<int>& tri_order, st
     }
     key[i] = code;
     tri[i] = items[i].tri;
-  }
+  });
   // Least significant digit first, 10 bits a pass (stable: equal codes keep their order).
   for (int shift = 0; shift < 30; shift += 10) {
     uint32_t count[1025] = {};
@@ -160,59 +167,108 @@ void mortonOrder(const std::vector<Item>& items, std::vector<int>& tri_order, st
 
 }  // namespace
 
-void buildBvh(PreparedShapeData& d) {
+void buildBvh(PreparedShapeData& d, int threads) {
   const auto& P = d.shape.points;
   const auto& T = d.shape.triangles;
   const double m = d.shape.margin;
   const int n = static_cast<int>(T.size());
-  d.tris.resize(n);
+  threads = n >= 2 * kPerThread ? threadCount(threads) : 1;
   // The splits partition (centroid, triangle) items held side by side, not indices into the
   // centroids: the keys compared come with the items moved.
   std::vector<Item> items(n);
-  for (int i = 0; i < n; ++i) {
-    double lever = 0.0;
-    for (int k = 0; k < 3; ++k) {
-      d.tris[i].v[k] = P[T[i][k]];
-      lever = std::max(lever, d.tris[i].v[k].norm());
-    }
-    d.tris[i].lever = lever + m;
-    items[i] = {(d.tris[i].v[0] + d.tris[i].v[1] + d.tris[i].v[2]) / 3.0, i};
-  }
-  d.nodes.clear();
-  d.nodes.reserve(2 * n);
-  // The structure top down, each node created before its children; then their bounds
-  // (fitBounds). Up to kMedianMax triangles (a robot's meshes, built once): median splits of
-  // the centroids along their widest axis. Beyond (a sensor's points, rebuilt for every
-  // message): Morton order, in linear time after the sort (mortonSplit).
+  parallelFor(threads, n, kPerThread, kChunk, [&](size_t i) {
+    items[i] = {(P[T[i][0]] + P[T[i][1]] + P[T[i][2]]) / 3.0, static_cast<int>(i)};
+  });
+  // Up to kMedianMax triangles (a robot's meshes, built once): median splits of the centroids
+  // along their widest axis. Beyond (a sensor's points, rebuilt for every message): Morton
+  // order, in linear time after the sort (mortonSplit).
   constexpr int kMedianMax = 2048;
   const bool morton = n > kMedianMax;
   std::vector<int> tri_order;
   std::vector<uint32_t> codes;
-  if (morton) mortonOrder(items, tri_order, codes);
-  struct Job {
-    int begin, end, node;
+  if (morton) mortonOrder(items, threads, tri_order, codes);
+  const auto split = [&](int begin, int end) {
+    return morton ? mortonSplit(codes.data(), begin, end) : splitItems(items.data() + begin, end - begin) + begin;
   };
-  d.nodes.emplace_back();
-  d.root = 0;
-  std::vector<Job> jobs{{0, n, d.root}};
-  while (!jobs.empty()) {
-    const Job j = jobs.back();
-    jobs.pop_back();
-    if (j.end - j.begin == 1) {
-      d.nodes[j.node].tri = morton ? tri_order[j.begin] : items[j.begin].tri;
-      continue;
+  // A range of items and where its subtree's root goes: the child `right` of node `parent`
+  // (-1: the tree's root).
+  struct Range {
+    int begin, end, parent;
+    bool right;
+  };
+  d.tris.resize(n);
+  d.nodes.assign(2 * static_cast<size_t>(n) - 1, BvhNode{});
+  d.node_boxes.assign(d.nodes.size(), {});
+  int created = 0;
+  const auto link = [&d](const Range& r, int node) {
+    if (r.parent >= 0) (r.right ? d.nodes[r.parent].right : d.nodes[r.parent].left) = node;
+  };
+  // The tree's top, breadth first, until about four ranges a thread (with one thread: none,
+  // the whole set is one range); the ranges' subtrees then on the threads, each in the nodes
+  // after the top that its leaves' count gives it (m leaves: 2m - 1 nodes). The same splits
+  // whatever the thread count: only the nodes' order differs.
+  std::vector<Range> ranges{{0, n, -1, false}}, next;
+  while (threads > 1 && ranges.size() < 4 * static_cast<size_t>(threads)) {
+    next.clear();
+    for (const Range& r : ranges) {
+      if (r.end - r.begin < 2 * kPerThread / 4) {
+        next.push_back(r);
+        continue;
+      }
+      const int node = created++;
+      link(r, node);
+      const int mid = split(r.begin, r.end);
+      next.push_back({r.begin, mid, node, false});
+      next.push_back({mid, r.end, node, true});
     }
-    const int mid = morton ? mortonSplit(codes.data(), j.begin, j.end)
-                           : splitItems(items.data() + j.begin, j.end - j.begin) + j.begin;
-    const int left = static_cast<int>(d.nodes.size());
-    d.nodes.emplace_back();
-    d.nodes.emplace_back();
-    d.nodes[j.node].left = left;
-    d.nodes[j.node].right = left + 1;
-    jobs.push_back({j.begin, mid, left});
-    jobs.push_back({mid, j.end, left + 1});
+    if (next.size() == ranges.size()) break;
+    ranges.swap(next);
   }
-  fitBounds(d);
+  const int top = created;
+  std::vector<int> first(ranges.size());
+  for (size_t k = 0; k < ranges.size(); ++k) {
+    first[k] = created;
+    created += 2 * (ranges[k].end - ranges[k].begin) - 1;
+  }
+  d.root = 0;
+  parallelFor(threads, ranges.size(), 1, 1, [&](size_t k) {
+    // Depth first, each node created before its children.
+    struct Job {
+      int begin, end, node;
+    };
+    int next_node = first[k];
+    const int root = next_node++;
+    link(ranges[k], root);
+    std::vector<Job> jobs{{ranges[k].begin, ranges[k].end, root}};
+    while (!jobs.empty()) {
+      const Job j = jobs.back();
+      jobs.pop_back();
+      if (j.end - j.begin == 1) {
+        d.nodes[j.node].tri = j.begin;
+        continue;
+      }
+      const int mid = split(j.begin, j.end);
+      const int left = next_node;
+      next_node += 2;
+      d.nodes[j.node].left = left;
+      d.nodes[j.node].right = left + 1;
+      jobs.push_back({j.begin, mid, left});
+      jobs.push_back({mid, j.end, left + 1});
+    }
+    // The range's triangles, in the order of its leaves (a leaf's neighbours in the tree are
+    // its neighbours in memory: the queries' descents, and the bounds here, read them in turn).
+    for (int i = ranges[k].begin; i < ranges[k].end; ++i) {
+      const int t = morton ? tri_order[i] : items[i].tri;
+      double lever = 0.0;
+      for (int c = 0; c < 3; ++c) {
+        d.tris[i].v[c] = P[T[t][c]];
+        lever = std::max(lever, d.tris[i].v[c].norm());
+      }
+      d.tris[i].lever = lever + m;
+    }
+    fitBounds(d, first[k], next_node);
+  });
+  fitBounds(d, 0, top);
 }
 
 uint64_t partsMeetingTree(const PreparedShapeData& d, const Eigen::Matrix3d& R, const Eigen::Vector3d& p,

@@ -1,11 +1,13 @@
 // Building a mesh's sphere tree (PreparedShapeData's tris, nodes, node_boxes and root): median
 // splits of the triangles' centroids along the widest axis, or for large sets (a sensor's
-// points, rebuilt for every message) splits of the centroids' Morton order; a leaf's box,
-// bounding sphere and lever arm those of its padded triangle, a node's box the union of its children's and its
-// sphere one that holds theirs (linear time after the splits); and the one query that needs no motion: whether a box can meet
-// the padded triangles (the world's cull of a pair whose one side is a resting mesh or point
-// set). It does not check the triangles' indices (PreparedShape's constructor does) nor
-// measure distances or steps (mesh_queries.h). Internal to the library (not installed).
+// points, rebuilt for every message) splits of the centroids' Morton order; tris in the
+// leaves' order (a leaf's neighbours in the tree are its neighbours in memory); a leaf's box,
+// bounding sphere and lever arm those of its padded triangle, a node's box the union of its
+// children's and its sphere one that holds theirs (linear time after the splits); and the one
+// query that needs no motion: whether a box can meet the padded triangles (the world's cull of
+// a pair whose one side is a resting mesh or point set). It does not check the triangles'
+// indices (PreparedShape's constructor does) nor measure distances or steps (mesh_queries.h).
+// Internal to the library (not installed).
 #pragma once
 
 #include "shape_core.h"
@@ -15,7 +17,9 @@
 namespace vadop {
 namespace detail {
 
-void buildBvh(PreparedShapeData& d);
+// On up to `threads` threads (0: one per hardware thread) for sets large enough to gain; the
+// same tree whatever the count (the nodes' order aside).
+void buildBvh(PreparedShapeData& d, int threads = 1);
 
 // Of the parts set in `parts` (bit k: the axis-aligned box part_boxes[6k .. 6k + 5], min x, y,
 // z, max x, y, z, fixed frame), those whose box meets the box of some leaf (its padded

@@ -31,7 +31,7 @@ struct BvhNode {
   double lever = 0.0;   // max |x| over the node's padded triangles (body origin)
   int left = -1;
   int right = -1;
-  int tri = -1;  // leaf: triangle index
+  int tri = -1;  // leaf: its index in tris (leaf order, not the order of shape.triangles)
 };
 
 struct PreparedShapeData {

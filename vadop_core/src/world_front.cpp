@@ -8,8 +8,8 @@
 
 namespace vadop {
 
-std::shared_ptr<const PreparedShape> prepareShape(const Shape& shape) {
-  return std::make_shared<const PreparedShape>(shape);
+std::shared_ptr<const PreparedShape> prepareShape(const Shape& shape, int threads) {
+  return std::make_shared<const PreparedShape>(shape, threads);
 }
 
 World::World(const WorldConfig& config) : engine_(std::make_unique<WorldEngine>(config)) {}

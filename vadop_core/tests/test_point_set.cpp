@@ -685,6 +685,7 @@ TEST(PointSetCorners, RepeatedPointsAndSharedCoordinates) {
 int checkPointSetTree(const vadop::detail::PreparedShapeData& d, const std::vector<Vector3d>& points, double radius) {
   const int n = static_cast<int>(points.size());
   std::vector<int> seen(n, 0);
+  std::vector<Vector3d> leaf_points;
   int deepest = 0;
   std::vector<std::pair<int, int>> stack{{d.root, 1}};
   while (!stack.empty()) {
@@ -695,7 +696,10 @@ int checkPointSetTree(const vadop::detail::PreparedShapeData& d, const std::vect
     if (node.tri >= 0) {
       ++seen[node.tri];
       // A leaf: its ball and box hold its point's ball.
-      const Vector3d p = points[node.tri];
+      const Vector3d p = d.tris[node.tri].v[0];
+      EXPECT_EQ(d.tris[node.tri].v[1], p);
+      EXPECT_EQ(d.tris[node.tri].v[2], p);
+      leaf_points.push_back(p);
       EXPECT_LE((p - node.centre).norm() + radius, node.radius + 1e-12);
       for (int k = 0; k < 3; ++k) {
         EXPECT_LE(std::abs(p[k] - d.node_boxes[i][k]) + radius, d.node_boxes[i][3 + k] + 1e-12);
@@ -713,6 +717,14 @@ int checkPointSetTree(const vadop::detail::PreparedShapeData& d, const std::vect
     }
   }
   EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), n) << n << " points";
+  // The leaves' points are the set's (repeats included).
+  std::vector<Vector3d> given = points;
+  const auto lexicographic = [](const Vector3d& a, const Vector3d& b) {
+    return std::lexicographical_compare(a.data(), a.data() + 3, b.data(), b.data() + 3);
+  };
+  std::sort(given.begin(), given.end(), lexicographic);
+  std::sort(leaf_points.begin(), leaf_points.end(), lexicographic);
+  EXPECT_TRUE(given == leaf_points) << n << " points";
   return deepest;
 }
 
@@ -734,6 +746,53 @@ TEST(PointSetTree, EveryPointInOneLeafAndEveryNodeHoldsItsChildren) {
     const int deepest = checkPointSetTree(prepared.data(), points, 0.02);
     // About log2(n) + 1 levels; a split that peeled off one point at a time would give n.
     EXPECT_LE(deepest, static_cast<int>(std::ceil(2.0 * std::log2(n))) + 2) << n << " points";
+  }
+}
+
+// Node a of tree da and node b of tree db hold the same subtree: the same splits, leaves and
+// bounds (bit for bit: the same arithmetic); returns the subtree's node count.
+int sameSubtree(const vadop::detail::PreparedShapeData& da, int a, const vadop::detail::PreparedShapeData& db, int b) {
+  const vadop::detail::BvhNode& x = da.nodes[a];
+  const vadop::detail::BvhNode& y = db.nodes[b];
+  EXPECT_EQ(x.tri, y.tri);
+  EXPECT_EQ(x.centre, y.centre);
+  EXPECT_EQ(x.radius, y.radius);
+  EXPECT_EQ(x.lever, y.lever);
+  EXPECT_EQ(da.node_boxes[a], db.node_boxes[b]);
+  if (x.tri >= 0 && y.tri >= 0) {
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(da.tris[x.tri].v[k], db.tris[y.tri].v[k]);
+  }
+  if (x.tri >= 0 || y.tri >= 0 || ::testing::Test::HasFailure()) return 1;
+  return 1 + sameSubtree(da, x.left, db, y.left) + sameSubtree(da, x.right, db, y.right);
+}
+
+// A large set's tree is built on several threads (a sensor's points, in its message's callback):
+// the same tree as on one, every node of the arrays in it, for point sets across the threshold
+// (4,096) and for a mesh of boxes (its median splits).
+TEST(PointSetTree, TheSameTreeOnAnyThreadCount) {
+  Rng r(4907);
+  std::vector<vadop::Shape> shapes;
+  for (const int n : {4095, 4096, 9716, 30000}) {
+    std::vector<Vector3d> points;
+    for (int i = 0; i < n; ++i) {
+      points.emplace_back(r.uni(-30.0, 30.0), r.uni(-30.0, 30.0), i % 7 == 0 ? 0.3 : r.uni(0.0, 2.0));
+    }
+    shapes.push_back(vadop::makePointSet(points, 0.02));
+  }
+  std::vector<Vector3d> centres;
+  for (int i = 0; i < 700; ++i) centres.emplace_back(r.uni(-10.0, 10.0), r.uni(-10.0, 10.0), 0.0);
+  shapes.push_back(vadop::makeBoxSet(centres, Vector3d(0.05, 0.05, 0.05)));  // 8,400 triangles
+  for (const vadop::Shape& shape : shapes) {
+    const PreparedShape one(shape, 1);
+    for (const int threads : {2, 3, 8, 0}) {
+      const PreparedShape many(shape, threads);
+      const vadop::detail::PreparedShapeData& d = many.data();
+      ASSERT_EQ(d.nodes.size(), one.data().nodes.size());
+      EXPECT_EQ(sameSubtree(one.data(), one.data().root, d, d.root), static_cast<int>(d.nodes.size()))
+          << shape.triangles.size() << " triangles, " << threads << " threads";
+      if (shape.points.size() == shape.triangles.size()) checkPointSetTree(d, shape.points, 0.02);
+      if (::testing::Test::HasFailure()) return;
+    }
   }
 }
 

@@ -30,8 +30,9 @@ struct PreparedShapeData;
 // of n triangles, negligible for primitives). Immutable; copies share the data.
 class PreparedShape {
  public:
-  // Validates the shape (validateShape); throws vadop::InvalidArgument.
-  explicit PreparedShape(const Shape& shape);
+  // Validates the shape (validateShape); throws vadop::InvalidArgument. A large mesh's or point
+  // set's tree is built on up to `threads` threads (0: one per hardware thread).
+  explicit PreparedShape(const Shape& shape, int threads = 1);
 
   const Shape& shape() const;
   const detail::PreparedShapeData& data() const { return *data_; }
