@@ -4,6 +4,7 @@
 
 #include <vadop/error.h>
 #include <vadop/joint_chain.h>
+#include <vadop/world.h>  // parallelFor
 
 #include <algorithm>
 #include <cmath>
@@ -17,6 +18,8 @@ namespace {
 constexpr double kMaxCellsPerCandidate = 64.0;
 // How far up tf's tree a sensor's frame is followed (a tree deeper than this is not a robot).
 constexpr int kMaxFrameDepth = 64;
+// Points a thread takes at least, and at a time, when the filter's tests are shared out.
+constexpr size_t kPointsPerThread = 2048, kPointChunk = 256;
 
 std::string bare(const std::string& frame) {
   size_t i = 0;
@@ -223,7 +226,8 @@ const SensorFilter::Candidate* SensorFilter::holder(const FilterSnapshot& snapsh
 }
 
 SensorFilter::Dropped SensorFilter::apply(const FilterSnapshot& snapshot, const ros::Time& stamp, int self,
-                                          double margin, double self_margin, std::vector<Eigen::Vector3d>& points) {
+                                          double margin, double self_margin, std::vector<Eigen::Vector3d>& points,
+                                          int threads) {
   Dropped dropped;
   if (points.empty() || snapshot.items.empty()) return dropped;
   Eigen::Vector3d lo = points.front(), hi = points.front();
@@ -234,13 +238,19 @@ SensorFilter::Dropped SensorFilter::apply(const FilterSnapshot& snapshot, const 
   cull(snapshot, secondsBetween(stamp, snapshot.base), self, margin, self_margin, lo, hi);
   if (candidates_.empty()) return dropped;
   bin();
+  // Each point's holder on the threads (the grid and the shapes are only read), then the kept
+  // points moved up in order.
+  held_.resize(points.size());
+  vadop::parallelFor(threads, points.size(), kPointsPerThread, kPointChunk, [&](size_t i) {
+    const Candidate* c = holder(snapshot, points[i]);
+    held_[i] = c == nullptr ? 0 : c->self ? 1 : 2;
+  });
   size_t kept = 0;
   for (size_t i = 0; i < points.size(); ++i) {
-    const Candidate* c = holder(snapshot, points[i]);
-    if (c == nullptr) {
+    if (held_[i] == 0) {
       points[kept++] = points[i];
     } else {
-      ++(c->self ? dropped.self : dropped.others);
+      ++(held_[i] == 1 ? dropped.self : dropped.others);
     }
   }
   points.resize(kept);

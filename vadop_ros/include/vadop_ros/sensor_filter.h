@@ -84,14 +84,16 @@ int carrierOf(const FilterSnapshot& snapshot, const std::string& frame, const ro
               const Eigen::Vector3d* origin = nullptr);
 
 // Drops the points within the snapshot's elements posed at `stamp`, grown by `margin` (the
-// owner `self`: by `self_margin`). One per sensor (its scratch is reused across messages).
+// owner `self`: by `self_margin`), the points tested on up to `threads` threads (resolved: at
+// least 1) when they are many; the kept ones stay in their order. One per sensor (its scratch
+// is reused across messages).
 class SensorFilter {
  public:
   struct Dropped {
     size_t self = 0, others = 0;
   };
   Dropped apply(const FilterSnapshot& snapshot, const ros::Time& stamp, int self, double margin, double self_margin,
-                std::vector<Eigen::Vector3d>& points);
+                std::vector<Eigen::Vector3d>& points, int threads = 1);
 
  private:
   struct Candidate {
@@ -125,6 +127,7 @@ class SensorFilter {
   std::vector<std::pair<uint32_t, uint32_t>> pairs_;  // bin's (cell index, candidate)
   std::vector<uint32_t> next_;                        // bin's next place in each cell
   std::vector<uint32_t> big_;
+  std::vector<uint8_t> held_;  // per point: 0 kept, 1 dropped on its own body, 2 on another
   double cell_ = 1.0;
 };
 

@@ -84,7 +84,9 @@ void checkSelfMargins(const MonitorParams& p);
 
 class SensorsSource : public BodiesSource {
  public:
-  SensorsSource(std::vector<SensorParams> params, std::string fixed_frame, double max_stamp_skew);
+  // `threads`: the node's ~threads (0: one per hardware thread), on which a large message's
+  // points are filtered and put in their tree, within its callback.
+  SensorsSource(std::vector<SensorParams> params, std::string fixed_frame, double max_stamp_skew, int threads = 1);
 
   const char* kind() const override { return "sensors"; }
   bool configured() const override { return !params_.empty(); }
@@ -188,6 +190,7 @@ class SensorsSource : public BodiesSource {
   std::vector<std::unique_ptr<Work>> work_;  // per sensor (LaserProjection does not move)
   FilterProvider filter_provider_;
   std::atomic<double> padding_{0.0};
+  int threads_ = 1;  // resolved
 };
 
 }  // namespace vadop_ros

@@ -86,7 +86,8 @@ std::string scanError(const sensor_msgs::LaserScan& msg) {
 
 }  // namespace
 
-SensorsSource::SensorsSource(std::vector<SensorParams> params, std::string fixed_frame, double max_stamp_skew)
+SensorsSource::SensorsSource(std::vector<SensorParams> params, std::string fixed_frame, double max_stamp_skew,
+                             int threads)
     : params_(std::move(params)),
       fixed_frame_(std::move(fixed_frame)),
       max_stamp_skew_(max_stamp_skew),
@@ -96,6 +97,7 @@ SensorsSource::SensorsSource(std::vector<SensorParams> params, std::string fixed
       emptied_(params_.size(), 0) {
   bodies_.resize(params_.size());  // slot i: sensor i
   for (size_t i = 0; i < params_.size(); ++i) work_.push_back(std::make_unique<Work>());
+  threads_ = vadop::threadCount(threads);
 }
 
 void SensorsSource::problem(size_t sensor, const std::string& why, const ros::Time& receipt) {
@@ -150,7 +152,7 @@ void SensorsSource::filterPoints(size_t sensor, TransformSource& tf, Work& w) co
   const SensorParams& sp = params_[sensor];
   try {
     const int self = carrierOf(*w.bodies, w.frame, w.stamp, tf, w.has_origin ? &w.origin : nullptr);
-    w.filtered = w.filter.apply(*w.bodies, w.stamp, self, sp.filter_margin, sp.self_margin, w.points);
+    w.filtered = w.filter.apply(*w.bodies, w.stamp, self, sp.filter_margin, sp.self_margin, w.points, threads_);
   } catch (const std::exception&) {
     // Not expected (finite points, valid motions); the points then stay obstacles, unfiltered.
     w.filtered = SensorFilter::Dropped();
@@ -184,7 +186,8 @@ void SensorsSource::buildShape(size_t sensor, Work& w, const Eigen::Vector3d& bo
   // The tree built here, in the message's callback (outside the node's lock), for the world.
   w.prepared_padding = padding_.load();
   try {
-    w.prepared = vadop::prepareShape(w.prepared_padding > 0.0 ? vadop::inflate(w.shape, w.prepared_padding) : w.shape);
+    w.prepared = vadop::prepareShape(w.prepared_padding > 0.0 ? vadop::inflate(w.shape, w.prepared_padding) : w.shape,
+                                     threads_);
   } catch (const vadop::InvalidArgument&) {  // not expected (a valid shape, padding in range)
     w.prepared = nullptr;                     // the cycle prepares it, reporting why
   }
@@ -651,7 +654,7 @@ void checkSelfMargins(const MonitorParams& p) {
 
 BodiesSourceKind sensorsSourceKind() {
   return {"sensors", parseSensors, [](const MonitorParams& p) -> std::unique_ptr<BodiesSource> {
-            return std::make_unique<SensorsSource>(p.sensors, p.fixed_frame, p.max_stamp_skew);
+            return std::make_unique<SensorsSource>(p.sensors, p.fixed_frame, p.max_stamp_skew, p.threads);
           }};
 }
 
