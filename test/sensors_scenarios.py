@@ -20,6 +20,11 @@ in its own place or monitor:
      (a monitored body) drive away from it towards a wall only the laser sees: leaver's own
      points are dropped (filter_margin), so its impacts with watch_laser are with the wall, at
      the exact time against the published points outside leaver's shape grown by the margin.
+  g. gated stop at a fixed laser's fence (vadop_gated_fixed): fbot drives as gbot does (the
+     same plan, delay and ramp) at a fence that only a laser fixed across it sees (not carried
+     by fbot: a gated body's points are dropped within self_margin whichever sensor saw them,
+     never within filter_margin); it must drive at speed, then stop without touching a
+     published point.
 Scenes a, d, e and f lie 50 m apart, so that each sees only its own sensor's obstacles."""
 import math
 import sys
@@ -59,6 +64,9 @@ GBOT_RADIUS, GATE_POINT_RADIUS = 0.4, 0.02
 GATE_WALL = [(2.5, -3.0, 2.5, 3.0)]
 PLAN_SPEED = 0.8
 BASE_DELAY, LINEAR_RAMP, MAX_STEP = 0.06, 1.0, 0.005
+# g: the fence and the laser fixed across it (position of its frame in odom), facing fbot's path.
+FENCE = [(2.5, -1.5, 2.5, 1.5)]
+FENCE_LASER = (3.5, 0.0, 0.1)
 # c: the phases of stale_laser (s after the start) and the command the planners give.
 STALE_FROM, STALE_UNTIL, STALE_TIMEOUT, STALE_CMD = 2.0, 3.5, 0.5, 0.3
 STALE_LASER = ((20.0, 0.0, 0.2), 1.0)   # position of its frame, range of every beam
@@ -170,17 +178,20 @@ class Scenes:
         names = ["scan_bot", TALL[0], SHORT[0], "map_bot", "watcher", "leaver"]
         self.odom = {n: rospy.Publisher("/a/%s/odom" % n, Odometry, queue_size=10) for n in names}
         self.odom.update({n: rospy.Publisher("/%s/odom" % n, Odometry, queue_size=10)
-                          for n in ("gs/gbot", "st/s1", "st/s2")})
-        self.plans = {n: rospy.Publisher("/%s/nav_vel" % n, Twist, queue_size=10) for n in ("gs/gbot", "st/s1", "st/s2")}
+                          for n in ("gs/gbot", "gf/fbot", "st/s1", "st/s2")})
+        self.plans = {n: rospy.Publisher("/%s/nav_vel" % n, Twist, queue_size=10)
+                      for n in ("gs/gbot", "gf/fbot", "st/s1", "st/s2")}
         self.front_laser = Laser("/a/scan", "scan_bot/laser", OBLIQUE_WALL)
         self.gate_laser = Laser("/gs/scan", "gbot/laser", GATE_WALL)
         self.stale_laser = Laser("/st/scan", "st_laser", [])
+        self.fence_laser = Laser("/gf/scan", "gf_laser", FENCE)
         self.watch_laser = Laser("/a/watch_scan", "watcher/laser", LEAVER_WALL,
                                  lambda t: [(self.leaver_x(t), LEAVER_START[1], LEAVER_RADIUS)])
         self.cloud_pub = rospy.Publisher("/a/points", point_cloud2.PointCloud2, queue_size=5)
         self.map_pub = rospy.Publisher("/a/map", OccupancyGrid, queue_size=1, latch=True)
-        self.impacts, self.gate_states, self.outputs = [], [], {n: [] for n in ("gs/gbot", "st/s1", "st/s2")}
-        self.gbot = Base(0.0)
+        self.impacts, self.gate_states, self.outputs = [], [], {n: [] for n in ("gs/gbot", "gf/fbot", "st/s1", "st/s2")}
+        self.gbot, self.fbot = Base(0.0), Base(0.0)
+        self.bases = {"gs/gbot": self.gbot, "gf/fbot": self.fbot}
         self.subs = [rospy.Subscriber("/vadop_sensors/impacts", ImpactArray, self.on_impacts, queue_size=200),
                      rospy.Subscriber("/vadop_stale/gate_states", GateStateArray, self.on_gate_states, queue_size=200)]
         self.subs += [rospy.Subscriber("/%s/cmd_vel" % n, Twist, self.on_cmd, callback_args=n, queue_size=200)
@@ -201,12 +212,13 @@ class Scenes:
         now = rospy.get_time()
         with self.lock:
             self.outputs[name].append((now, msg))
-            if name == "gs/gbot":
-                self.gbot.queue.append((now + BASE_DELAY, msg.linear.x))
+            base = self.bases.get(name)
+            if base is not None:
+                base.queue.append((now + BASE_DELAY, msg.linear.x))
                 if msg.linear.x >= PLAN_SPEED - 1e-3:
-                    self.gbot.full = True
-                elif self.gbot.full and self.gbot.first_slowed is None:
-                    self.gbot.first_slowed = self.gbot.x
+                    base.full = True
+                elif base.full and base.first_slowed is None:
+                    base.first_slowed = base.x
 
     # --- the scenes' worlds ------------------------------------------------------------------
     @staticmethod
@@ -265,12 +277,13 @@ class Scenes:
             transform(zero, "gbot/base_link", "gbot/laser", LASER_ON_BASE),
             transform(zero, "watcher/base_link", "watcher/laser", LASER_ON_BASE),
             transform(zero, "odom", "st_laser", STALE_LASER[0]),
+            transform(zero, "odom", "gf_laser", FENCE_LASER),
             transform(zero, "odom", "table_cam", CAM[0], CAM[1])])
 
     def wait_for_connections(self):
         pubs = list(self.odom.values()) + list(self.plans.values()) + [
             self.front_laser.pub, self.gate_laser.pub, self.stale_laser.pub, self.watch_laser.pub, self.cloud_pub,
-            self.map_pub]
+            self.map_pub, self.fence_laser.pub]
         deadline = time.monotonic() + 30.0
         while not rospy.is_shutdown() and time.monotonic() < deadline:
             if all(p.get_num_connections() > 0 for p in pubs) and all(s.get_num_connections() > 0 for s in self.subs):
@@ -288,6 +301,7 @@ class Scenes:
                   "a/watcher": WATCHER + (0.0, 0.0),
                   "a/leaver": (self.leaver_x(t), LEAVER_START[1], 0.0, SPEED),
                   "gs/gbot": (self.gbot.x, 0.0, 0.0, self.gbot.v),
+                  "gf/fbot": (self.fbot.x, 0.0, 0.0, self.fbot.v),
                   "st/s1": (0.0, 0.0, 0.0, 0.0), "st/s2": (0.0, 5.0, 0.0, 0.0)}
         for key, (x, y, z, v) in bodies.items():
             name = key.split("/")[1]
@@ -304,6 +318,7 @@ class Scenes:
         self.front_laser.publish(last_tf, self.laser_pose(self.scan_bot_x(last_tf)))
         self.gate_laser.publish(last_tf, self.laser_pose(gbot_x_then))
         self.watch_laser.publish(last_tf, self.laser_pose(*WATCHER))
+        self.fence_laser.publish(t, FENCE_LASER + (0.0,))
         rel = t - self.t_go
         if not STALE_FROM <= rel < STALE_UNTIL:
             self.stale_laser.publish(t, STALE_LASER[0] + (0.0,))
@@ -311,7 +326,8 @@ class Scenes:
 
     def publish_plans(self, t):
         go = t >= self.t_go
-        for name, speed in (("gs/gbot", PLAN_SPEED if go else 0.0), ("st/s1", STALE_CMD), ("st/s2", STALE_CMD)):
+        for name, speed in (("gs/gbot", PLAN_SPEED if go else 0.0), ("gf/fbot", PLAN_SPEED if go else 0.0),
+                            ("st/s1", STALE_CMD), ("st/s2", STALE_CMD)):
             cmd = Twist()
             cmd.linear.x = speed
             self.plans[name].publish(cmd)
@@ -320,7 +336,8 @@ class Scenes:
         self.static_transforms()
         start = rospy.get_time()
         self.t_go = start + SETTLE
-        self.gbot.trace = [(start, self.gbot.x)]
+        for base in self.bases.values():
+            base.trace = [(start, base.x)]
         self.map_pub.publish(self.map_message(start))
         last = start
         last_tf = None
@@ -331,7 +348,8 @@ class Scenes:
             if t >= self.t_go + DURATION:
                 break
             with self.lock:
-                self.gbot.advance(last, t)
+                for base in self.bases.values():
+                    base.advance(last, t)
                 gbot_x = self.gbot.x
             last = t
             if t >= next_odom:
@@ -427,23 +445,30 @@ class SensorsScenarios(unittest.TestCase):
                                   "scan wall")
         rospy.loginfo("a. scan wall: %s", self.check_scan_scene(truths, "scan_bot", "front_laser", "scan wall"))
 
-    def test_b_gated_stop(self):
-        b = self.s.gbot
-        pts = np.vstack([p for _, p in self.s.gate_laser.published])
+    def check_gated_stop(self, b, laser, name, label):
+        """The base b drove at speed towards the laser's points and stopped short of every one
+        of them (the sphere of GBOT_RADIUS along its trace against the published balls)."""
+        pts = np.vstack([p for _, p in laser.published])
         trace = np.array(b.trace)
         centres = np.column_stack([trace[:, 1], np.zeros(len(trace)), np.zeros(len(trace))])
         gaps = np.concatenate([st.gap_sphere_balls(centres[k:k + 200], GBOT_RADIUS, pts, GATE_POINT_RADIUS)
                                for k in range(0, len(centres), 200)])
         final_gap = gaps[-1]
         stopping = b.x - b.first_slowed if b.first_slowed is not None else float("nan")
-        rospy.loginfo("b. gated stop: top speed %.3f m/s, final speed %.4f m/s, smallest gap to the %d published "
+        rospy.loginfo("%s: top speed %.3f m/s, final speed %.4f m/s, smallest gap to the %d published "
                       "points %.4f m, final %.4f m, driven %.3f m after the gate first slowed it",
-                      b.peak, b.v, len(pts), gaps.min(), final_gap, stopping)
-        self.assertGreater(b.peak, 0.7, "gbot never drove at speed")
-        self.assertGreater(b.x, 1.0, "gbot did not drive towards the wall")
-        self.assertGreater(gaps.min(), 0.0, "gbot touched the points: gap %.4f m" % gaps.min())
-        self.assertLess(abs(b.v), 0.05, "gbot did not stop")
-        self.assertLess(final_gap, 0.6, "gbot stopped %.3f m from the points" % final_gap)
+                      label, b.peak, b.v, len(pts), gaps.min(), final_gap, stopping)
+        self.assertGreater(b.peak, 0.7, "%s never drove at speed" % name)
+        self.assertGreater(b.x, 1.0, "%s did not drive towards the points" % name)
+        self.assertGreater(gaps.min(), 0.0, "%s touched the points: gap %.4f m" % (name, gaps.min()))
+        self.assertLess(abs(b.v), 0.05, "%s did not stop" % name)
+        self.assertLess(final_gap, 0.6, "%s stopped %.3f m from the points" % (name, final_gap))
+
+    def test_b_gated_stop(self):
+        self.check_gated_stop(self.s.gbot, self.s.gate_laser, "gbot", "b. gated stop")
+
+    def test_g_gated_stop_at_a_fixed_lasers_fence(self):
+        self.check_gated_stop(self.s.fbot, self.s.fence_laser, "fbot", "g. gated stop at a fixed laser's fence")
 
     def test_c_stale_scan(self):
         go = self.s.t_go
