@@ -20,33 +20,56 @@ namespace {
 constexpr double kPointRadius = 1e-3;
 constexpr double kFineTolerance = 1e-10;  // m: gap()'s
 
-// Spheres, capsules, boxes and cylinders: the exact gap between the shape at `pose` and the
-// point, in closed form (true); false for the other kinds.
+// Spheres, capsules, boxes and cylinders: the exact gap between the shape and the point `q`
+// in the shape's frame, in closed form.
+double primitiveGap(const PointDistance::Primitive& s, const Eigen::Vector3d& q) {
+  switch (s.kind) {
+    case PointDistance::Primitive::kPoint: return q.norm() - s.rounding;
+    case PointDistance::Primitive::kSegment: {
+      const double z = std::clamp(q.z(), -s.half_length, s.half_length);
+      return (q - Eigen::Vector3d(0.0, 0.0, z)).norm() - s.rounding;
+    }
+    case PointDistance::Primitive::kBox: {
+      const Eigen::Vector3d out = (q.cwiseAbs() - s.half_extents);
+      // Outside: the distance to the box; inside: minus the distance to the nearest face.
+      return (out.cwiseMax(0.0).norm() + std::min(out.maxCoeff(), 0.0)) - s.rounding;
+    }
+    case PointDistance::Primitive::kCylinder: {
+      // The box's rule in the plane of the axis and the point: radial and axial excess.
+      const double dr = std::sqrt(q.x() * q.x() + q.y() * q.y()) - s.radius, dz = std::abs(q.z()) - s.half_length;
+      return std::hypot(std::max(dr, 0.0), std::max(dz, 0.0)) + std::min(std::max(dr, dz), 0.0) - s.rounding;
+    }
+    case PointDistance::Primitive::kNone: break;
+  }
+  return std::numeric_limits<double>::quiet_NaN();  // not reached: callers check kind first
+}
+
+// The prepared shape's closed-form kind and parameters (kind kNone: convex sets, meshes and
+// point sets, answered by the narrow phase's GJK).
+PointDistance::Primitive primitiveOf(const detail::PreparedShapeData& d) {
+  PointDistance::Primitive s;
+  s.rounding = d.rounding;
+  s.half_length = d.half_length;
+  s.radius = d.cyl_radius;
+  s.half_extents = d.half_extents;
+  switch (d.kind) {
+    case detail::CoreKind::kPoint: s.kind = PointDistance::Primitive::kPoint; break;
+    case detail::CoreKind::kSegment: s.kind = PointDistance::Primitive::kSegment; break;
+    case detail::CoreKind::kBox: s.kind = PointDistance::Primitive::kBox; break;
+    case detail::CoreKind::kCylinder: s.kind = PointDistance::Primitive::kCylinder; break;
+    default: s.kind = PointDistance::Primitive::kNone; break;
+  }
+  return s;
+}
+
+// The exact gap in closed form (true) for the primitive kinds; false for the others.
 bool closedFormGap(const detail::PreparedShapeData& d, const Eigen::Isometry3d& pose, const Eigen::Vector3d& p,
                    double& gap) {
+  const PointDistance::Primitive s = primitiveOf(d);
+  if (s.kind == PointDistance::Primitive::kNone) return false;
   // The point in the shape's frame (the pose is a rigid transform: its linear part a rotation).
-  const Eigen::Vector3d q = pose.linear().transpose() * (p - pose.translation());
-  switch (d.kind) {
-    case detail::CoreKind::kPoint: gap = q.norm() - d.rounding; return true;
-    case detail::CoreKind::kSegment: {
-      const double z = std::clamp(q.z(), -d.half_length, d.half_length);
-      gap = (q - Eigen::Vector3d(0.0, 0.0, z)).norm() - d.rounding;
-      return true;
-    }
-    case detail::CoreKind::kBox: {
-      const Eigen::Vector3d out = (q.cwiseAbs() - d.half_extents);
-      // Outside: the distance to the box; inside: minus the distance to the nearest face.
-      gap = (out.cwiseMax(0.0).norm() + std::min(out.maxCoeff(), 0.0)) - d.rounding;
-      return true;
-    }
-    case detail::CoreKind::kCylinder: {
-      // The box's rule in the plane of the axis and the point: radial and axial excess.
-      const double dr = std::sqrt(q.x() * q.x() + q.y() * q.y()) - d.cyl_radius, dz = std::abs(q.z()) - d.half_length;
-      gap = std::hypot(std::max(dr, 0.0), std::max(dz, 0.0)) + std::min(std::max(dr, dz), 0.0) - d.rounding;
-      return true;
-    }
-    default: return false;  // convex sets, meshes and point sets: the narrow phase's GJK
-  }
+  gap = primitiveGap(s, pose.linear().transpose() * (p - pose.translation()));
+  return true;
 }
 
 }  // namespace
@@ -83,6 +106,22 @@ double PointDistance::gap(const Eigen::Isometry3d& pose, const Eigen::Vector3d& 
   double lower = 0.0, upper = 0.0;
   bounds(pose, p, kFineTolerance, lower, upper);
   return upper;
+}
+
+PointDistance::Placed PointDistance::place(const Eigen::Isometry3d& pose) const {
+  if (!pose.matrix().allFinite()) throw InvalidArgument("pose is not finite");
+  Placed placed;
+  placed.shape_ = this;
+  placed.pose_ = pose;
+  placed.to_body_ = pose.linear().transpose();
+  placed.primitive_ = primitiveOf(shape_->data());
+  return placed;
+}
+
+bool PointDistance::Placed::within(const Eigen::Vector3d& p, double margin) const {
+  if (primitive_.kind == Primitive::kNone) return shape_->within(pose_, p, margin);
+  if (!p.allFinite()) throw InvalidArgument("point is not finite");
+  return primitiveGap(primitive_, to_body_ * (p - pose_.translation())) <= margin;
 }
 
 bool PointDistance::within(const Eigen::Isometry3d& pose, const Eigen::Vector3d& p, double margin) const {

@@ -1,7 +1,9 @@
 // PointDistance (the gap from a point to a posed shape) against an independent brute force:
 // closed forms for the sphere, box, capsule and cylinder, the minimum over the balls for a
 // point set, each under random poses, margins and points around and inside the shape (gap() and
-// within(); inside a sphere, capsule or box the gap is minus the exact depth); and the margin's boundary (within(): in at margin - 1e-6, out at margin + 1e-6).
+// within(), and within() of the shape placed once; inside a sphere, capsule or box the gap is
+// minus the exact depth); and the margin's boundary (within(): in at margin - 1e-6, out at
+// margin + 1e-6).
 #include "vadop/error.h"
 #include "vadop/point_distance.h"
 #include "vadop/shapes.h"
@@ -83,7 +85,11 @@ TEST(PointDistance, MatchesTheClosedFormsAndTheBruteForceOverPoints) {
       SCOPED_TRACE(std::string(vadop::toString(s.type)) + " point " + std::to_string(i));
       // within() (decided at a coarse tolerance first) against the truth, away from the boundary.
       const double margin = 0.3 * (0.5 + 0.5 * u(rng));
-      if (std::abs(truth - margin) > 1e-6) EXPECT_EQ(query.within(pose, pose * local, margin), truth <= margin);
+      if (std::abs(truth - margin) > 1e-6) {
+        EXPECT_EQ(query.within(pose, pose * local, margin), truth <= margin);
+        // The shape placed once (the sensors' filter): the same answer.
+        EXPECT_EQ(query.place(pose).within(pose * local, margin), truth <= margin);
+      }
       if (truth > 0.0) {
         EXPECT_NEAR(got, truth, 1e-6);
         ++outside;
@@ -114,6 +120,9 @@ TEST(PointDistance, WithinTheMarginIsExactTo1e6) {
       const Vector3d out = pose * Vector3d(face + margin + 1e-6, 0.0, 0.05);
       EXPECT_TRUE(query.within(pose, in, margin)) << vadop::toString(s.type);
       EXPECT_FALSE(query.within(pose, out, margin)) << vadop::toString(s.type);
+      const vadop::PointDistance::Placed placed = query.place(pose);
+      EXPECT_TRUE(placed.within(in, margin)) << vadop::toString(s.type);
+      EXPECT_FALSE(placed.within(out, margin)) << vadop::toString(s.type);
     }
   }
 }
@@ -122,6 +131,10 @@ TEST(PointDistance, RefusesANonFinitePoint) {
   const vadop::PointDistance query(vadop::makeSphere(1.0));
   EXPECT_THROW(query.gap(Isometry3d::Identity(), Vector3d(NAN, 0, 0)), vadop::InvalidArgument);
   EXPECT_NEAR(query.gap(Isometry3d::Identity(), Vector3d(3, 0, 0)), 2.0, 1e-9);
+  EXPECT_THROW(query.place(Isometry3d::Identity()).within(Vector3d(0, NAN, 0), 0.1), vadop::InvalidArgument);
+  Isometry3d bad = Isometry3d::Identity();
+  bad.translation().x() = INFINITY;
+  EXPECT_THROW(query.place(bad), vadop::InvalidArgument);
 }
 
 }  // namespace

@@ -127,12 +127,12 @@ void SensorFilter::cull(const FilterSnapshot& snapshot, double t, int self, doub
     const double m = is_self || snapshot.gated[item.owner] ? self_margin : margin;
     Candidate c;
     try {
-      c.pose = item.chain ? item.chain->poseAt(t) : item.motion.poseAt(t);
+      const Eigen::Isometry3d pose = item.chain ? item.chain->poseAt(t) : item.motion.poseAt(t);
+      c.placed = item.shape->place(pose);  // throws for a pose that is not finite
+      c.centre = pose.translation();
     } catch (const std::exception&) {
       continue;  // no pose at the stamp: it filters nothing
     }
-    c.centre = c.pose.translation();
-    if (!c.pose.matrix().allFinite()) continue;
     const double reach = item.shape->shape().bounding_radius + m;
     // The grown bounding sphere against the points' box: the box's point nearest the centre.
     if ((c.centre - c.centre.cwiseMax(lo).cwiseMin(hi)).squaredNorm() > reach * reach) continue;
@@ -208,19 +208,19 @@ void SensorFilter::bin() {
   for (const auto& [cell, k] : pairs_) binned_[next_[cell]++] = k;
 }
 
-bool SensorFilter::holds(const FilterSnapshot& snapshot, const Candidate& c, const Eigen::Vector3d& p) const {
+bool SensorFilter::holds(const Candidate& c, const Eigen::Vector3d& p) {
   if ((p - c.centre).squaredNorm() > c.reach2) return false;
-  return snapshot.items[c.item].shape->within(c.pose, p, c.margin);
+  return c.placed.within(p, c.margin);
 }
 
-const SensorFilter::Candidate* SensorFilter::holder(const FilterSnapshot& snapshot, const Eigen::Vector3d& p) const {
+const SensorFilter::Candidate* SensorFilter::holder(const Eigen::Vector3d& p) const {
   if (const uint32_t* cell = grid_.find(cellOf(p))) {
     for (uint32_t i = starts_[*cell]; i < starts_[*cell + 1]; ++i) {
-      if (holds(snapshot, candidates_[binned_[i]], p)) return &candidates_[binned_[i]];
+      if (holds(candidates_[binned_[i]], p)) return &candidates_[binned_[i]];
     }
   }
   for (const uint32_t k : big_) {
-    if (holds(snapshot, candidates_[k], p)) return &candidates_[k];
+    if (holds(candidates_[k], p)) return &candidates_[k];
   }
   return nullptr;
 }
@@ -242,7 +242,7 @@ SensorFilter::Dropped SensorFilter::apply(const FilterSnapshot& snapshot, const 
   // points moved up in order.
   held_.resize(points.size());
   vadop::parallelFor(threads, points.size(), kPointsPerThread, kPointChunk, [&](size_t i) {
-    const Candidate* c = holder(snapshot, points[i]);
+    const Candidate* c = holder(points[i]);
     held_[i] = c == nullptr ? 0 : c->self ? 1 : 2;
   });
   size_t kept = 0;

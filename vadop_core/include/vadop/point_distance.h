@@ -36,6 +36,30 @@ class PointDistance {
   // the common case, needs few iterations), refined only when that leaves it open.
   bool within(const Eigen::Isometry3d& pose, const Eigen::Vector3d& p, double margin) const;
 
+  // A sphere's, capsule's, box's or cylinder's parameters, as the closed-form gap reads them.
+  struct Primitive {
+    enum Kind { kNone, kPoint, kSegment, kBox, kCylinder } kind = kNone;  // kNone: GJK's kinds
+    double rounding = 0.0, half_length = 0.0, radius = 0.0;
+    Eigen::Vector3d half_extents = Eigen::Vector3d::Zero();
+  };
+  // The shape placed at one pose for many points (a sensor's points against one body): the
+  // pose checked and inverted once, the closed-form kinds' parameters copied beside it, so that
+  // within() reads nothing else. It refers to this PointDistance, which must outlive it.
+  // Throws vadop::InvalidArgument for a pose that is not finite.
+  class Placed {
+   public:
+    // PointDistance::within at the pose.
+    bool within(const Eigen::Vector3d& p, double margin) const;
+
+   private:
+    friend class PointDistance;
+    const PointDistance* shape_ = nullptr;
+    Eigen::Isometry3d pose_ = Eigen::Isometry3d::Identity();
+    Eigen::Matrix3d to_body_ = Eigen::Matrix3d::Identity();  // the pose's rotation, transposed
+    Primitive primitive_;
+  };
+  Placed place(const Eigen::Isometry3d& pose) const;
+
  private:
   std::shared_ptr<const PreparedShape> shape_;
   std::shared_ptr<const PreparedShape> point_;  // a small ball: its radius is added back exactly

@@ -97,7 +97,9 @@ class SensorFilter {
 
  private:
   struct Candidate {
-    Eigen::Isometry3d pose;
+    // The element at the stamp, its closed-form kinds' parameters beside the pose: a point's
+    // test reads the candidate alone (the filter tests tens of thousands of points a message).
+    vadop::PointDistance::Placed placed;
     Eigen::Vector3d centre;
     double reach2 = 0.0;  // (bounding radius + margin)^2
     double margin = 0.0;
@@ -112,8 +114,8 @@ class SensorFilter {
   void bin();
   Cell cellOf(const Eigen::Vector3d& p) const;
   // The candidate that holds `p`, or null.
-  const Candidate* holder(const FilterSnapshot& snapshot, const Eigen::Vector3d& p) const;
-  bool holds(const FilterSnapshot& snapshot, const Candidate& c, const Eigen::Vector3d& p) const;
+  const Candidate* holder(const Eigen::Vector3d& p) const;
+  static bool holds(const Candidate& c, const Eigen::Vector3d& p);
 
   // The cells of the candidate's grown sphere's box, from a to b; false when there are more than
   // kMaxCellsPerCandidate (the candidate then goes to big_).
