@@ -9,7 +9,7 @@ export DEBIAN_FRONTEND=noninteractive
 
 PACKAGES=(
   # toolchain
-  build-essential cmake g++ make pkg-config clang libclang-rt-14-dev
+  build-essential cmake g++ make pkg-config clang libclang-rt-14-dev ccache
   # ROS 1 (Debian packages)
   ros-core-dev ros-base-dev catkin libroscpp-dev libstd-msgs-dev
   ros-message-generation ros-message-runtime
