@@ -48,7 +48,7 @@
 // without coherence is fed the same messages and cycled each cycle, before or after the first in
 // turn: the per-cycle CPU ratio, robust to the machine's drift (same impacts checked).
 // --scan: a laser at the room's centre (frame "laser", 0.1 m up) publishes a 1,081-beam 270-degree
-// sensor_msgs/LaserScan at 15 Hz of the walls and the bodies (each a circle of 0.28 m, ray-cast);
+// sensor_msgs/LaserScan at 15 Hz of the walls and the bodies (each a circle of 0.2 m, ray-cast);
 // --cloud: a 30,000-point sensor_msgs/PointCloud2 at 10 Hz from the same frame, a third on the
 // floor (below min_z: dropped), a third on the walls, a third on the bodies (voxel 0.05). Each is
 // one sensor of the node's `sensors` source (~sensors: "scan", "cloud"), fed to
