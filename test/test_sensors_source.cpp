@@ -963,7 +963,8 @@ TEST(SensorFilter, AgreesWithABruteForceOnAnyThreadCount) {
     std::vector<Eigen::Vector3d> kept = points;
     const vadop_ros::SensorFilter::Dropped d =
         filter.apply(snap, ros::Time(100.0), 0, margin, self_margin, kept, threads);
-    EXPECT_TRUE(kept == truth) << threads << " threads: " << kept.size() << " kept, " << truth.size() << " by the brute force";
+    EXPECT_TRUE(kept == truth) << threads << " threads: " << kept.size() << " kept, " << truth.size()
+                               << " by the brute force";
     EXPECT_EQ(d.self, truth_self) << threads << " threads";
     EXPECT_EQ(d.others, truth_others) << threads << " threads";
   }

@@ -125,7 +125,8 @@ uint32_t spreadBits(uint32_t x) {
 }
 
 // The items' triangles in Morton order of their centroids (tri_order) and their codes.
-void mortonOrder(const std::vector<Item>& items, int threads, std::vector<int>& tri_order, std::vector<uint32_t>& codes) {
+void mortonOrder(const std::vector<Item>& items, int threads, std::vector<int>& tri_order,
+                 std::vector<uint32_t>& codes) {
   const int n = static_cast<int>(items.size());
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(kInf), hi = Eigen::Vector3d::Constant(-kInf);
   for (const Item& it : items) {
