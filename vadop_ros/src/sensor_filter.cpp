@@ -138,7 +138,6 @@ void SensorFilter::cull(const FilterSnapshot& snapshot, double t, int self, doub
     if ((c.centre - c.centre.cwiseMax(lo).cwiseMin(hi)).squaredNorm() > reach * reach) continue;
     c.reach2 = reach * reach;
     c.margin = m;
-    c.item = i;
     c.self = is_self;
     candidates_.push_back(c);
   }

@@ -103,7 +103,6 @@ class SensorFilter {
     Eigen::Vector3d centre;
     double reach2 = 0.0;  // (bounding radius + margin)^2
     double margin = 0.0;
-    size_t item = 0;
     bool self = false;
   };
   using Cell = CellTable::Cell;
