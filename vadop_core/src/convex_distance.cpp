@@ -13,6 +13,27 @@ namespace detail {
 DistanceResult convexDistance(const Convex& A, const Convex& B, const Eigen::Vector3d& guess,
                               double abs_tol, double rel_tol, int max_iter, Eigen::Vector3d* cert,
                               WarmStart* warm, bool penetration) {
+  if (A.shape && B.shape && A.shape->kind == CoreKind::kPoint && B.shape->kind == CoreKind::kPoint) {
+    // Two spheres: the cores are their centres, the answer exact in closed form (a fleet of
+    // spheres, turning, spends most of its narrow phase in this call; GJK's set-up and
+    // iterations took 8% of the node's CPU at 1,000 robots).
+    const Eigen::Vector3d a = A.origin(), b = B.origin();
+    const Eigen::Vector3d d = b - a;
+    const double len = d.norm();
+    if (len > 0.0) {
+      if (warm) warm->n = 0;
+      const Eigen::Vector3d m = d / len;
+      DistanceResult r;
+      r.iterations = 1;
+      r.normal = m;
+      r.distance = len - (A.rounding + B.rounding);
+      r.lower_bound = std::min(separation(A, B, m), r.distance);
+      r.point_a = a + A.rounding * m;
+      r.point_b = b - B.rounding * m;
+      if (cert) *cert = m;
+      return r;
+    }
+  }
   SVert seed[3];
   int seed_n = 0;
   if (warm) {

@@ -326,6 +326,7 @@ std::vector<Contact> WorldEngine::predict(double t0, double horizon, const std::
 std::vector<Contact> WorldEngine::run(double t0, double horizon, const std::vector<BodyId>* only) {
   requireEngine("predict");
   const double t1 = checkedWindow("predict", t0, horizon);
+  const detail::ParallelBatch batch;  // the calls below follow each other closely
   // The candidate pairs: the whole broad phase, or the queries of `only`.
   std::vector<Pair> queried;
   bool all_parts = false;

@@ -1,5 +1,5 @@
-// detail::parallelFor: every index once, exceptions, nesting, concurrent callers, and threads
-// kept between calls.
+// detail::parallelFor: every index once, exceptions, nesting, concurrent callers, threads kept
+// between calls, and batches (ParallelBatch) losing no call.
 #include "vadop/detail/parallel_for.h"
 
 #include <gtest/gtest.h>
@@ -108,4 +108,50 @@ TEST(ParallelFor, HelperThreadsAreKeptBetweenCalls) {
   for (int k = 0; k < 40; ++k) call(2);
   EXPECT_GE(helpers.size(), 1u);
   EXPECT_LE(helpers.size(), 2u) << "helpers started anew for calls";
+}
+
+// Workers spin for the next call longer while a batch is open and stop spinning the moment the
+// last one closes (a changing exit condition of their wait): no call may be lost or wait for
+// ever whether it comes right after the previous one, after the workers went to sleep, while
+// batches open and close on two threads, or nested.
+TEST(ParallelFor, BatchesLoseNoCall) {
+  using vadop::detail::ParallelBatch;
+  const auto pause = [](int micros) {
+    const auto until = std::chrono::steady_clock::now() + std::chrono::microseconds(micros);
+    while (std::chrono::steady_clock::now() < until) {
+    }
+  };
+  for (int gap : {0, 20, 100, 400, 2000}) {
+    {
+      const ParallelBatch batch;
+      for (int k = 0; k < 20; ++k) {
+        runOnce(2, 256, 1, 4);
+        pause(gap);
+      }
+      {
+        const ParallelBatch nested;
+        runOnce(3, 256, 1, 4);
+      }
+      runOnce(2, 256, 1, 4);
+    }
+    for (int k = 0; k < 20; ++k) {
+      runOnce(2, 256, 1, 4);
+      pause(gap);
+    }
+  }
+  std::thread other([&] {
+    for (int k = 0; k < 200; ++k) {
+      const ParallelBatch batch;
+      runOnce(2, 128, 1, 4);
+    }
+  });
+  for (int k = 0; k < 200; ++k) {
+    if (k % 2 == 0) {
+      const ParallelBatch batch;
+      runOnce(2, 128, 1, 4);
+    } else {
+      runOnce(2, 128, 1, 4);
+    }
+  }
+  other.join();
 }

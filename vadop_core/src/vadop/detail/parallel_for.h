@@ -21,6 +21,19 @@ int threadCount(int configured);
 // pool starts threads of its own.
 void parallelFor(int threads, size_t n, size_t min_per_thread, size_t chunk, const std::function<void(size_t)>& f);
 
+// A run of parallelFor calls with short serial gaps between them (a world's prediction: about
+// ten calls tens of microseconds apart). While one is open on any thread, the pool's workers
+// wait for the next call spinning for up to 200 us; otherwise for 30 us, and they stop spinning
+// the moment the last one closes: the caller's serial work after a run (the monitor's
+// registry, messages, publishing) is not shared with a worker yielding on the other core.
+class ParallelBatch {
+ public:
+  ParallelBatch();
+  ~ParallelBatch();
+  ParallelBatch(const ParallelBatch&) = delete;
+  ParallelBatch& operator=(const ParallelBatch&) = delete;
+};
+
 // The blocks [begin, end) that split [0, n) into at most `blocks` parts of nearly equal size,
 // in order (for work whose per-block results are merged in block order).
 inline size_t blockBegin(size_t n, size_t blocks, size_t b) { return n * b / blocks; }
