@@ -39,10 +39,10 @@
 #pragma once
 
 #include "vadop_ros/body_registry.h"  // TransformSource, InputResult
-#include "vadop_ros/cell_table.h"
 #include "vadop_ros/params.h"
 #include "vadop_ros/sensor_filter.h"
 #include "vadop_ros/source.h"
+#include "vadop_ros/voxel_filter.h"
 
 #include <laser_geometry/laser_geometry.h>
 #include <nav_msgs/OccupancyGrid.h>
@@ -154,7 +154,7 @@ class SensorsSource : public BodiesSource {
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
     laser_geometry::LaserProjection projector;  // its cache of a scan's angles
     sensor_msgs::PointCloud2 projected;         // a scan's projection
-    CellTable voxels;  // the voxels met in a cloud
+    VoxelFilter voxels;  // a cloud's
   };
   // The header's stamp (skew) and frame (`to_fixed`: into the fixed frame); false and w.why
   // when the message is to be dropped.

@@ -276,17 +276,6 @@ void SensorsSource::prepareCloud(size_t sensor, const sensor_msgs::PointCloud2& 
     w.why = why;
     return;
   }
-  const double voxel = params_[sensor].voxel;
-  if (voxel > 0.0) w.voxels.reset(static_cast<size_t>(msg.width) * msg.height);
-  // At most one point per voxel of the fixed frame's grid: true the first time one is met.
-  const auto firstInVoxel = [&w, voxel](const Eigen::Vector3d& p) {
-    if (!(voxel > 0.0)) return true;
-    bool first = false;
-    w.voxels.insert({static_cast<int64_t>(std::floor(p.x() / voxel)), static_cast<int64_t>(std::floor(p.y() / voxel)),
-                     static_cast<int64_t>(std::floor(p.z() / voxel))},
-                    first);
-    return first;
-  };
   sensor_msgs::PointCloud2ConstIterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z");
   for (; x != x.end(); ++x, ++y, ++z) {
     if (!(std::isfinite(*x) && std::isfinite(*y) && std::isfinite(*z))) {  // an organized cloud's "no return"
@@ -294,8 +283,10 @@ void SensorsSource::prepareCloud(size_t sensor, const sensor_msgs::PointCloud2& 
       continue;
     }
     const Eigen::Vector3d p = to_fixed * Eigen::Vector3d(*x, *y, *z);
-    if (admit(sensor, p, w) && firstInVoxel(p)) w.points.push_back(p);
+    if (admit(sensor, p, w)) w.points.push_back(p);
   }
+  // At most one point per voxel of the fixed frame's grid.
+  if (params_[sensor].voxel > 0.0) w.voxels.apply(w.points, params_[sensor].voxel);
   filterPoints(sensor, tf, w);
   buildShape(sensor, w);
 }
