@@ -87,7 +87,8 @@ class MonitorNode : public Monitor {
         tf_buffer_(ros::Duration(30.0)),
         tf_listener_(tf_buffer_, tf_nh_, /*spin_thread=*/false),
         tf_spinner_(1, &tf_queue_),
-        tf_source_(tf_buffer_) {
+        tf_source_(tf_buffer_),
+        sets_nh_(withQueue(nh, &sets_queue_)) {
     tf_spinner_.start();
     const auto start = std::chrono::steady_clock::now();
     core_ = std::make_unique<MonitorCore>(params, [this](const std::string& name, std::string& value) {
@@ -170,10 +171,14 @@ class MonitorNode : public Monitor {
         if (subs_.back()) sub_of_topic_.emplace(source->topic(), subs_.size() - 1);
       }
     }
-    // Body-set sources (tracked objects): each subscribes its own topics.
+    // Body-set sources (tracked objects, sensors): each subscribes its own topics, on a queue
+    // and thread of their own: a cloud's handling (milliseconds: its points placed, filtered and
+    // put in a tree, outside the node's lock) never holds back a cycle on the node's queue.
     for (const auto& source : core_->bodiesSources()) {
-      for (ros::Subscriber& sub : source->subscribe({nh_, core_mutex_, tf_source_})) subs_.push_back(std::move(sub));
+      for (ros::Subscriber& sub : source->subscribe({sets_nh_, core_mutex_, tf_source_})) subs_.push_back(std::move(sub));
     }
+    sets_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &sets_queue_);
+    sets_spinner_->start();
     return moving;
   }
 
@@ -541,7 +546,10 @@ class MonitorNode : public Monitor {
   // Before subs_ and after core_: destroyed after the subscriptions, the spinner first.
   std::unique_ptr<ros::CallbackQueueInterface> ingest_queue_;
   std::unique_ptr<ros::AsyncSpinner> ingest_spinner_;
+  ros::CallbackQueue sets_queue_;  // the body-set sources' (subscribeInputs)
+  ros::NodeHandle sets_nh_;
   std::vector<ros::Subscriber> subs_;
+  std::unique_ptr<ros::AsyncSpinner> sets_spinner_;  // after subs_: stopped before they go
   std::unordered_map<std::string, size_t> sub_of_topic_;  // a moving body's topic: its subscription in subs_
   ros::WallTimer silent_topics_timer_;
   ros::WallTimer reconnect_timer_;
