@@ -115,9 +115,11 @@ class MonitorNode : public Monitor {
 
     timer_ = nh_.createTimer(ros::Duration(1.0 / rate_), [this](const ros::TimerEvent&) { onTimer(); });
     reconnect_start_ = std::chrono::steady_clock::now();
-    reconnect_timer_ = nh_.createWallTimer(ros::WallDuration(kReconnectSeconds),
+    // The start-up checks below call the master (a few milliseconds a call): on the body-set
+    // sources' thread, not the cycle's.
+    reconnect_timer_ = sets_nh_.createWallTimer(ros::WallDuration(kReconnectSeconds),
                                            [this](const ros::WallTimerEvent&) { reconnectSilentTopics(); });
-    silent_topics_timer_ = nh_.createWallTimer(
+    silent_topics_timer_ = sets_nh_.createWallTimer(
         ros::WallDuration(kFirstMessageWarnSeconds), [this](const ros::WallTimerEvent&) { warnSilentTopics(); },
         /*oneshot=*/true);
     if (!gates_.empty()) {
@@ -206,7 +208,7 @@ class MonitorNode : public Monitor {
   // TCP's SYN retransmission (1, 3, 7, 15, 31 s). Every kReconnectSeconds, a body still waiting
   // whose odometry subscription has no publisher connected while the master lists one for its topic
   // is subscribed again (a fresh negotiation), at most kReconnectBatch a time (each costs two calls
-  // to the master on this thread) and kMaxReconnects times a topic (a publisher of another type
+  // to the master, which the publishers' start-up shares) and kMaxReconnects times a topic (a publisher of another type
   // never connects); the timer stops when none is left, or kReconnectWindow seconds after start-up
   // (a publisher that starts later is announced by the master on its own, not in a burst, and a
   // topic nobody publishes would otherwise cost a call to the master a second).
