@@ -118,7 +118,7 @@ class MonitorNode : public Monitor {
     // The start-up checks below call the master (a few milliseconds a call): on the body-set
     // sources' thread, not the cycle's.
     reconnect_timer_ = sets_nh_.createWallTimer(ros::WallDuration(kReconnectSeconds),
-                                           [this](const ros::WallTimerEvent&) { reconnectSilentTopics(); });
+                                                [this](const ros::WallTimerEvent&) { reconnectSilentTopics(); });
     silent_topics_timer_ = sets_nh_.createWallTimer(
         ros::WallDuration(kFirstMessageWarnSeconds), [this](const ros::WallTimerEvent&) { warnSilentTopics(); },
         /*oneshot=*/true);
@@ -177,7 +177,9 @@ class MonitorNode : public Monitor {
     // and thread of their own: a cloud's handling (milliseconds: its points placed, filtered and
     // put in a tree, outside the node's lock) never holds back a cycle on the node's queue.
     for (const auto& source : core_->bodiesSources()) {
-      for (ros::Subscriber& sub : source->subscribe({sets_nh_, core_mutex_, tf_source_})) subs_.push_back(std::move(sub));
+      for (ros::Subscriber& sub : source->subscribe({sets_nh_, core_mutex_, tf_source_})) {
+        subs_.push_back(std::move(sub));
+      }
     }
     sets_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &sets_queue_);
     sets_spinner_->start();
@@ -208,10 +210,11 @@ class MonitorNode : public Monitor {
   // TCP's SYN retransmission (1, 3, 7, 15, 31 s). Every kReconnectSeconds, a body still waiting
   // whose odometry subscription has no publisher connected while the master lists one for its topic
   // is subscribed again (a fresh negotiation), at most kReconnectBatch a time (each costs two calls
-  // to the master, which the publishers' start-up shares) and kMaxReconnects times a topic (a publisher of another type
-  // never connects); the timer stops when none is left, or kReconnectWindow seconds after start-up
-  // (a publisher that starts later is announced by the master on its own, not in a burst, and a
-  // topic nobody publishes would otherwise cost a call to the master a second).
+  // to the master, which the publishers' start-up shares) and kMaxReconnects times a topic (a
+  // publisher of another type never connects); the timer stops when none is left, or
+  // kReconnectWindow seconds after start-up (a publisher that starts later is announced by the
+  // master on its own, not in a burst, and a topic nobody publishes would otherwise cost a call to
+  // the master a second).
   void reconnectSilentTopics() {
     if (secondsSince(reconnect_start_) > kReconnectWindow) {
       reconnect_timer_.stop();
