@@ -2,8 +2,9 @@
 // message: the sensor filter's bins of bodies (a cloud's voxels are sorted instead:
 // voxel_filter.h). Open addressing with linear probing over a power-of-two table kept at most
 // half full, emptied by a generation count instead of a pass over the table, and kept from
-// message to message: no allocation per cell (node-based hash maps allocated one per cell). It does not grow while filled: reset() sizes it for the insertions to come, and
-// inserting more than that aborts (a caller's bug, never the message's).
+// message to message: no allocation per cell (node-based hash maps allocated one per cell). It
+// does not grow while filled: reset() sizes it for the insertions to come, and inserting more
+// than that aborts (a caller's bug, never the message's).
 #pragma once
 
 #include <algorithm>
