@@ -334,37 +334,6 @@ TEST(SensorsSource, VoxelFilterKeepsOnePointPerVoxel) {
   EXPECT_EQ(every.points(0).size(), 103u);
 }
 
-// The voxels' and the filter's grid cells (CellTable): the same answers as a std::map over
-// random cells (many repeated) through many resets of growing and shrinking size.
-TEST(CellTable, AgreesWithAMapThroughResets) {
-  std::mt19937 rng(49);
-  vadop_ros::CellTable table;
-  EXPECT_EQ(table.find({0, 0, 0}), nullptr);  // never reset: empty
-  for (int round = 0; round < 200; ++round) {
-    const int n = std::uniform_int_distribution<int>(0, round % 7 == 0 ? 5000 : 60)(rng);
-    table.reset(n);
-    std::map<vadop_ros::CellTable::Cell, uint32_t> truth;
-    std::uniform_int_distribution<int64_t> coord(-4, 4);  // few distinct cells: many repeats
-    for (int i = 0; i < n; ++i) {
-      const vadop_ros::CellTable::Cell c{coord(rng), coord(rng), round % 3 == 0 ? int64_t{1} << 40 : coord(rng)};
-      bool inserted = false;
-      uint32_t& v = table.insert(c, inserted);
-      EXPECT_EQ(inserted, truth.count(c) == 0);
-      v += 1;
-      ++truth[c];
-    }
-    for (int64_t x = -5; x <= 5; ++x) {
-      for (int64_t y = -5; y <= 5; ++y) {
-        const vadop_ros::CellTable::Cell c{x, y, round % 3 == 0 ? int64_t{1} << 40 : 0};
-        const uint32_t* v = table.find(c);
-        const auto it = truth.find(c);
-        ASSERT_EQ(v != nullptr, it != truth.end()) << "round " << round;
-        if (v) EXPECT_EQ(*v, it->second);
-      }
-    }
-  }
-}
-
 TEST(SensorsSource, BadMessagesAreDroppedNamingTheSensorAndFieldAndThePointsKept) {
   SensorsSource src({sensor(SensorType::kScan), sensor(SensorType::kCloud, "depth"), sensor(SensorType::kMap, "floor")},
                     "odom", 5.0);
@@ -967,7 +936,8 @@ TEST(VoxelFilter, KeepsTheFirstPointOfEachVoxelInOrder) {
 // The filter against a brute force over every element, on one thread and on several: 300
 // resting spheres, boxes and cylinders (owner 0 the sensor's own body, owner 1 gated: both
 // self_margin; the rest filter_margin) among 20,000 points; a point is kept iff no element's
-// gap to it is within its owner's margin, the kept ones in their order, on any thread count.
+// gap to it is within its owner's margin, the kept ones in their order, on any thread count;
+// again with a few points far away (the grid's cells then grow to keep it small).
 TEST(SensorFilter, AgreesWithABruteForceOnAnyThreadCount) {
   std::mt19937 rng(4908);
   std::uniform_real_distribution<double> u(0.0, 1.0);
@@ -989,36 +959,43 @@ TEST(SensorFilter, AgreesWithABruteForceOnAnyThreadCount) {
     snap.items.push_back({static_cast<size_t>(i % owners), std::make_shared<const vadop::PointDistance>(shape),
                           vadop::makeMotion(at, q, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()), nullptr});
   }
+  // The brute force: every element's exact gap.
+  const auto check = [&](const std::vector<Eigen::Vector3d>& points, const std::string& what) {
+    std::vector<Eigen::Vector3d> truth;
+    size_t truth_self = 0, truth_others = 0;
+    for (const Eigen::Vector3d& p : points) {
+      int held = -1;
+      for (const vadop_ros::FilterSnapshot::Item& item : snap.items) {
+        const double m = item.owner == 0 || snap.gated[item.owner] ? self_margin : margin;
+        if (item.shape->gap(item.motion.poseAt(0.0), p) <= m) {
+          held = static_cast<int>(item.owner);
+          break;
+        }
+      }
+      if (held < 0) truth.push_back(p);
+      else ++(held == 0 ? truth_self : truth_others);
+    }
+    ASSERT_GT(truth_self, 10u) << what;
+    ASSERT_GT(truth_others, 1000u) << what;
+    ASSERT_GT(truth.size(), 10000u) << what;
+    for (const int threads : {1, 2, 3}) {
+      vadop_ros::SensorFilter filter;
+      std::vector<Eigen::Vector3d> kept = points;
+      const vadop_ros::SensorFilter::Dropped d =
+          filter.apply(snap, ros::Time(100.0), 0, margin, self_margin, kept, threads);
+      EXPECT_TRUE(kept == truth) << what << ", " << threads << " threads: " << kept.size() << " kept, "
+                                 << truth.size() << " by the brute force";
+      EXPECT_EQ(d.self, truth_self) << what << ", " << threads << " threads";
+      EXPECT_EQ(d.others, truth_others) << what << ", " << threads << " threads";
+    }
+  };
   std::vector<Eigen::Vector3d> points;
   for (int i = 0; i < 20000; ++i) points.emplace_back(20.0 * u(rng), 20.0 * u(rng), 0.5 * u(rng));
-  // The brute force: every element's exact gap.
-  std::vector<Eigen::Vector3d> truth;
-  size_t truth_self = 0, truth_others = 0;
-  for (const Eigen::Vector3d& p : points) {
-    int held = -1;
-    for (const vadop_ros::FilterSnapshot::Item& item : snap.items) {
-      const double m = item.owner == 0 || snap.gated[item.owner] ? self_margin : margin;
-      if (item.shape->gap(item.motion.poseAt(0.0), p) <= m) {
-        held = static_cast<int>(item.owner);
-        break;
-      }
-    }
-    if (held < 0) truth.push_back(p);
-    else ++(held == 0 ? truth_self : truth_others);
-  }
-  ASSERT_GT(truth_self, 10u);
-  ASSERT_GT(truth_others, 1000u);
-  ASSERT_GT(truth.size(), 10000u);
-  for (const int threads : {1, 2, 3}) {
-    vadop_ros::SensorFilter filter;
-    std::vector<Eigen::Vector3d> kept = points;
-    const vadop_ros::SensorFilter::Dropped d =
-        filter.apply(snap, ros::Time(100.0), 0, margin, self_margin, kept, threads);
-    EXPECT_TRUE(kept == truth) << threads << " threads: " << kept.size() << " kept, " << truth.size()
-                               << " by the brute force";
-    EXPECT_EQ(d.self, truth_self) << threads << " threads";
-    EXPECT_EQ(d.others, truth_others) << threads << " threads";
-  }
+  check(points, "points among the elements");
+  // A few returns kilometres away: the grid over the points' box would need billions of cells
+  // of the elements' size; its cells grow instead (many elements a cell).
+  for (const double far : {-3000.0, 5000.0}) points.emplace_back(far, -far, 0.5 * far);
+  check(points, "and a few far away");
 }
 
 // The filter's cost (not run in CI: --gtest_also_run_disabled_tests): a 1,081-beam scan among

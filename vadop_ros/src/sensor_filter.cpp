@@ -16,6 +16,9 @@ namespace {
 
 // A candidate spanning more grid cells than this is tested against every point instead.
 constexpr double kMaxCellsPerCandidate = 64.0;
+// The grid's cells at most (a cloud spread far beyond its bodies gets larger cells): its
+// counts, one uint32_t a cell, are cleared for every message.
+constexpr double kMaxGridCells = 1 << 18;
 // How far up tf's tree a sensor's frame is followed (a tree deeper than this is not a robot).
 constexpr int kMaxFrameDepth = 64;
 // Points a thread takes at least, and at a time, when the filter's tests are shared out.
@@ -113,9 +116,14 @@ int carrierOf(const FilterSnapshot& snapshot, const std::string& frame, const ro
   return origin ? holderOf(snapshot, secondsBetween(stamp, snapshot.base), *origin) : -1;
 }
 
-SensorFilter::Cell SensorFilter::cellOf(const Eigen::Vector3d& p) const {
-  return {static_cast<int64_t>(std::floor(p.x() / cell_)), static_cast<int64_t>(std::floor(p.y() / cell_)),
-          static_cast<int64_t>(std::floor(p.z() / cell_))};
+int64_t SensorFilter::axisCell(double x, int k) const {
+  // Clamped: the points lie in the grid's box, but not every candidate's sphere does.
+  const double c = std::floor((x - origin_[k]) / cell_);
+  return static_cast<int64_t>(std::clamp(c, 0.0, static_cast<double>(dims_[k] - 1)));
+}
+
+size_t SensorFilter::cellOf(const Eigen::Vector3d& p) const {
+  return static_cast<size_t>((axisCell(p.x(), 0) * dims_[1] + axisCell(p.y(), 1)) * dims_[2] + axisCell(p.z(), 2));
 }
 
 void SensorFilter::cull(const FilterSnapshot& snapshot, double t, int self, double margin, double self_margin,
@@ -143,68 +151,64 @@ void SensorFilter::cull(const FilterSnapshot& snapshot, double t, int self, doub
   }
 }
 
-bool SensorFilter::cellRange(const Candidate& c, Cell& a, Cell& b) const {
+bool SensorFilter::cellRange(const Candidate& c, Range& range) const {
   const double r = std::sqrt(c.reach2);
-  a = cellOf(c.centre - Eigen::Vector3d::Constant(r));
-  b = cellOf(c.centre + Eigen::Vector3d::Constant(r));
-  // In doubles: a large body over small cells would overflow the product of integers.
   double cells = 1.0;
-  for (int k = 0; k < 3; ++k) cells *= static_cast<double>(b[k] - a[k] + 1);
+  for (int k = 0; k < 3; ++k) {
+    range.lo[k] = axisCell(c.centre[k] - r, k);
+    range.hi[k] = axisCell(c.centre[k] + r, k);
+    cells *= static_cast<double>(range.hi[k] - range.lo[k] + 1);
+  }
   return cells <= kMaxCellsPerCandidate;
 }
 
-void SensorFilter::bin() {
+void SensorFilter::bin(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
   big_.clear();
-  // Cells of about a typical candidate's diameter: most candidates span a few cells.
+  // Cells of about a typical candidate's diameter (most candidates span a few cells), over the
+  // points' box; larger when that box would need more than kMaxGridCells of them.
   std::vector<double> reach;
   for (const Candidate& c : candidates_) reach.push_back(std::sqrt(c.reach2));
   std::nth_element(reach.begin(), reach.begin() + reach.size() / 2, reach.end());
   cell_ = std::max(2.0 * reach[reach.size() / 2], 1e-3);
-  // One pass over the candidates' cells: each cell's index (in order of its first visit), its
-  // count and the (cell, candidate) pairs; then the pairs placed side by side by cell.
-  const auto forEachCell = [](const Cell& a, const Cell& b, auto&& f) {
-    for (int64_t x = a[0]; x <= b[0]; ++x) {
-      for (int64_t y = a[1]; y <= b[1]; ++y) {
-        for (int64_t z = a[2]; z <= b[2]; ++z) f(Cell{x, y, z});
+  const Eigen::Vector3d span = hi - lo;
+  const auto count = [&span](double cell) {
+    double n = 1.0;
+    for (int k = 0; k < 3; ++k) n *= std::floor(span[k] / cell) + 1.0;
+    return n;
+  };
+  while (count(cell_) > kMaxGridCells) cell_ *= 1.5;
+  origin_ = lo;
+  for (int k = 0; k < 3; ++k) dims_[k] = static_cast<int64_t>(std::floor(span[k] / cell_)) + 1;
+  const size_t cells = static_cast<size_t>(dims_[0] * dims_[1] * dims_[2]);
+  // Each candidate in every cell of its range: counted, the counts made starts (a counting
+  // sort), then placed; a cell's candidates binned_[starts_[i], starts_[i + 1]).
+  const auto forEachCell = [this](const Range& r, auto&& f) {
+    for (int64_t x = r.lo[0]; x <= r.hi[0]; ++x) {
+      for (int64_t y = r.lo[1]; y <= r.hi[1]; ++y) {
+        const size_t row = static_cast<size_t>((x * dims_[1] + y) * dims_[2]);
+        for (int64_t z = r.lo[2]; z <= r.hi[2]; ++z) f(row + static_cast<size_t>(z));
       }
     }
   };
-  size_t visits = 0;
+  starts_.assign(cells + 1, 0);
   ranges_.resize(candidates_.size());
   for (uint32_t k = 0; k < candidates_.size(); ++k) {
-    auto& [a, b] = ranges_[k];
-    if (!cellRange(candidates_[k], a, b)) {
+    if (!cellRange(candidates_[k], ranges_[k])) {
       big_.push_back(k);
       continue;
     }
-    visits += static_cast<size_t>((b[0] - a[0] + 1) * (b[1] - a[1] + 1) * (b[2] - a[2] + 1));
+    forEachCell(ranges_[k], [this](size_t i) { ++starts_[i + 1]; });
   }
-  grid_.reset(visits);
-  starts_.clear();
-  pairs_.clear();
+  for (size_t i = 0; i < cells; ++i) starts_[i + 1] += starts_[i];
+  binned_.resize(starts_[cells]);
+  next_.assign(starts_.begin(), starts_.end() - 1);
   for (uint32_t k = 0, big = 0; k < candidates_.size(); ++k) {
     if (big < big_.size() && big_[big] == k) {  // big_ is in candidate order
       ++big;
       continue;
     }
-    forEachCell(ranges_[k].first, ranges_[k].second, [this, k](const Cell& cell) {
-      bool fresh = false;
-      uint32_t& index = grid_.insert(cell, fresh);
-      if (fresh) {
-        index = static_cast<uint32_t>(starts_.size());
-        starts_.push_back(0);
-      }
-      ++starts_[index];
-      pairs_.push_back({index, k});
-    });
+    forEachCell(ranges_[k], [this, k](size_t i) { binned_[next_[i]++] = k; });
   }
-  // Counts -> starts (exclusive prefix sums), then each candidate at its cell's next place.
-  uint32_t total = 0;
-  for (uint32_t& s : starts_) total += std::exchange(s, total);
-  starts_.push_back(total);
-  binned_.resize(total);
-  next_.assign(starts_.begin(), starts_.end() - 1);
-  for (const auto& [cell, k] : pairs_) binned_[next_[cell]++] = k;
 }
 
 bool SensorFilter::holds(const Candidate& c, const Eigen::Vector3d& p) {
@@ -213,10 +217,9 @@ bool SensorFilter::holds(const Candidate& c, const Eigen::Vector3d& p) {
 }
 
 const SensorFilter::Candidate* SensorFilter::holder(const Eigen::Vector3d& p) const {
-  if (const uint32_t* cell = grid_.find(cellOf(p))) {
-    for (uint32_t i = starts_[*cell]; i < starts_[*cell + 1]; ++i) {
-      if (holds(candidates_[binned_[i]], p)) return &candidates_[binned_[i]];
-    }
+  const size_t cell = cellOf(p);
+  for (uint32_t i = starts_[cell]; i < starts_[cell + 1]; ++i) {
+    if (holds(candidates_[binned_[i]], p)) return &candidates_[binned_[i]];
   }
   for (const uint32_t k : big_) {
     if (holds(candidates_[k], p)) return &candidates_[k];
@@ -236,7 +239,7 @@ SensorFilter::Dropped SensorFilter::apply(const FilterSnapshot& snapshot, const 
   }
   cull(snapshot, secondsBetween(stamp, snapshot.base), self, margin, self_margin, lo, hi);
   if (candidates_.empty()) return dropped;
-  bin();
+  bin(lo, hi);
   // Each point's holder on the threads (the grid and the shapes are only read), then the kept
   // points moved up in order.
   held_.resize(points.size());

@@ -115,6 +115,13 @@ double threadCpuMs() {
   return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
 
+// Every thread's (the prediction's helpers included).
+double processCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
+
 struct Result {
   size_t n = 0;
   double mean = 0, median = 0, p95 = 0, max = 0;  // wall clock
@@ -128,6 +135,7 @@ struct Result {
   // --scan / --cloud: the sensors' handling per cycle (ms, mean over every cycle), each message's
   // median (ms), and the points kept and filtered (on the bodies) of the last message.
   double sensors_mean = 0, scan_median = 0, cloud_median = 0;
+  double process_cpu = 0;  // ms a measured cycle, every thread (the gates' commands included; not the simulation)
   size_t scan_kept = 0, cloud_kept = 0;
   uint64_t scan_filtered = 0, cloud_filtered = 0;
   size_t tracked = 0;     // --tracks: objects in the world at the end
@@ -647,11 +655,15 @@ Result run(size_t n, const Options& o) {
   ros::Time now(1000.0);
   CycleSamples samples;
   SensorFeed sensors(o, core, now);
+  double process_cpu0 = 0.0, simulation_cpu = 0.0;  // the fleet's and sensors' simulation, left out
   for (int c = 0; c < o.warmup + o.cycles; ++c) {
+    const bool measured = c >= o.warmup;
+    if (c == o.warmup) process_cpu0 = processCpuMs();
+    const double sim0 = threadCpuMs();
     now += ros::Duration(dt);
     messages.step(dt, now);
     sensors.build(messages.fleet(), now);
-    const bool measured = c >= o.warmup;
+    if (measured) simulation_cpu += threadCpuMs() - sim0;
     // The paired cycle before or after this one in turn.
     if (shadow && c % 2 == 0) pairedCycle(*shadow, core, messages, now, tf, measured, false, samples);
     const double cpu0 = threadCpuMs();
@@ -676,6 +688,7 @@ Result run(size_t n, const Options& o) {
     samples.add(std::chrono::duration<double, std::milli>(t1 - t0).count(),
                 std::chrono::duration<double, std::milli>(t2 - t0).count(), cpu2 - cpu0, mk, core.lastStats());
   }
+  r.process_cpu = (processCpuMs() - process_cpu0 - simulation_cpu) / o.cycles;
   r.n = n;
   summarize(samples, o.cycles, core, o.tracks, r);
   sensors.summarize(r);
@@ -831,6 +844,8 @@ void printResult(const Result& r, const Options& o, double period_ms) {
                 "against %.3f; per-cycle ratio median %.3f (quartiles %.3f-%.3f)\n",
                 r.cpu_median, r.paired_median, r.ratio_median, r.ratio_p25, r.ratio_p75);
   }
+  std::printf("  process CPU (every thread, the gates' commands included, the fleet's and sensors' simulation "
+              "not): %.3f ms a cycle\n", r.process_cpu);
   if (o.scan || o.cloud) {
     std::printf("  sensors: %.3f ms a cycle (in feed); per message median: scan %.3f ms, cloud %.3f ms; "
                 "points of the last message kept: scan %zu, cloud %zu; filtered on the bodies over the run: "

@@ -14,14 +14,14 @@
 // element the last cycle could not place (no state, a transform missing) or whose pose at the
 // stamp cannot be had filters nothing: its points stay obstacles (the safe side).
 // Cost: the elements' bounding spheres grown by the margin are culled against the points'
-// bounding box, the survivors binned in a uniform grid; a point is tested exactly
+// bounding box, the survivors binned in a uniform grid over that box (a counting sort); a
+// point is tested exactly
 // (vadop::PointDistance) only against the elements whose grown sphere contains it.
 // It does not: filter against static obstacles or other sensors' points (never), or
 // compensate the sensor's own motion during a scan.
 #pragma once
 
 #include "vadop_ros/body_registry.h"  // TransformSource
-#include "vadop_ros/cell_table.h"
 
 #include <vadop/motion.h>
 #include <vadop/point_distance.h>
@@ -105,28 +105,34 @@ class SensorFilter {
     double margin = 0.0;
     bool self = false;
   };
-  using Cell = CellTable::Cell;
   // The items whose grown bounding sphere meets the box [lo, hi].
   void cull(const FilterSnapshot& snapshot, double t, int self, double margin, double self_margin,
             const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);
-  // The candidates into the grid (those spanning too many cells: big_).
-  void bin();
-  Cell cellOf(const Eigen::Vector3d& p) const;
+  // The candidates into a grid over the points' box [lo, hi] (those spanning too many cells:
+  // big_).
+  void bin(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);
+  // The grid's cell along axis k of coordinate x (clamped into the grid), and of a point.
+  int64_t axisCell(double x, int k) const;
+  size_t cellOf(const Eigen::Vector3d& p) const;
   // The candidate that holds `p`, or null.
   const Candidate* holder(const Eigen::Vector3d& p) const;
   static bool holds(const Candidate& c, const Eigen::Vector3d& p);
 
-  // The cells of the candidate's grown sphere's box, from a to b; false when there are more than
-  // kMaxCellsPerCandidate (the candidate then goes to big_).
-  bool cellRange(const Candidate& c, Cell& a, Cell& b) const;
+  // The cells of the candidate's grown sphere's box, inclusive, clamped into the grid; false
+  // when there are more than kMaxCellsPerCandidate (the candidate then goes to big_).
+  struct Range {
+    std::array<int64_t, 3> lo, hi;
+  };
+  bool cellRange(const Candidate& c, Range& range) const;
 
   std::vector<Candidate> candidates_;
-  // The grid: a cell's index (grid_) -> its candidates binned_[starts_[i], starts_[i + 1]).
-  CellTable grid_;
+  // The grid (dims_ cells of cell_ from origin_, x-major): cell i's candidates are
+  // binned_[starts_[i], starts_[i + 1]).
+  Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
+  std::array<int64_t, 3> dims_{1, 1, 1};
   std::vector<uint32_t> starts_, binned_;
-  std::vector<std::pair<Cell, Cell>> ranges_;          // bin's cellRange of each candidate
-  std::vector<std::pair<uint32_t, uint32_t>> pairs_;  // bin's (cell index, candidate)
-  std::vector<uint32_t> next_;                        // bin's next place in each cell
+  std::vector<Range> ranges_;     // bin's cellRange of each candidate
+  std::vector<uint32_t> next_;   // bin's next place in each cell
   std::vector<uint32_t> big_;
   std::vector<uint8_t> held_;  // per point: 0 kept, 1 dropped on its own body, 2 on another
   double cell_ = 1.0;

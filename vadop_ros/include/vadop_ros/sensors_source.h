@@ -59,6 +59,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <utility>
 #include <vector>
@@ -105,10 +106,16 @@ class SensorsSource : public BodiesSource {
                   std::string& why) const override;
 
   // One message of sensor `sensor` (of its type), received at `receipt` (the node's clock).
-  InputResult onScan(size_t sensor, const sensor_msgs::LaserScan& msg, const ros::Time& receipt, TransformSource& tf);
+  // `lock` null: the caller holds whatever guards the core. Otherwise the lock that does, as
+  // the subscriptions use it: taken to read the filter's snapshot, released while the points
+  // and shape are built, taken again to commit them (a caller on a thread of its own, beside
+  // the cycle, as the node's sensors' thread is).
+  InputResult onScan(size_t sensor, const sensor_msgs::LaserScan& msg, const ros::Time& receipt, TransformSource& tf,
+                     std::mutex* lock = nullptr);
   InputResult onCloud(size_t sensor, const sensor_msgs::PointCloud2& msg, const ros::Time& receipt,
-                      TransformSource& tf);
-  InputResult onMap(size_t sensor, const nav_msgs::OccupancyGrid& msg, const ros::Time& receipt, TransformSource& tf);
+                      TransformSource& tf, std::mutex* lock = nullptr);
+  InputResult onMap(size_t sensor, const nav_msgs::OccupancyGrid& msg, const ros::Time& receipt, TransformSource& tf,
+                    std::mutex* lock = nullptr);
 
   // What the points are filtered against: called under the node's lock once per message
   // (MonitorCore's snapshot of its last cycle). None: nothing is filtered.
@@ -176,6 +183,11 @@ class SensorsSource : public BodiesSource {
   bool admit(size_t sensor, const Eigen::Vector3d& p, Work& w) const;
   // Under the lock: the prepared message dropped, ignored (out of order) or kept.
   InputResult commit(size_t sensor, Work& w, const ros::Time& receipt);
+  // A message through prepare (without `lock`, when given) and commit (under it).
+  template <class Msg>
+  InputResult receive(size_t sensor, void (SensorsSource::*prepare)(size_t, const Msg&, const ros::Time&,
+                                                                   TransformSource&, Work&) const,
+                      const Msg& msg, const ros::Time& receipt, TransformSource& tf, std::mutex* lock);
   InputResult dropMessage(size_t sensor, const std::string& why, const ros::Time& receipt);
   void problem(size_t sensor, const std::string& why, const ros::Time& receipt);
   void release(size_t slot);

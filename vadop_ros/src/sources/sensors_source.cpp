@@ -344,25 +344,37 @@ void SensorsSource::prepareMap(size_t sensor, const nav_msgs::OccupancyGrid& msg
   buildShape(sensor, w, Eigen::Vector3d(res, res, z1 - z0), turn);
 }
 
+template <class Msg>
+InputResult SensorsSource::receive(size_t sensor,
+                                   void (SensorsSource::*prepare)(size_t, const Msg&, const ros::Time&,
+                                                                  TransformSource&, Work&) const,
+                                   const Msg& msg, const ros::Time& receipt, TransformSource& tf, std::mutex* lock) {
+  Work& w = *work_.at(sensor);
+  const auto guard = [lock] { return lock ? std::unique_lock<std::mutex>(*lock) : std::unique_lock<std::mutex>(); };
+  {
+    const auto held = guard();
+    w.bodies = filter_provider_ ? filter_provider_() : nullptr;
+  }
+  (this->*prepare)(sensor, msg, receipt, tf, w);
+  const auto held = guard();
+  const InputResult result = commit(sensor, w, receipt);
+  w.bodies.reset();  // the snapshot's shapes are not kept alive between messages
+  return result;
+}
+
 InputResult SensorsSource::onScan(size_t sensor, const sensor_msgs::LaserScan& msg, const ros::Time& receipt,
-                                  TransformSource& tf) {
-  work_.at(sensor)->bodies = filter_provider_ ? filter_provider_() : nullptr;
-  prepareScan(sensor, msg, receipt, tf, *work_[sensor]);
-  return commit(sensor, *work_[sensor], receipt);
+                                  TransformSource& tf, std::mutex* lock) {
+  return receive(sensor, &SensorsSource::prepareScan, msg, receipt, tf, lock);
 }
 
 InputResult SensorsSource::onCloud(size_t sensor, const sensor_msgs::PointCloud2& msg, const ros::Time& receipt,
-                                   TransformSource& tf) {
-  work_.at(sensor)->bodies = filter_provider_ ? filter_provider_() : nullptr;
-  prepareCloud(sensor, msg, receipt, tf, *work_[sensor]);
-  return commit(sensor, *work_[sensor], receipt);
+                                   TransformSource& tf, std::mutex* lock) {
+  return receive(sensor, &SensorsSource::prepareCloud, msg, receipt, tf, lock);
 }
 
 InputResult SensorsSource::onMap(size_t sensor, const nav_msgs::OccupancyGrid& msg, const ros::Time& receipt,
-                                 TransformSource& tf) {
-  work_.at(sensor)->bodies = filter_provider_ ? filter_provider_() : nullptr;
-  prepareMap(sensor, msg, receipt, tf, *work_[sensor]);
-  return commit(sensor, *work_[sensor], receipt);
+                                 TransformSource& tf, std::mutex* lock) {
+  return receive(sensor, &SensorsSource::prepareMap, msg, receipt, tf, lock);
 }
 
 bool SensorsSource::stale(size_t sensor, const ros::Time& now) const {
@@ -438,17 +450,9 @@ std::vector<ros::Subscriber> SensorsSource::subscribe(const Wiring& w) {
     // Each message stamped with the node's clock at its receipt, prepared without the lock (its
     // points and shape: milliseconds for a large cloud, which the gates need not wait for),
     // then committed under it.
-    auto handler = [this, s, lock, tf](auto prepare) {
-      return [this, s, lock, tf, prepare](const auto& msg) {
-        const ros::Time receipt = ros::Time::now();
-        {
-          std::lock_guard<std::mutex> guard(*lock);
-          work_[s]->bodies = filter_provider_ ? filter_provider_() : nullptr;
-        }
-        (this->*prepare)(s, *msg, receipt, *tf, *work_[s]);
-        std::lock_guard<std::mutex> guard(*lock);
-        commit(s, *work_[s], receipt);
-        work_[s]->bodies.reset();  // the snapshot's shapes are not kept alive between messages
+    auto handler = [this, s, lock, tf](auto receive_one) {
+      return [this, s, lock, tf, receive_one](const auto& msg) {
+        (this->*receive_one)(s, *msg, ros::Time::now(), *tf, lock);
       };
     };
     const std::string& topic = params_[s].topic;
@@ -456,17 +460,17 @@ std::vector<ros::Subscriber> SensorsSource::subscribe(const Wiring& w) {
     switch (params_[s].type) {
       case SensorType::kScan:
         subs.push_back(w.nh.subscribe<sensor_msgs::LaserScan>(
-            topic, 5, std::function<void(const sensor_msgs::LaserScanConstPtr&)>(handler(&SensorsSource::prepareScan)),
+            topic, 5, std::function<void(const sensor_msgs::LaserScanConstPtr&)>(handler(&SensorsSource::onScan)),
             ros::VoidConstPtr(), hints));
         break;
       case SensorType::kCloud:
         subs.push_back(w.nh.subscribe<sensor_msgs::PointCloud2>(
-            topic, 2, std::function<void(const sensor_msgs::PointCloud2ConstPtr&)>(handler(&SensorsSource::prepareCloud)),
+            topic, 2, std::function<void(const sensor_msgs::PointCloud2ConstPtr&)>(handler(&SensorsSource::onCloud)),
             ros::VoidConstPtr(), hints));
         break;
       case SensorType::kMap:
         subs.push_back(w.nh.subscribe<nav_msgs::OccupancyGrid>(
-            topic, 1, std::function<void(const nav_msgs::OccupancyGridConstPtr&)>(handler(&SensorsSource::prepareMap)),
+            topic, 1, std::function<void(const nav_msgs::OccupancyGridConstPtr&)>(handler(&SensorsSource::onMap)),
             ros::VoidConstPtr(), hints));
         break;
     }
