@@ -620,15 +620,15 @@ TEST(PointSetCorners, SphereAtAWallOfPointsCloserThanTheirRadius) {
 
 // The world keeps a resting set's pair with a body only for the parts of the window where the
 // body's box meets a leaf of the set's tree, posed as the set is: a row of points along the
-// set's x axis, turned 90 deg about z (a row along y at x = 0), and a sphere of 0.1 m crossing
-// it along -x at y = 0.5 m hits the point at y = 0.5 when x = 0.12 (the unturned row would lie
-// along x at y = 0, 0.4 m away from the sphere's whole path); one at y = 1.11 grazes the row's
-// last point (y = 1) within its radius only (its box never reaches the point's centre) when
-// x^2 + 0.11^2 = 0.12^2; another at y = 1.3, beyond the row's end by more than the two radii,
-// passes.
+// set's x axis from 0 to 1 m, turned 90 deg about z (a row along y from 0 to 1 at x = 0), and a
+// sphere of 0.1 m crossing it along -x at y = 0.5 m hits the point at y = 0.5 when x = 0.12
+// (the unturned row would lie along x at y = 0, 0.5 m away from the sphere's whole path; turned
+// the other way, along -y); one at y = 1.11 grazes the row's last point (y = 1) within its
+// radius only (its box never reaches the point's centre) when x^2 + 0.11^2 = 0.12^2; another
+// at y = 1.3, beyond the row's end by more than the two radii, passes.
 TEST(PointSetWorld, ARestingSetIsCulledWhereItIsPosed) {
   std::vector<Vector3d> points;
-  for (int i = -100; i <= 100; ++i) points.emplace_back(0.01 * i, 0.0, 0.0);
+  for (int i = 0; i <= 100; ++i) points.emplace_back(0.01 * i, 0.0, 0.0);
   const Shape row = vadop::makePointSet(points, 0.02);
   const Quaterniond turn(Eigen::AngleAxisd(0.5 * M_PI, Vector3d::UnitZ()));
   for (const double y : {0.5, 1.11, 1.3}) {
@@ -645,6 +645,26 @@ TEST(PointSetWorld, ARestingSetIsCulledWhereItIsPosed) {
     ASSERT_EQ(contacts.size(), 1u) << "y " << y;
     const double x = y == 0.5 ? 0.12 : std::sqrt(0.12 * 0.12 - 0.11 * 0.11);
     EXPECT_NEAR(contacts[0].impact.time, 1.0 - x, 1e-5) << "y " << y;
+  }
+}
+
+// A body that passes a resting set's point within the narrow phase's tolerance (a gap of half
+// of it) is reported, as timeOfImpact reports it: the cull keeps a leaf within the tolerance of
+// a part's box, though the boxes themselves do not meet.
+TEST(PointSetWorld, TheCullKeepsAGrazeWithinTheTolerance) {
+  const vadop::WorldConfig config;
+  const double tol = config.toi.tolerance;
+  for (const double gap : {0.5 * tol, 2.0 * tol}) {
+    const PartSet set = pointSet("grazed", {Vector3d(0.0, 0.0, 0.0), Vector3d(0.0, -1.0, 0.0)}, 0.02);
+    const Shape ball = vadop::makeSphere(0.1);
+    const Motion m = vadop::makeMotion(Vector3d(1.0, 0.12 + gap, 0.0), Quaterniond::Identity(),
+                                       Vector3d(-1.0, 0.0, 0.0), Vector3d::Zero());
+    const TimeOfImpact t = vadop::timeOfImpact(ball, m, set.shape, rest(set.centre), 0.0, 2.0, config.toi);
+    EXPECT_EQ(t.hit, gap < tol) << "gap " << gap;
+    vadop::World world(config);
+    world.add("set", set.shape, rest(set.centre));
+    world.add("ball", ball, m);
+    EXPECT_EQ(world.predict(0.0, 2.0).size(), t.hit ? 1u : 0u) << "gap " << gap;
   }
 }
 
