@@ -58,7 +58,7 @@ int splitItems(Item* items, int n) {
 }
 
 // The bounds bottom up of the nodes [begin, end) (their children within the range, or fitted
-// before): a leaf's box, ball (about the box's centre) and lever arm from its padded triangle
+// before): a leaf's box and ball (about the box's centre) from its padded triangle
 // exactly; a node's box the union of its children's, its ball the smallest about its box's
 // centre that holds theirs (a node's ball then needs no pass over its triangles: the tree of a
 // sensor's 10,000 points is rebuilt for every cloud). Every node is created before its
@@ -76,7 +76,6 @@ void fitBounds(PreparedShapeData& d, int begin, int end) {
       double r = 0.0;
       for (int k = 0; k < 3; ++k) r = std::max(r, (t.v[k] - node.centre).norm());
       node.radius = r + m;
-      node.lever = t.lever;
       const Eigen::Vector3d half = 0.5 * (hi - lo) + Eigen::Vector3d::Constant(m);
       box = {node.centre.x(), node.centre.y(), node.centre.z(), half.x(), half.y(), half.z()};
       continue;
@@ -92,7 +91,6 @@ void fitBounds(PreparedShapeData& d, int begin, int end) {
     const BvhNode& l = d.nodes[node.left];
     const BvhNode& r = d.nodes[node.right];
     node.radius = std::max((l.centre - node.centre).norm() + l.radius, (r.centre - node.centre).norm() + r.radius);
-    node.lever = std::max(l.lever, r.lever);
     const Eigen::Vector3d half = 0.5 * (hi - lo);
     box = {node.centre.x(), node.centre.y(), node.centre.z(), half.x(), half.y(), half.z()};
   }

@@ -1,8 +1,8 @@
 // Building a mesh's sphere tree (PreparedShapeData's tris, nodes, node_boxes and root): median
 // splits of the triangles' centroids along the widest axis, or for large sets (a sensor's
 // points, rebuilt for every message) splits of the centroids' Morton order; tris in the
-// leaves' order (a leaf's neighbours in the tree are its neighbours in memory); a leaf's box,
-// bounding sphere and lever arm those of its padded triangle, a node's box the union of its
+// leaves' order (a leaf's neighbours in the tree are its neighbours in memory); a leaf's box and
+// bounding sphere those of its padded triangle, a node's box the union of its
 // children's and its sphere one that holds theirs (linear time after the splits); and the one
 // query that needs no motion: whether a box can meet the padded triangles (the world's cull of
 // a pair whose one side is a resting mesh or point set). It does not check the triangles'

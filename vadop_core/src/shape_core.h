@@ -28,7 +28,6 @@ struct Tri {
 struct BvhNode {
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();  // body frame
   double radius = 0.0;  // bounding sphere of the node's padded triangles
-  double lever = 0.0;   // max |x| over the node's padded triangles (body origin)
   int left = -1;
   int right = -1;
   int tri = -1;  // leaf: its index in tris (leaf order, not the order of shape.triangles)

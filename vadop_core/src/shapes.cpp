@@ -184,7 +184,12 @@ Shape makePointSet(std::vector<Eigen::Vector3d> points, double radius) {
     const int k = static_cast<int>(i);
     triangles[i] = {k, k, k};
   }
-  return inflate(makeMesh(std::move(points), std::move(triangles)), radius);
+  requireSize(radius, "point set: radius");
+  // Grown in place (inflate would copy a sensor's points and triangles once more).
+  Shape s = makeMesh(std::move(points), std::move(triangles));
+  s.margin = radius;
+  finish(s);
+  return s;
 }
 
 Shape makeBoxSet(const std::vector<Eigen::Vector3d>& centres, const Eigen::Vector3d& size) {

@@ -777,7 +777,6 @@ int sameSubtree(const vadop::detail::PreparedShapeData& da, int a, const vadop::
   EXPECT_EQ(x.tri, y.tri);
   EXPECT_EQ(x.centre, y.centre);
   EXPECT_EQ(x.radius, y.radius);
-  EXPECT_EQ(x.lever, y.lever);
   EXPECT_EQ(da.node_boxes[a], db.node_boxes[b]);
   if (x.tri >= 0 && y.tri >= 0) {
     for (int k = 0; k < 3; ++k) EXPECT_EQ(da.tris[x.tri].v[k], db.tris[y.tri].v[k]);
