@@ -29,6 +29,7 @@
 #include "vadop/timed_path.h"
 #include "vadop/world.h"
 
+#include "mesh_bvh.h"    // partsMeetingTree (src/)
 #include "shape_core.h"  // the tree's nodes (src/)
 #include "toi_scenes.h"
 
@@ -666,6 +667,78 @@ TEST(PointSetWorld, TheCullKeepsAGrazeWithinTheTolerance) {
     world.add("ball", ball, m);
     EXPECT_EQ(world.predict(0.0, 2.0).size(), t.hit ? 1u : 0u) << "gap " << gap;
   }
+}
+
+// The world's cull of a resting set (detail::partsMeetingTree) never drops a part whose box is
+// within the slack of a point's ball, against the brute force over every point: sets along a
+// room's walls (hollow: their subtrees' boxes span the room) and filled ones, flat and tall,
+// posed unturned and turned, with 64 part boxes of 1 cm to 3 m at a time, some through the
+// walls, most inside; and it drops most of those that meet no ball.
+TEST(PointSetTree, TheCullDropsOnlyPartsThatMeetNoPoint) {
+  Rng r(4911);
+  const double radius = 0.05, slack = 1e-6;
+  size_t dropped = 0, dropped_possible = 0, kept_true = 0;
+  for (int round = 0; round < 24; ++round) {
+    const bool hollow = round % 2 == 0;
+    const double height = round % 3 == 0 ? 0.0 : 2.0;
+    std::vector<Vector3d> points;
+    for (int i = 0; i < 3000; ++i) {
+      Vector3d q(r.uni(0.0, 20.0), r.uni(0.0, 12.0), r.uni(0.0, height));
+      if (hollow) {
+        if (i % 4 == 0) q.x() = 0.0;
+        else if (i % 4 == 1) q.x() = 20.0;
+        else if (i % 4 == 2) q.y() = 0.0;
+        else q.y() = 12.0;
+      }
+      points.push_back(q);
+    }
+    const PartSet set = pointSet("walls", points, radius);
+    const vadop::PreparedShape prepared(set.shape);
+    const vadop::detail::PreparedShapeData& d = prepared.data();
+    const Quaterniond turn = round % 4 < 2 ? Quaterniond::Identity()
+                                           : Quaterniond(Eigen::AngleAxisd(r.uni(0.0, 6.3), Vector3d(0.3, -0.2, 1.0).normalized()));
+    const Eigen::Matrix3d R = turn.toRotationMatrix();
+    const Vector3d p = set.centre + Vector3d(r.uni(-1.0, 1.0), r.uni(-1.0, 1.0), 0.0);
+    // The points as the world sees them: the set's body frame posed at (R, p).
+    std::vector<Vector3d> placed;
+    for (const Vector3d& q : points) placed.push_back(R * (q - set.centre) + p);
+    std::vector<double> boxes(6 * 64);
+    for (int k = 0; k < 64; ++k) {
+      const Vector3d c = p + Vector3d(r.uni(-12.0, 12.0), r.uni(-8.0, 8.0), r.uni(-1.0, 3.0));
+      const Vector3d h(r.uni(0.005, 1.5), r.uni(0.005, 1.5), r.uni(0.005, 1.5));
+      for (int a = 0; a < 3; ++a) {
+        boxes[6 * k + a] = c[a] - h[a];
+        boxes[6 * k + 3 + a] = c[a] + h[a];
+      }
+    }
+    const uint64_t all = ~uint64_t{0};
+    const uint64_t kept = vadop::detail::partsMeetingTree(d, R, p, boxes.data(), all, slack);
+    for (int k = 0; k < 64; ++k) {
+      const double* b = &boxes[6 * k];
+      bool meets = false;
+      for (const Vector3d& q : placed) {
+        double gap2 = 0.0;
+        for (int a = 0; a < 3; ++a) {
+          const double out = std::max({b[a] - q[a], q[a] - b[3 + a], 0.0});
+          gap2 += out * out;
+        }
+        if (gap2 <= (radius + slack) * (radius + slack)) {
+          meets = true;
+          break;
+        }
+      }
+      const bool is_kept = (kept >> k) & 1;
+      if (meets) {
+        EXPECT_TRUE(is_kept) << "round " << round << ": part " << k << " meets a point's ball but was dropped";
+        ++kept_true;
+      } else {
+        ++dropped_possible;
+        dropped += is_kept ? 0 : 1;
+      }
+    }
+  }
+  EXPECT_GT(kept_true, 100u);
+  EXPECT_GT(dropped, dropped_possible / 2) << dropped << " of " << dropped_possible << " parts that meet no point dropped";
 }
 
 // Points repeated many times over (a sensor's beams returning the same spot: more copies than
