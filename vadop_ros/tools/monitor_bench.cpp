@@ -61,8 +61,9 @@
 // default 1; 0: all cores). With T > 1 the thread's CPU time no longer covers the cycle: read
 // the wall clock.
 //
-// Prints one line per N and, for N = 1000, whether the mean cycle uses under a third of the
-// period at the given rate.
+// Prints one line per N, the process's CPU a cycle below it (every thread: the prediction's
+// helpers, the gates' commands; not the fleet's and sensors' simulation), and for N = 1000
+// whether the mean cycle uses under a third of the period at the given rate.
 #include "vadop_ros/monitor_core.h"
 #include "vadop_ros/velocity_gate.h"
 #include "fleet_sensors.h"
