@@ -207,34 +207,38 @@ class MonitorNode : public Monitor {
   // Odometry subscriptions that did not connect within kReconnectAfter. With thousands of topics,
   // roscpp's negotiations (two XML-RPC connections each) and the master's publisher updates land on
   // XML-RPC servers that listen with a backlog of 5; a connection the kernel dropped waits for
-  // TCP's SYN retransmission (1, 3, 7, 15, 31 s). Every kReconnectSeconds, a body still waiting
-  // whose odometry subscription has no publisher connected while the master lists one for its topic
-  // is subscribed again (a fresh negotiation), at most kReconnectBatch a time (each costs two calls
-  // to the master, which the publishers' start-up shares) and kMaxReconnects times a topic (a
-  // publisher of another type never connects); the timer stops when none is left, or
-  // kReconnectWindow seconds after start-up (a publisher that starts later is announced by the
-  // master on its own, not in a burst, and a topic nobody publishes would otherwise cost a call to
-  // the master a second).
+  // TCP's SYN retransmission (1, 3, 7, 15, 31 s), and a publisher update the master could not
+  // deliver is not sent again. Every kReconnectSeconds, a body that has had no message
+  // kReconnectAfter after its subscription and whose subscription has no publisher, while the
+  // master lists one for its topic, is subscribed again (a fresh negotiation; one under way is
+  // left alone: restarting those delays them), at most kReconnectBatch a time (each costs two
+  // calls to the master, which the publishers' start-up shares) and kMaxReconnects times a topic
+  // (a publisher of another type never connects). The timer stops when no body that could be
+  // subscribed again is waiting (not when none is due at a tick: the last subscribed are due
+  // later), or kReconnectWindow seconds after start-up (a publisher that starts later is
+  // announced by the master on its own, not in a burst, and a topic nobody publishes would
+  // otherwise cost a call to the master a second).
   void reconnectSilentTopics() {
     if (secondsSince(reconnect_start_) > kReconnectWindow) {
       reconnect_timer_.stop();
       return;
     }
     std::vector<OdometrySub*> silent;
+    bool waiting = false;  // some body may yet be subscribed again (now or at a later tick)
     {
       std::lock_guard<std::mutex> lock(core_mutex_);
       const auto& bodies = core_->registry().bodies();
       for (OdometrySub& o : odometry_subs_) {
-        if (o.reconnects < kMaxReconnects && secondsSince(o.since) >= kReconnectAfter &&
-            bodies[o.body].status.state == BodyState::kWaiting && subs_[o.sub].getNumPublishers() == 0) {
-          silent.push_back(&o);
-        }
+        if (o.reconnects >= kMaxReconnects || bodies[o.body].status.state != BodyState::kWaiting) continue;
+        waiting = true;
+        if (secondsSince(o.since) >= kReconnectAfter && subs_[o.sub].getNumPublishers() == 0) silent.push_back(&o);
       }
     }
-    if (silent.empty()) {
+    if (!waiting) {
       reconnect_timer_.stop();
       return;
     }
+    if (silent.empty()) return;
     ros::master::V_TopicInfo published;
     if (!ros::master::getTopics(published)) return;
     std::unordered_set<std::string> names;
