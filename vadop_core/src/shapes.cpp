@@ -179,16 +179,18 @@ Shape makePointSet(std::vector<Eigen::Vector3d> points, double radius) {
   if (!(std::isfinite(radius) && radius > 0.0)) {
     throw InvalidArgument("point set: radius must be finite and > 0, got " + formatNumber(radius));
   }
+  requireSize(radius, "point set: radius");
   std::vector<std::array<int, 3>> triangles(points.size());
   for (size_t i = 0; i < points.size(); ++i) {
     const int k = static_cast<int>(i);
     triangles[i] = {k, k, k};
   }
-  requireSize(radius, "point set: radius");
-  // Grown in place (inflate would copy a sensor's points and triangles once more).
+  // Grown in place, as finish() would grow it (inflate would copy a sensor's points and
+  // triangles once more, and finish() pass over them again): makeMesh's bounding radius is the
+  // points' largest norm, the margin 0.
   Shape s = makeMesh(std::move(points), std::move(triangles));
   s.margin = radius;
-  finish(s);
+  s.bounding_radius += radius;
   return s;
 }
 

@@ -109,19 +109,15 @@ struct NoTf : vadop_ros::TransformSource {
   }
 };
 
+double clockMs(clockid_t clock) {
+  timespec ts{};
+  clock_gettime(clock, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
 // CPU time of the calling thread (ms): unaffected by other processes competing for the cores.
-double threadCpuMs() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
-
+double threadCpuMs() { return clockMs(CLOCK_THREAD_CPUTIME_ID); }
 // Every thread's (the prediction's helpers included).
-double processCpuMs() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
+double processCpuMs() { return clockMs(CLOCK_PROCESS_CPUTIME_ID); }
 
 struct Result {
   size_t n = 0;
@@ -845,8 +841,11 @@ void printResult(const Result& r, const Options& o, double period_ms) {
                 "against %.3f; per-cycle ratio median %.3f (quartiles %.3f-%.3f)\n",
                 r.cpu_median, r.paired_median, r.ratio_median, r.ratio_p25, r.ratio_p75);
   }
-  std::printf("  process CPU (every thread, the gates' commands included, the fleet's and sensors' simulation "
-              "not): %.3f ms a cycle\n", r.process_cpu);
+  // (--paired: the shadow core's cycles would count too, so not printed.)
+  if (!o.paired) {
+    std::printf("  process CPU (every thread, the gates' commands included, the fleet's and sensors' simulation "
+                "not): %.3f ms a cycle\n", r.process_cpu);
+  }
   if (o.scan || o.cloud) {
     std::printf("  sensors: %.3f ms a cycle (in feed); per message median: scan %.3f ms, cloud %.3f ms; "
                 "points of the last message kept: scan %zu, cloud %zu; filtered on the bodies over the run: "
