@@ -4,6 +4,7 @@
 #include "vadop/detail/parallel_for.h"
 
 #include <algorithm>
+#include <cmath>
 #include <vector>
 
 namespace vadop {
@@ -73,9 +74,9 @@ void fitBounds(PreparedShapeData& d, int begin, int end) {
       const Eigen::Vector3d lo = t.v[0].cwiseMin(t.v[1]).cwiseMin(t.v[2]);
       const Eigen::Vector3d hi = t.v[0].cwiseMax(t.v[1]).cwiseMax(t.v[2]);
       node.centre = 0.5 * (lo + hi);
-      double r = 0.0;
-      for (int k = 0; k < 3; ++k) r = std::max(r, (t.v[k] - node.centre).norm());
-      node.radius = r + m;
+      double r2 = 0.0;  // one square root a leaf, not one a vertex (a sensor's points: every message)
+      for (int k = 0; k < 3; ++k) r2 = std::max(r2, (t.v[k] - node.centre).squaredNorm());
+      node.radius = std::sqrt(r2) + m;
       const Eigen::Vector3d half = 0.5 * (hi - lo) + Eigen::Vector3d::Constant(m);
       box = {node.centre.x(), node.centre.y(), node.centre.z(), half.x(), half.y(), half.z()};
       continue;
@@ -258,12 +259,12 @@ void buildBvh(PreparedShapeData& d, int threads) {
     // its neighbours in memory: the queries' descents, and the bounds here, read them in turn).
     for (int i = ranges[k].begin; i < ranges[k].end; ++i) {
       const int t = morton ? tri_order[i] : items[i].tri;
-      double lever = 0.0;
+      double lever2 = 0.0;
       for (int c = 0; c < 3; ++c) {
         d.tris[i].v[c] = P[T[t][c]];
-        lever = std::max(lever, d.tris[i].v[c].norm());
+        lever2 = std::max(lever2, d.tris[i].v[c].squaredNorm());
       }
-      d.tris[i].lever = lever + m;
+      d.tris[i].lever = std::sqrt(lever2) + m;
     }
     fitBounds(d, first[k], next_node);
   });

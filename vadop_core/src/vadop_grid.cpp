@@ -495,9 +495,16 @@ void VadopGridBroadPhase::testSharedAxes(int threads, std::vector<Pair>& out) {
     std::sort(pairs.begin(), pairs.end(),
               [](const SlotPair& x, const SlotPair& y) { return x.a < y.a || (x.a == y.a && x.b < y.b); });
   });
+  size_t large_from = 0;
   for (const SlotPairs& h : hits_) {
+    large_from = out.size();
     for (const SlotPair& p : h.pairs) out.push_back(makePair(slot_body_[p.a], slot_body_[p.b]));
   }
+  // The last block, the large bodies' pairs (a sensor's points span the room: one pair with
+  // every body), is sorted on its own: merged into the others' when their concatenation is
+  // sorted (the incremental mode), instead of BroadPhase::update sorting them all again.
+  const auto large = out.begin() + static_cast<std::ptrdiff_t>(large_from);
+  if (large != out.end() && std::is_sorted(out.begin(), large)) std::inplace_merge(out.begin(), large, out.end());
 }
 
 // Incremental mode. A body's fat box holds its swept box of this frame and, while its motion
