@@ -791,6 +791,51 @@ TEST(SensorFilter, TheRobotsOwnBodyIsDroppedWithSelfMarginAndAWallBeyondKept) {
   EXPECT_EQ(sensors.status(0).points_filtered_others, 5u);
 }
 
+TEST(SensorFilter, TheCarrierIsFoundThroughTheFramesOfTheLatestCycle) {
+  // "robot" has no frame key: its frame is its odometry's child_frame_id. Its lidar is on a
+  // mast 1 m up (outside the robot's bounding sphere: only tf's tree names the carrier). A
+  // point 0.07 m off its face is kept as a wall by the carrier (self_margin 0.02) and dropped
+  // by any other sensor (filter_margin 0.1).
+  const std::string text = R"(
+horizon: 2.0
+bodies:
+  - {name: robot, odom_topic: /robot/odom, shape: {type: box, size: [0.6, 0.6, 0.4]}}
+sensors:
+  - {name: lidar, type: cloud, topic: /cloud, voxel: 0.0}
+)";
+  MonitorCore core(vadop_ros::parseParams(vadop_test::yaml(text)), [](const std::string&, std::string&) { return false; });
+  SensorsSource& sensors = sensorsOf(core);
+  FakeTf tf;
+  Eigen::Isometry3d mast = Eigen::Isometry3d::Identity();
+  mast.translation() = Eigen::Vector3d(0.0, 0.0, 1.0);
+  tf.set("odom", "robot/base_link", Eigen::Isometry3d::Identity());
+  tf.set("odom", "robot/base_footprint", Eigen::Isometry3d::Identity());
+  tf.set("robot/base_link", "robot/laser", mast);
+  tf.set("robot/base_footprint", "robot/laser2", mast);
+  const Eigen::Vector3d wall(0.37, 0.0, 0.05);
+  const std::vector<Eigen::Vector3d> in_laser = {wall - mast.translation()};
+  const auto wallKept = [&](double stamp, const std::string& frame) {
+    EXPECT_EQ(sensors.onCloud(0, cloud(stamp, in_laser, frame), ros::Time(stamp), tf), InputResult::kAccepted);
+    return kept(sensors, wall);
+  };
+  nav_msgs::Odometry o = odom(100.0, 0.0, 0.0);
+  o.child_frame_id = "robot/base_link";
+  core.registry().onOdometry(0, o, ros::Time(100.0));
+  core.cycle(ros::Time(100.0), tf);
+  EXPECT_TRUE(wallKept(100.0, "robot/laser"));
+  EXPECT_FALSE(wallKept(100.01, "robot/laser2"));  // base_footprint is nobody's frame yet
+  // The odometry now names base_footprint: the next cycle's snapshot follows it, and forgets
+  // base_link.
+  o.header.stamp = ros::Time(100.1);
+  o.child_frame_id = "robot/base_footprint";
+  core.registry().onOdometry(0, o, ros::Time(100.1));
+  core.cycle(ros::Time(100.1), tf);
+  EXPECT_TRUE(wallKept(100.1, "robot/laser2"));
+  EXPECT_FALSE(wallKept(100.11, "robot/laser"));
+  EXPECT_EQ(sensors.status(0).points_filtered_self, 0u);
+  EXPECT_EQ(sensors.status(0).points_filtered_others, 2u);
+}
+
 TEST(SensorFilter, AnotherRobotsPointsGiveNoImpactAndItsOwnPredictionIsUnchanged) {
   // "robot" drives at 1 m/s towards "other", which drives away at 1.5 m/s; "third" comes at
   // "other" from ahead. The laser sees other's rear face (and a far wall).

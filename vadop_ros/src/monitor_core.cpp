@@ -703,7 +703,7 @@ const vadop::ImpactArray& MonitorCore::cycle(const ros::Time& now, TransformSour
 std::shared_ptr<const FilterSnapshot> MonitorCore::filterSnapshot() {
   if (!filter_snapshot_ || filter_snapshot_cycle_ != cycles_) {
     static const std::vector<SourcedBody> kNone;
-    filter_snapshot_ = makeFilterSnapshot(registry_, tracks_ ? tracks_->bodies() : kNone, filter_shapes_);
+    filter_snapshot_ = makeFilterSnapshot(registry_, tracks_ ? tracks_->bodies() : kNone, filter_cache_);
     filter_snapshot_cycle_ = cycles_;
   }
   return filter_snapshot_;

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <string_view>
 #include <utility>
 
 namespace vadop_ros {
@@ -24,7 +25,7 @@ constexpr int kMaxFrameDepth = 64;
 // Points a thread takes at least, and at a time, when the filter's tests are shared out.
 constexpr size_t kPointsPerThread = 2048, kPointChunk = 256;
 
-std::string bare(const std::string& frame) {
+std::string_view bare(std::string_view frame) {
   size_t i = 0;
   while (i < frame.size() && frame[i] == '/') ++i;
   return frame.substr(i);
@@ -34,12 +35,28 @@ std::string bare(const std::string& frame) {
 
 std::shared_ptr<const FilterSnapshot> makeFilterSnapshot(const BodyRegistry& registry,
                                                          const std::vector<SourcedBody>& tracked,
-                                                         FilterShapeCache& cache) {
+                                                         FilterCache& cache) {
   auto snap = std::make_shared<FilterSnapshot>();
   snap->base = registry.timeBase();
   const auto& bodies = registry.bodies();
   const auto& elements = registry.elements();
-  cache.resize(elements.size());
+  cache.shapes.resize(elements.size());
+  // The frames met in the same order as by the last snapshot keep its map; from the first that
+  // differs on, the list is made anew and so is the map (the first owner of a frame wins).
+  size_t met = 0;
+  bool same = true;
+  const auto frame = [&](const std::string& name, size_t owner) {
+    if (name.empty()) return;
+    const std::string_view f = bare(name);
+    if (same && met < cache.frames.size() && cache.frames[met].second == owner && cache.frames[met].first == f) {
+      ++met;
+      return;
+    }
+    if (same) cache.frames.resize(met);
+    same = false;
+    cache.frames.emplace_back(std::string(f), owner);
+    ++met;
+  };
   for (size_t b = 0; b < bodies.size(); ++b) {
     snap->owners.push_back(bodies[b].name);
     snap->gated.push_back(bodies[b].params.has_gate ? 1 : 0);
@@ -47,19 +64,29 @@ std::shared_ptr<const FilterSnapshot> makeFilterSnapshot(const BodyRegistry& reg
   snap->monitored = bodies.size();
   for (size_t b = 0; b < bodies.size(); ++b) {
     if (bodies[b].is_static) continue;
-    if (!bodies[b].params.frame.empty()) snap->frame_owner.emplace(bare(bodies[b].params.frame), b);
+    frame(bodies[b].params.frame, b);
     // An odometry body's frame is its messages' child_frame_id (its `frame` key is optional).
     const VelocityState* state = bodies[b].sources.empty() ? nullptr : bodies[b].sources.front()->velocityState();
-    if (state && !state->child_frame.empty()) snap->frame_owner.emplace(bare(state->child_frame), b);
+    if (state) frame(state->child_frame, b);
   }
   for (size_t i = 0; i < elements.size(); ++i) {
     const Element& e = elements[i];
     if (bodies[e.body].is_static) continue;
-    if (!e.tf_frame.empty()) snap->frame_owner.emplace(bare(e.tf_frame), e.body);
+    frame(e.tf_frame, e.body);
     if (!e.active) continue;
-    if (!cache[i]) cache[i] = std::make_shared<const vadop::PointDistance>(e.shape);
-    snap->items.push_back({e.body, cache[i], e.motion, e.chain});
+    if (!cache.shapes[i]) cache.shapes[i] = std::make_shared<const vadop::PointDistance>(e.shape);
+    snap->items.push_back({e.body, cache.shapes[i], e.motion, e.chain});
   }
+  if (met != cache.frames.size()) {  // fewer frames than the last snapshot's
+    cache.frames.resize(met);
+    same = false;
+  }
+  if (!same || !cache.frame_owner) {
+    auto owner = std::make_shared<std::unordered_map<std::string, size_t>>();
+    for (const auto& [f, o] : cache.frames) owner->emplace(f, o);
+    cache.frame_owner = std::move(owner);
+  }
+  snap->frame_owner = cache.frame_owner;
   for (const SourcedBody& t : tracked) {
     if (!t.alive) continue;
     try {
@@ -81,13 +108,20 @@ int holderOf(const FilterSnapshot& snapshot, double t, const Eigen::Vector3d& or
   double best_d2 = 0.0;
   for (const FilterSnapshot::Item& item : snapshot.items) {
     if (item.owner >= snapshot.monitored) continue;
+    const double r = item.shape->shape().bounding_radius;
+    // The origin stays within the pivot's arm of the motion's centre, which moves in a straight
+    // line: a far element is passed over without its pose (a fleet's thousand, per message).
+    if (!item.chain) {
+      const double reach = r + item.motion.pivotArm();
+      if (!((item.motion.centreAt(t) - origin).squaredNorm() <= reach * reach)) continue;
+    }
     Eigen::Vector3d centre;
     try {
       centre = (item.chain ? item.chain->poseAt(t) : item.motion.poseAt(t)).translation();
     } catch (const std::exception&) {
       continue;
     }
-    const double r = item.shape->shape().bounding_radius, d2 = (centre - origin).squaredNorm();
+    const double d2 = (centre - origin).squaredNorm();
     if (d2 <= r * r && (best < 0 || d2 < best_d2)) {
       best = static_cast<int>(item.owner);
       best_d2 = d2;
@@ -98,9 +132,9 @@ int holderOf(const FilterSnapshot& snapshot, double t, const Eigen::Vector3d& or
 
 int carrierOf(const FilterSnapshot& snapshot, const std::string& frame, const ros::Time& stamp, TransformSource& tf,
               const Eigen::Vector3d* origin) {
-  std::string f = bare(frame);
+  std::string f(bare(frame));
   for (int depth = 0; depth < kMaxFrameDepth && !f.empty(); ++depth) {
-    if (const auto it = snapshot.frame_owner.find(f); it != snapshot.frame_owner.end()) {
+    if (const auto it = snapshot.frame_owner->find(f); it != snapshot.frame_owner->end()) {
       return static_cast<int>(it->second);
     }
     std::string parent;
@@ -111,7 +145,7 @@ int carrierOf(const FilterSnapshot& snapshot, const std::string& frame, const ro
       found = false;
     }
     if (!found || bare(parent) == f) break;
-    f = bare(parent);
+    f = std::string(bare(parent));
   }
   return origin ? holderOf(snapshot, secondsBetween(stamp, snapshot.base), *origin) : -1;
 }

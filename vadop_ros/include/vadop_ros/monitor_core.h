@@ -332,7 +332,7 @@ class MonitorCore {
   // when a sensor asks (under the node's lock); cycles_ counts the cycles started.
   std::shared_ptr<const FilterSnapshot> filterSnapshot();
   std::shared_ptr<const FilterSnapshot> filter_snapshot_;
-  FilterShapeCache filter_shapes_;
+  FilterCache filter_cache_;
   uint64_t cycles_ = 0, filter_snapshot_cycle_ = 0;
   // The kept impacts (pair rules) into impacts_, and each body's soonest time to impact.
   void writeImpacts(const ros::Time& now);

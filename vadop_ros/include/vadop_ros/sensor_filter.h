@@ -63,18 +63,26 @@ struct FilterSnapshot {
   // stops it before a wall there could be taken for it (with filter_margin, a sensor not on the
   // robot would drop a wall's points as the robot neared them and its gate would drive it in).
   std::vector<char> gated;
-  // The monitored bodies' tf frames (body frame, links' tf frames) -> owner.
-  std::unordered_map<std::string, size_t> frame_owner;
+  // The monitored bodies' tf frames (body frame, links' tf frames) -> owner (never null in a
+  // made snapshot; shared by the snapshots while the frames stay the same).
+  std::shared_ptr<const std::unordered_map<std::string, size_t>> frame_owner;
 };
 
-// The prepared shapes of the registry's elements (built once each: a mesh's tree is costly).
-using FilterShapeCache = std::vector<std::shared_ptr<const vadop::PointDistance>>;
+// What makeFilterSnapshot keeps from one snapshot to the next: the prepared shapes of the
+// registry's elements (built once each: a mesh's tree is costly), and the frames' owners, in
+// the order they were met (a fleet's thousands of frames hashed into a new map every cycle
+// cost more than the rest of the snapshot: the map is kept while they are met again alike).
+struct FilterCache {
+  std::vector<std::shared_ptr<const vadop::PointDistance>> shapes;
+  std::vector<std::pair<std::string, size_t>> frames;
+  std::shared_ptr<const std::unordered_map<std::string, size_t>> frame_owner;
+};
 
 // The snapshot of the moving bodies' elements placed at the last update and of the tracked
 // objects `tracked` (alive slots).
 std::shared_ptr<const FilterSnapshot> makeFilterSnapshot(const BodyRegistry& registry,
                                                          const std::vector<SourcedBody>& tracked,
-                                                         FilterShapeCache& cache);
+                                                         FilterCache& cache);
 
 // The owner whose frame `frame` hangs from in tf (the frame itself, then its parents up to the
 // root, asked at `stamp`, else the latest); when none does and `origin` (the frame's origin in
