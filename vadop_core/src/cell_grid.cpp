@@ -209,6 +209,26 @@ void CellGrid::set(uint32_t item, const double* box) {
   }
 }
 
+void CellGrid::compactIfStale() {
+  if (nodes_.size() - live_nodes_ <= live_nodes_ / 2 + 256) return;
+  std::vector<Node> packed;
+  packed.reserve(live_nodes_);
+  for (int32_t& head : head_) {
+    const int32_t first = head;
+    head = -1;
+    int32_t last = -1;
+    for (int32_t k = first; k >= 0; k = nodes_[k].next) {
+      const Node& node = nodes_[k];
+      if (node.version != version_[node.item]) continue;
+      const int32_t at = static_cast<int32_t>(packed.size());
+      packed.push_back(Node{node.item, node.version, -1});
+      (last < 0 ? head : packed[last].next) = at;
+      last = at;
+    }
+  }
+  nodes_.swap(packed);
+}
+
 size_t CellGrid::memoryBytes() const {
   return table_key_.capacity() * sizeof(Cell) + cells_.capacity() * sizeof(Cell) +
          (table_cell_.capacity() + dense_cell_.capacity() + cell_start_.capacity() + entry_cell_.capacity() +

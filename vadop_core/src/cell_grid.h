@@ -58,6 +58,10 @@ class CellGrid {
   size_t items() const { return items_; }
   // Stale entries outnumber live ones 3 to 1: reset to give the memory back.
   bool wasteful() const { return nodes_.size() > 4 * live_nodes_ + 4096; }
+  // Drops the stale entries from the cells' chains when they are more than half the live ones,
+  // packing each cell's live entries side by side in their order (a query then walks one run
+  // of memory instead of live entries strewn among two stale ones or more). O(entries).
+  void compactIfStale();
 
   // --- either way ---
   // Calls f(item) once for every item (large ones excluded) whose box overlaps `box` (closed

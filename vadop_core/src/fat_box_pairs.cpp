@@ -56,6 +56,7 @@ void FatBoxPairs::update(const std::vector<BodyId>& ids, const std::vector<doubl
     grid_.set(id, &boxes[6 * i]);
     in_update_[id] = 1;
   }
+  grid_.compactIfStale();
   // 2. New partners: every current fat box in the grid overlapping a new one. A pair of two
   //    updated bodies is found from both sides and kept from the smaller id's. The queries
   //    only read the grid: blocks of ids on the threads, linked after in block order (the

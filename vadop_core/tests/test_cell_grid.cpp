@@ -1,5 +1,6 @@
 // CellGrid against a brute-force loop over the same boxes: whichever way the grid was filled
-// (build() of a batch, set()/remove() one box at a time with stale entries left behind),
+// (build() of a batch, set()/remove() one box at a time with stale entries left behind, then
+// compacted or not),
 // forEachOverlap reports each overlapping box that is not large exactly once, and the large
 // ones are exactly the boxes spanning more than kMaxCells cells or leaving the coordinate range.
 // Scenes: compact (build() takes the dense cell array), sparse (the hash table), boxes on cell
@@ -172,6 +173,45 @@ TEST(CellGrid, SetAndRemoveAnswerEveryOverlapOnceAgainstBruteForce) {
     EXPECT_EQ(grid.items(), 0u);
     boxes.clear();
     expectQueriesMatch(grid, boxes, randomQueries(rng, s, boxes));
+  }
+}
+
+TEST(CellGrid, CompactionDropsTheStaleEntriesAndKeepsEveryAnswer) {
+  uint64_t seed = 300;
+  for (const Scene& s : kScenes) {
+    std::mt19937_64 rng(++seed);
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    CellGrid grid;
+    grid.reset(s.h);
+    std::map<uint32_t, Box> boxes;
+    for (uint32_t i = 0; i < 300; ++i) {
+      boxes[i] = randomBox(rng, s);
+      grid.set(i, boxes[i].data());
+    }
+    for (int round = 0; round < 6; ++round) {
+      // Every box set anew (its old entries stale), some removed: then compacted, and again
+      // set and removed on top of the packed chains.
+      for (uint32_t i = 0; i < 300; ++i) {
+        if (u01(rng) < 0.1) {
+          grid.remove(i);
+          boxes.erase(i);
+        } else {
+          boxes[i] = randomBox(rng, s);
+          grid.set(i, boxes[i].data());
+        }
+      }
+      const size_t before = grid.memoryBytes();
+      grid.compactIfStale();
+      EXPECT_LT(grid.memoryBytes(), before) << "round " << round;  // a third of the entries at most were live
+      expectQueriesMatch(grid, boxes, randomQueries(rng, s, boxes));
+      for (uint32_t i = 0; i < 300; i += 7) {
+        boxes[i] = randomBox(rng, s);
+        grid.set(i, boxes[i].data());
+      }
+      grid.remove(3);
+      boxes.erase(3);
+      expectQueriesMatch(grid, boxes, randomQueries(rng, s, boxes));
+    }
   }
 }
 
