@@ -91,21 +91,32 @@ class MeshStepSearch {
   }
 
   AdvanceStep run() {
-    push(A.root(), B.root());
-    while (!heap.empty()) {
-      std::pop_heap(heap.begin(), heap.end());
-      const PairItem it = heap.back();
-      heap.pop_back();
-      if (out.touching) {
-        if (it.D >= out.closest.distance) continue;  // looking for the closest contact only
-      } else if (it.key >= best_step) {
-        break;  // no remaining pair can shorten the step (the heap is ordered by key)
-      }
-      if (A.leaf(it.ia) && B.leaf(it.ib)) {
+    PairItem it = bound(A.root(), B.root());
+    for (;;) {
+      const bool open = out.touching ? it.D < out.closest.distance  // the closest contact only
+                                     : it.key < best_step;
+      // No remaining pair can shorten the step: the heap is ordered by key, `it` its least.
+      if (!open && !out.touching) break;
+      if (open && A.leaf(it.ia) && B.leaf(it.ib)) {
         visitLeaves(it.ia, it.ib);
-      } else {
-        splitPair(it.ia, it.ib);
+      } else if (open) {
+        // The children of its larger inner node. The one of lower key goes on at once when no
+        // waiting pair has a lower one (what the heap would give next): half the heap's work,
+        // the same order of pairs.
+        PairItem first, second;
+        splitPair(it.ia, it.ib, first, second);
+        if (second.key < first.key) std::swap(first, second);
+        push(second);
+        if (heap.front().key >= first.key) {
+          it = first;
+          continue;
+        }
+        push(first);
       }
+      if (heap.empty()) break;
+      std::pop_heap(heap.begin(), heap.end());
+      it = heap.back();
+      heap.pop_back();
     }
     out.closest.iterations = iterations;
     return finish();
@@ -130,8 +141,8 @@ class MeshStepSearch {
     return it;
   }
 
-  void push(int ia, int ib) {
-    heap.push_back(bound(ia, ib));
+  void push(const PairItem& it) {
+    heap.push_back(it);
     std::push_heap(heap.begin(), heap.end());
   }
 
@@ -170,15 +181,15 @@ class MeshStepSearch {
     best_step = std::min(best_step, st);
   }
 
-  // Replaces the pair by the children of its larger inner node.
-  void splitPair(int ia, int ib) {
+  // The pair's two children: the children of its larger inner node with the other node.
+  void splitPair(int ia, int ib, PairItem& first, PairItem& second) const {
     const bool split_a = !A.leaf(ia) && (B.leaf(ib) || A.radius(ia) >= B.radius(ib));
     if (split_a) {
-      push(A.d->nodes[ia].left, ib);
-      push(A.d->nodes[ia].right, ib);
+      first = bound(A.d->nodes[ia].left, ib);
+      second = bound(A.d->nodes[ia].right, ib);
     } else {
-      push(ia, B.d->nodes[ib].left);
-      push(ia, B.d->nodes[ib].right);
+      first = bound(ia, B.d->nodes[ib].left);
+      second = bound(ia, B.d->nodes[ib].right);
     }
   }
 
