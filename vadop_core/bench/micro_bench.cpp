@@ -167,31 +167,37 @@ void BM_Project(benchmark::State& state) {
 }
 BENCHMARK(BM_Project)->DenseRange(0, 3);
 
-// The narrow phase on the pairs of a robot fleet: two bodies of the fleet's shapes 0.7 to 1.9 m
-// apart, driving at 0.3-1.5 m/s and turning at up to 0.5 rad/s about their screw pivots (as the
-// monitor hands them over), over a 2 s window: contacts, near misses and clear pairs mixed.
-void BM_FleetTimeOfImpact(benchmark::State& state) {
-  const FleetBodies fleet0(0), fleet1(1), fleet2(2), fleet3(3);
-  const FleetBodies* fleets[] = {&fleet0, &fleet1, &fleet2, &fleet3};
+// The fleet's four shapes (FleetBodies 0 to 3), prepared.
+std::vector<vadop::PreparedShape> fleetShapes() {
   std::vector<vadop::PreparedShape> shapes;
-  for (const FleetBodies* f : fleets) shapes.emplace_back(f->shapes[0]);
+  for (int k = 0; k < 4; ++k) shapes.emplace_back(FleetBodies(k).shapes[0]);
+  return shapes;
+}
+
+// A robot of the fleet at p, heading `heading`: driving at 0.3-1.5 m/s and turning at up to 0.5
+// rad/s about its screw pivot (as the monitor hands it over).
+vadop::Motion fleetRobot(const Eigen::Vector3d& p, double heading, std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const double speed = 0.9 + 0.6 * u(rng);
+  const Eigen::Vector3d v(speed * std::cos(heading), speed * std::sin(heading), 0.0);
+  const Eigen::Vector3d w(0.0, 0.0, 0.5 * u(rng));
+  vadop::Motion m = vadop::makeMotion(p, Eigen::Quaterniond(Eigen::AngleAxisd(heading, Eigen::Vector3d::UnitZ())),
+                                      vadop::screwPivotVelocity(v, w), w, 0.0);
+  m.pivot_offset = vadop::screwPivotOffset(v, w);
+  return m;
+}
+
+// The narrow phase on the pairs of a robot fleet: two robots of the fleet's shapes 0.7 to 1.9 m
+// apart (fleetRobot), over a 2 s window: contacts, near misses and clear pairs mixed.
+void BM_FleetTimeOfImpact(benchmark::State& state) {
+  const std::vector<vadop::PreparedShape> shapes = fleetShapes();
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   struct Case {
     int a, b;
     vadop::Motion ma, mb;
   };
-  auto robot = [&](const Eigen::Vector3d& p) {
-    const double heading = 3.14159 * u(rng);
-    const double speed = 0.9 + 0.6 * u(rng);
-    const Eigen::Vector3d v(speed * std::cos(heading), speed * std::sin(heading), 0.0);
-    const Eigen::Vector3d w(0.0, 0.0, 0.5 * u(rng));
-    const Eigen::Vector3d pivot = vadop::screwPivotOffset(v, w);
-    vadop::Motion m = vadop::makeMotion(p, Eigen::Quaterniond(Eigen::AngleAxisd(heading, Eigen::Vector3d::UnitZ())),
-                                        vadop::screwPivotVelocity(v, w), w, 0.0);
-    m.pivot_offset = pivot;
-    return m;
-  };
+  auto robot = [&](const Eigen::Vector3d& p) { return fleetRobot(p, 3.14159 * u(rng), rng); };
   std::vector<Case> cases;
   for (int i = 0; i < 512; ++i) {
     const double r = 0.7 + 0.6 * (u(rng) + 1.0);
@@ -214,14 +220,11 @@ void BM_FleetTimeOfImpact(benchmark::State& state) {
 }
 BENCHMARK(BM_FleetTimeOfImpact);
 
-// The narrow phase of a fleet's robots against a sensor's points: the fleet's four shapes
-// driving and turning as in BM_FleetTimeOfImpact, 0.5 to 3 m from a 20 m wall of 10,000 points
-// (balls of 0.07 m: point_radius and padding) 2 m high, over a 2 s window (most reach it).
+// The narrow phase of a fleet's robots against a sensor's points: robots of the fleet's four
+// shapes (fleetRobot) 0.5 to 3 m from a 20 m wall of 10,000 points (balls of 0.07 m:
+// point_radius and padding) 2 m high, over a 2 s window (half of them reach it).
 void BM_PointSetTimeOfImpact(benchmark::State& state) {
-  const FleetBodies fleet0(0), fleet1(1), fleet2(2), fleet3(3);
-  const FleetBodies* fleets[] = {&fleet0, &fleet1, &fleet2, &fleet3};
-  std::vector<vadop::PreparedShape> shapes;
-  for (const FleetBodies* f : fleets) shapes.emplace_back(f->shapes[0]);
+  const std::vector<vadop::PreparedShape> shapes = fleetShapes();
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   std::vector<Eigen::Vector3d> wall;
@@ -231,14 +234,8 @@ void BM_PointSetTimeOfImpact(benchmark::State& state) {
   std::vector<std::pair<int, vadop::Motion>> robots;
   for (int i = 0; i < 256; ++i) {
     const double heading = -1.5708 + 1.2 * u(rng);  // towards the wall, give or take
-    const double speed = 0.9 + 0.6 * u(rng);
-    const Eigen::Vector3d v(speed * std::cos(heading), speed * std::sin(heading), 0.0);
-    const Eigen::Vector3d w(0.0, 0.0, 0.5 * u(rng));
-    vadop::Motion m = vadop::makeMotion(Eigen::Vector3d(8.0 * u(rng), 1.75 + 1.25 * u(rng), 0.25),
-                                        Eigen::Quaterniond(Eigen::AngleAxisd(heading, Eigen::Vector3d::UnitZ())),
-                                        vadop::screwPivotVelocity(v, w), w, 0.0);
-    m.pivot_offset = vadop::screwPivotOffset(v, w);
-    robots.emplace_back(i % 4, m);
+    const double x = 8.0 * u(rng), y = 1.75 + 1.25 * u(rng);
+    robots.emplace_back(i % 4, fleetRobot(Eigen::Vector3d(x, y, 0.25), heading, rng));
   }
   size_t hits = 0;
   for (auto _ : state) {
