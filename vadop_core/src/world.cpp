@@ -831,13 +831,15 @@ void WorldEngine::fillPartBoxes(BodyId id, double t0, double t1, double* out) co
   // consecutive parts share their end times, so together they cover [t0, t1].
   if (const detail::PreparedShapeData* tree = restingTree(id)) {
     // A resting mesh (a sensor's points): every part's box is its tree's root box, turned into
-    // the fixed frame as the cull turns its nodes (SweptBody would take the shape's support
-    // along each axis over every vertex, for every prediction).
+    // the fixed frame as the cull turns its nodes, grown by the narrow phase's tolerance as the
+    // broad phase's shape of every body is (add): SweptBody would take that shape's support
+    // along each axis over every vertex, for every prediction.
     const std::array<double, 6>& rb = tree->node_boxes[tree->root];
     const Motion& m = broad_phase_->motion(id);
     const Eigen::Matrix3d R = m.orientation.toRotationMatrix();
     const Eigen::Vector3d c = R * Eigen::Vector3d(rb[0], rb[1], rb[2]) + m.position;
-    const Eigen::Vector3d h = R.cwiseAbs() * Eigen::Vector3d(rb[3], rb[4], rb[5]);
+    const Eigen::Vector3d h = R.cwiseAbs() * Eigen::Vector3d(rb[3], rb[4], rb[5]) +
+                              Eigen::Vector3d::Constant(config_.toi.tolerance);
     for (int k = 0; k < slices; ++k, out += 6) {
       for (int a = 0; a < 3; ++a) {
         // The roundings of the box's centre and half extents and of the turn: ulps of them.

@@ -649,6 +649,25 @@ TEST(PointSetWorld, ARestingSetIsCulledWhereItIsPosed) {
   }
 }
 
+// Two resting sets a gap of half the narrow phase's tolerance apart touch (timeOfImpact reports
+// them at the window's start), and are reported by the world: the part boxes of a resting set
+// are grown by the tolerance as every body's broad-phase shape is. At twice the tolerance
+// neither reports them.
+TEST(PointSetWorld, TwoRestingSetsWithinTheToleranceTouch) {
+  const vadop::WorldConfig config;
+  const double tol = config.toi.tolerance;
+  for (const double gap : {0.5 * tol, 2.0 * tol}) {
+    const PartSet a = pointSet("left", {Vector3d(0.0, 0.0, 0.0), Vector3d(-1.0, 0.0, 0.0)}, 0.02);
+    const PartSet b = pointSet("right", {Vector3d(0.04 + gap, 0.0, 0.0), Vector3d(1.0, 0.0, 0.0)}, 0.02);
+    const TimeOfImpact t = vadop::timeOfImpact(a.shape, rest(a.centre), b.shape, rest(b.centre), 0.0, 2.0, config.toi);
+    EXPECT_EQ(t.hit, gap < tol) << "gap " << gap;
+    vadop::World world(config);
+    world.add("left", a.shape, rest(a.centre));
+    world.add("right", b.shape, rest(b.centre));
+    EXPECT_EQ(world.predict(0.0, 2.0).size(), t.hit ? 1u : 0u) << "gap " << gap;
+  }
+}
+
 // A body that passes a resting set's point within the narrow phase's tolerance (a gap of half
 // of it) is reported, as timeOfImpact reports it: the cull keeps a leaf within the tolerance of
 // a part's box, though the boxes themselves do not meet.
