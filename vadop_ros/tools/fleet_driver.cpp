@@ -22,16 +22,30 @@
 // odometry topic) and, with a clock, /clock have this many subscribers), ~sensors (false: also
 // a laser and a depth sensor at the room's centre, frame "laser" 0.1 m above "odom" (a static
 // transform the driver publishes): a 1,081-beam sensor_msgs/LaserScan on /scan at 15 Hz and a
-// 30,000-point sensor_msgs/PointCloud2 on /points at 10 Hz, the bench's (fleet_sensors.h)).
+// 30,000-point sensor_msgs/PointCloud2 on /points at 10 Hz, the bench's (fleet_sensors.h)),
+// ~xmlrpc_backlog (0: roscpp's; > 0, at most 65535: the listen backlog of this process's XML-RPC
+// server, before the topics are advertised. roscpp listens with a backlog of 5, and one process
+// publishing thousands of odometry topics receives a requestTopic call for each as a monitor
+// subscribes: the kernel drops the connections beyond the backlog and each caller waits for
+// TCP's SYN retransmission. A larger one shows what start-up the monitor reaches when the
+// publisher is not the bottleneck; Linux takes a second listen() on a listening socket as its
+// new backlog).
 #include "fleet_driver.h"
 
 #include <nav_msgs/Odometry.h>
+#include <ros/xmlrpc_manager.h>
 #include <rosgraph_msgs/Clock.h>
+
+#include <dirent.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
 
 #include <boost/make_shared.hpp>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <stdexcept>
 
 namespace vadop_ros {
@@ -52,6 +66,38 @@ void require(bool ok, const std::string& what) {
   if (!ok) throw std::invalid_argument(what);
 }
 
+// The port `fd` listens on (TCP, IPv4 or IPv6), or -1 when it is not a listening socket.
+int listeningPort(int fd) {
+  struct stat st {};
+  if (fstat(fd, &st) != 0 || !S_ISSOCK(st.st_mode)) return -1;
+  int accepting = 0;
+  socklen_t len = sizeof(accepting);
+  if (getsockopt(fd, SOL_SOCKET, SO_ACCEPTCONN, &accepting, &len) != 0 || !accepting) return -1;
+  sockaddr_storage addr{};
+  len = sizeof(addr);
+  if (getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len) != 0) return -1;
+  if (addr.ss_family == AF_INET) return ntohs(reinterpret_cast<const sockaddr_in&>(addr).sin_port);
+  if (addr.ss_family == AF_INET6) return ntohs(reinterpret_cast<const sockaddr_in6&>(addr).sin6_port);
+  return -1;
+}
+
+// ~xmlrpc_backlog: the backlog of the socket listening on this process's XML-RPC port; false
+// when none was found (/proc unreadable, the server not started).
+bool setXmlRpcBacklog(int backlog) {
+  const int port = static_cast<int>(ros::XMLRPCManager::instance()->getServerPort());
+  DIR* dir = port > 0 ? opendir("/proc/self/fd") : nullptr;
+  if (!dir) return false;
+  bool set = false;
+  while (const dirent* entry = readdir(dir)) {
+    char* end = nullptr;
+    const long fd = std::strtol(entry->d_name, &end, 10);
+    if (end == entry->d_name || *end != '\0') continue;  // "." and ".."
+    if (listeningPort(static_cast<int>(fd)) == port && listen(static_cast<int>(fd), backlog) == 0) set = true;
+  }
+  closedir(dir);
+  return set;
+}
+
 }  // namespace
 
 FleetDriverSettings FleetDriverSettings::read(const ros::NodeHandle& pnh) {
@@ -65,6 +111,7 @@ FleetDriverSettings FleetDriverSettings::read(const ros::NodeHandle& pnh) {
   pnh.param("clock_step", s.clock_step, s.clock_step);
   pnh.param("wait_subscribers", s.wait_subscribers, s.wait_subscribers);
   pnh.param("sensors", s.sensors, s.sensors);
+  pnh.param("xmlrpc_backlog", s.xmlrpc_backlog, s.xmlrpc_backlog);
   require(s.n >= 1, "~n must be >= 1 (got " + std::to_string(s.n) + ")");
   require(s.rate > 0.0 && s.rate <= 1000.0, "~rate must be in (0, 1000] Hz (got " + std::to_string(s.rate) + ")");
   require(s.mode == "odom" || s.mode == "array", "~mode must be odom or array (got \"" + s.mode + "\")");
@@ -72,11 +119,20 @@ FleetDriverSettings FleetDriverSettings::read(const ros::NodeHandle& pnh) {
   require(s.clock_step >= 0.0 && s.clock_step <= 60.0,
           "~clock_step must be in [0, 60] s (got " + std::to_string(s.clock_step) + ")");
   require(s.wait_subscribers >= 0, "~wait_subscribers must be >= 0 (got " + std::to_string(s.wait_subscribers) + ")");
+  require(s.xmlrpc_backlog >= 0 && s.xmlrpc_backlog <= 65535,
+          "~xmlrpc_backlog must be in [0, 65535] (got " + std::to_string(s.xmlrpc_backlog) + ")");
   return s;
 }
 
 FleetDriver::FleetDriver(ros::NodeHandle& nh, const FleetDriverSettings& s)
     : s_(s), rng_(static_cast<unsigned>(s.seed)), fleet_(static_cast<size_t>(s.n), s.area, 0.5, rng_) {
+  if (s_.xmlrpc_backlog > 0) {
+    if (setXmlRpcBacklog(s_.xmlrpc_backlog)) {
+      ROS_INFO("vadop_fleet_driver: XML-RPC server listening with a backlog of %d", s_.xmlrpc_backlog);
+    } else {
+      ROS_WARN("vadop_fleet_driver: ~xmlrpc_backlog: no socket listening on the XML-RPC port found; roscpp's backlog kept");
+    }
+  }
   if (s_.mode == "odom") {
     odom_.reserve(s_.n);
     for (int i = 0; i < s_.n; ++i) {

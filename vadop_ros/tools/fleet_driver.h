@@ -30,6 +30,7 @@ struct FleetDriverSettings {
   double clock_step = 0.0;          // s; > 0: the driver's own simulated clock, on /clock
   int wait_subscribers = 0;         // before the first state: this many subscribers of the states
   bool sensors = false;             // also the bench's laser scan (/scan, 15 Hz) and cloud (/points, 10 Hz)
+  int xmlrpc_backlog = 0;           // > 0: this process's XML-RPC server listens with this backlog (roscpp's: 5)
   static constexpr double kClockStart = 100.0;  // s, the simulated clock's first time
 
   // The private parameters; throws std::invalid_argument naming the one out of range.
