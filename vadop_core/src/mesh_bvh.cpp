@@ -288,12 +288,8 @@ uint64_t partsMeetingTree(const PreparedShapeData& d, const Eigen::Matrix3d& R, 
     const Item it = stack[--top];
     const uint64_t open = it.parts & ~met;  // parts already met need no more search
     if (open == 0) continue;
-    const std::array<double, 6>& nb = d.node_boxes[it.node];
-    // The node's box turned into the fixed frame: the box about the turned centre with half
-    // extents |R| h (bounds the turned box), grown by the slack.
-    const Eigen::Vector3d c = R * Eigen::Vector3d(nb[0], nb[1], nb[2]) + p;
-    const Eigen::Vector3d h = absR * Eigen::Vector3d(nb[3], nb[4], nb[5]) + Eigen::Vector3d::Constant(slack);
-    const double node_box[6] = {c.x() - h.x(), c.y() - h.y(), c.z() - h.z(), c.x() + h.x(), c.y() + h.y(), c.z() + h.z()};
+    double node_box[6];
+    turnedNodeBox(d.node_boxes[it.node], R, absR, p, slack, node_box);
     uint64_t here = 0;
     for (uint64_t bits = open; bits != 0; bits &= bits - 1) {
       const int k = __builtin_ctzll(bits);

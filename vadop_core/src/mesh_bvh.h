@@ -21,6 +21,19 @@ namespace detail {
 // same tree whatever the count (the nodes' order aside).
 void buildBvh(PreparedShapeData& d, int threads = 1);
 
+// A node's box (node_boxes: centre and half extents, body frame) turned into the fixed frame
+// with the body posed at (R, p), absR = |R| elementwise: the box about the turned centre with
+// half extents absR h (it bounds the turned box), grown by `grow`; min x, y, z, max x, y, z.
+inline void turnedNodeBox(const std::array<double, 6>& nb, const Eigen::Matrix3d& R, const Eigen::Matrix3d& absR,
+                          const Eigen::Vector3d& p, double grow, double out[6]) {
+  const Eigen::Vector3d c = R * Eigen::Vector3d(nb[0], nb[1], nb[2]) + p;
+  const Eigen::Vector3d h = absR * Eigen::Vector3d(nb[3], nb[4], nb[5]) + Eigen::Vector3d::Constant(grow);
+  for (int a = 0; a < 3; ++a) {
+    out[a] = c[a] - h[a];
+    out[3 + a] = c[a] + h[a];
+  }
+}
+
 // Of the parts set in `parts` (bit k: the axis-aligned box part_boxes[6k .. 6k + 5], min x, y,
 // z, max x, y, z, fixed frame), those whose box meets the box of some leaf (its padded
 // triangle's, turned into the fixed frame and grown by `slack`) with the mesh posed at (R, p).

@@ -807,10 +807,13 @@ void WorldEngine::cullBySlices(std::vector<Candidate>& tests, double t0, double 
 }
 
 const detail::PreparedShapeData* WorldEngine::restingTree(BodyId id) const {
-  const Record& r = records_[id];
-  if (r.chain || !r.prepared || r.prepared->data().kind != detail::CoreKind::kMesh) return nullptr;
+  // Asked of every body each prediction (its part boxes, its pairs' cull): the cheap answers
+  // first, the shape's data (a load of its own) only for a body at rest in a world with meshes.
+  if (meshes_ == 0) return nullptr;
   const Motion& m = broad_phase_->motion(id);
   if (!m.linear_velocity.isZero(0.0) || !m.angular_velocity.isZero(0.0)) return nullptr;
+  const Record& r = records_[id];
+  if (r.chain || !r.prepared || r.prepared->data().kind != detail::CoreKind::kMesh) return nullptr;
   return &r.prepared->data();
 }
 
@@ -834,20 +837,17 @@ void WorldEngine::fillPartBoxes(BodyId id, double t0, double t1, double* out) co
     // the fixed frame as the cull turns its nodes, grown by the narrow phase's tolerance as the
     // broad phase's shape of every body is (add): SweptBody would take that shape's support
     // along each axis over every vertex, for every prediction.
-    const std::array<double, 6>& rb = tree->node_boxes[tree->root];
     const Motion& m = broad_phase_->motion(id);
     const Eigen::Matrix3d R = m.orientation.toRotationMatrix();
-    const Eigen::Vector3d c = R * Eigen::Vector3d(rb[0], rb[1], rb[2]) + m.position;
-    const Eigen::Vector3d h = R.cwiseAbs() * Eigen::Vector3d(rb[3], rb[4], rb[5]) +
-                              Eigen::Vector3d::Constant(config_.toi.tolerance);
-    for (int k = 0; k < slices; ++k, out += 6) {
-      for (int a = 0; a < 3; ++a) {
-        // The roundings of the box's centre and half extents and of the turn: ulps of them.
-        const double widen = 1e-12 * (1.0 + std::abs(c[a]) + h[a]);
-        out[a] = c[a] - h[a] - widen;
-        out[3 + a] = c[a] + h[a] + widen;
-      }
+    double box[6];
+    detail::turnedNodeBox(tree->node_boxes[tree->root], R, R.cwiseAbs(), m.position, config_.toi.tolerance, box);
+    for (int a = 0; a < 3; ++a) {
+      // The roundings of the box's centre and half extents and of the turn: ulps of them.
+      const double widen = 1e-12 * (1.0 + std::abs(box[a]) + std::abs(box[3 + a]));
+      box[a] -= widen;
+      box[3 + a] += widen;
     }
+    for (int k = 0; k < slices; ++k) std::copy_n(box, 6, out + 6 * k);
     return;
   }
   if (!onPath(id)) {
